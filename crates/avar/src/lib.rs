@@ -1,0 +1,1 @@
+//! imunoise layer `avar` (being built: see the crate's issue).

@@ -1,0 +1,1 @@
+//! imunoise layer `gmwm_prep` (being built: see the crate's issue).

@@ -1,0 +1,34 @@
+//! # processes — the latent noise processes of inertial sensors
+//!
+//! The bottom layer of `imunoise`: the latent processes of *An Introduction to Inertial
+//! Sensors Stochastic Calibration* (Guerrier et al., §2.2) — white noise ([`WhiteNoise`]),
+//! quantization noise ([`QuantizationNoise`]), drift ([`Drift`]), random walk
+//! ([`RandomWalk`]), AR(1) ([`Ar1`]), Gauss-Markov ([`GaussMarkov`]) and MA(1) ([`Ma1`]) —
+//! their sums ([`Model`], book Definition 2.8), their theory (mean, autocovariance,
+//! stationarity), their simulation, and the time-series types ([`TimeSeries`], [`ImuRecord`]).
+//!
+//! ## Conventions
+//! - Parameters are **per sample** (Δt = 1 / rate), except GM's β (1/s) and σ_G²
+//!   (stationary variance). Time index t = 1, 2, …, T.
+//! - Every constructor validates its parameters and returns [`ProcessError`] on bad input.
+//!
+//! ```
+//! use processes::{Model, WhiteNoise, RandomWalk, Ar1};
+//! let model = (WhiteNoise::new(1e-4)? + RandomWalk::new(1e-9)? + Ar1::new(0.99, 1e-6)?)?;
+//! assert!(!model.is_stationary()); // a random walk is not stationary
+//! let parsed: Model = model.to_string().parse()?;
+//! assert_eq!(parsed, model);
+//! # Ok::<(), processes::ProcessError>(())
+//! ```
+
+pub mod error;
+pub mod model;
+pub mod process;
+pub mod series;
+
+pub use error::{ProcessError, Result};
+pub use model::{Component, Model};
+pub use process::{
+    Ar1, Drift, GaussMarkov, Ma1, Process, ProcessKind, QuantizationNoise, RandomWalk, WhiteNoise,
+};
+pub use series::{ImuRecord, Sensor, TimeSeries, Unit};

@@ -1,0 +1,756 @@
+//! The latent processes of the book's §2.2 (Definitions 2.2–2.7) and the MA(1) of
+//! Example 4.1, each a small immutable type whose constructor validates its parameters.
+//!
+//! All parameters are **per sample** (the sampling interval is Δt = 1 / rate), except
+//! the Gauss-Markov process whose β is in 1/s and whose σ_G² is the stationary variance.
+
+use crate::error::{ProcessError, Result};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+fn check_positive(process: &'static str, name: &'static str, value: f64) -> Result<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(ProcessError::InvalidParameter {
+            process,
+            name,
+            value,
+            requirement: "must be finite and > 0",
+        })
+    }
+}
+
+fn check_finite(process: &'static str, name: &'static str, value: f64) -> Result<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ProcessError::InvalidParameter {
+            process,
+            name,
+            value,
+            requirement: "must be finite",
+        })
+    }
+}
+
+fn check_rate(rate_hz: f64) -> Result<f64> {
+    if rate_hz.is_finite() && rate_hz > 0.0 {
+        Ok(rate_hz)
+    } else {
+        Err(ProcessError::InvalidRate(rate_hz))
+    }
+}
+
+/// Gaussian white noise (WN, book Definition 2.2): X_t iid N(0, σ²).
+///
+/// `sigma2` is the per-sample variance σ² (unit², e.g. (°/s)²).
+///
+/// ```
+/// use processes::WhiteNoise;
+/// let wn = WhiteNoise::new(1e-4)?;
+/// assert_eq!(wn.sigma2(), 1e-4);
+/// assert!(WhiteNoise::new(-1.0).is_err());
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WhiteNoise {
+    sigma2: f64,
+}
+
+impl WhiteNoise {
+    /// Builds WN with variance `sigma2` > 0 (finite).
+    pub fn new(sigma2: f64) -> Result<Self> {
+        Ok(Self {
+            sigma2: check_positive("WN", "sigma2", sigma2)?,
+        })
+    }
+    /// The variance σ² per sample.
+    pub fn sigma2(&self) -> f64 {
+        self.sigma2
+    }
+}
+
+/// Quantization noise (QN, book Definition 2.3) with parameter Q².
+///
+/// Simulated as X_t = U_t − U_{t−1} with U_t iid uniform of variance Q², so that
+/// γ(0) = 2Q², γ(±1) = −Q², γ(h) = 0 otherwise, and the Allan variance is 3Q²/m²
+/// (see `../shared/REFERENCES.md` §2). Q² is in unit² (per-sample form).
+///
+/// ```
+/// use processes::QuantizationNoise;
+/// let qn = QuantizationNoise::new(1e-6)?;
+/// assert_eq!(qn.q2(), 1e-6);
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct QuantizationNoise {
+    q2: f64,
+}
+
+impl QuantizationNoise {
+    /// Builds QN with parameter `q2` = Q² > 0 (finite).
+    pub fn new(q2: f64) -> Result<Self> {
+        Ok(Self {
+            q2: check_positive("QN", "q2", q2)?,
+        })
+    }
+    /// The parameter Q².
+    pub fn q2(&self) -> f64 {
+        self.q2
+    }
+}
+
+/// Deterministic drift (DR, book Definition 2.4): X_t = ω t, t = 1, 2, …
+///
+/// `omega` is the slope per sample (unit per sample); any finite non-zero value.
+///
+/// ```
+/// use processes::Drift;
+/// let dr = Drift::new(-2e-7)?;
+/// assert_eq!(dr.omega(), -2e-7);
+/// assert!(Drift::new(0.0).is_err());
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drift {
+    omega: f64,
+}
+
+impl Drift {
+    /// Builds DR with slope `omega` (finite, ≠ 0: the book's Ω is ℝ⁺ or ℝ⁻).
+    pub fn new(omega: f64) -> Result<Self> {
+        if omega == 0.0 {
+            return Err(ProcessError::InvalidParameter {
+                process: "DR",
+                name: "omega",
+                value: omega,
+                requirement: "must be non-zero (a zero drift is no component)",
+            });
+        }
+        Ok(Self {
+            omega: check_finite("DR", "omega", omega)?,
+        })
+    }
+    /// The slope ω per sample.
+    pub fn omega(&self) -> f64 {
+        self.omega
+    }
+}
+
+/// Random walk (RW, book Definition 2.5): X_t = X_{t−1} + ε_t, ε_t iid N(0, γ²), X_0 = 0.
+///
+/// `gamma2` is the per-sample innovation variance γ² (unit²).
+///
+/// ```
+/// use processes::RandomWalk;
+/// let rw = RandomWalk::new(1e-9)?;
+/// assert_eq!(rw.gamma2(), 1e-9);
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RandomWalk {
+    gamma2: f64,
+}
+
+impl RandomWalk {
+    /// Builds RW with innovation variance `gamma2` > 0 (finite).
+    pub fn new(gamma2: f64) -> Result<Self> {
+        Ok(Self {
+            gamma2: check_positive("RW", "gamma2", gamma2)?,
+        })
+    }
+    /// The innovation variance γ² per sample.
+    pub fn gamma2(&self) -> f64 {
+        self.gamma2
+    }
+}
+
+/// First-order autoregressive process (AR1, book Definition 2.6):
+/// X_t = φ X_{t−1} + Z_t, Z_t iid N(0, v²).
+///
+/// `phi` ∈ (−1, 1); `sigma2` is the innovation variance v² (unit²). The stationary
+/// variance is v² / (1 − φ²).
+///
+/// ```
+/// use processes::Ar1;
+/// let ar = Ar1::new(0.99, 1e-6)?;
+/// assert_eq!(ar.phi(), 0.99);
+/// assert!(Ar1::new(1.0, 1e-6).is_err());
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ar1 {
+    phi: f64,
+    sigma2: f64,
+}
+
+impl Ar1 {
+    /// Builds AR1 with `phi` ∈ (−1, 1) and innovation variance `sigma2` > 0.
+    pub fn new(phi: f64, sigma2: f64) -> Result<Self> {
+        if !(phi.is_finite() && phi > -1.0 && phi < 1.0) {
+            return Err(ProcessError::InvalidParameter {
+                process: "AR1",
+                name: "phi",
+                value: phi,
+                requirement: "must lie in (-1, 1)",
+            });
+        }
+        Ok(Self {
+            phi,
+            sigma2: check_positive("AR1", "sigma2", sigma2)?,
+        })
+    }
+    /// The autoregressive coefficient φ.
+    pub fn phi(&self) -> f64 {
+        self.phi
+    }
+    /// The innovation variance v².
+    pub fn sigma2(&self) -> f64 {
+        self.sigma2
+    }
+    /// The stationary variance v² / (1 − φ²).
+    pub fn stationary_variance(&self) -> f64 {
+        self.sigma2 / ((1.0 - self.phi) * (1.0 + self.phi))
+    }
+}
+
+/// First-order Gauss-Markov process (GM, book Definition 2.7):
+/// X_t = e^{−βΔt} X_{t−1} + Z_t, Z_t iid N(0, σ_G² (1 − e^{−2βΔt})).
+///
+/// `beta` > 0 is the inverse correlation time in 1/s; `sigma2` = σ_G² is the stationary
+/// variance (unit²). It is the AR1 with φ = e^{−βΔt} and v² = σ_G² (1 − φ²) (book
+/// Remark 2.1), so it needs the sampling rate for everything but its definition.
+///
+/// ```
+/// use processes::GaussMarkov;
+/// let gm = GaussMarkov::new(0.01, 1e-6)?; // correlation time 100 s
+/// let ar = gm.to_ar1(100.0)?;              // at 100 Hz
+/// assert!((ar.phi() - (-0.01f64 / 100.0).exp()).abs() < 1e-15);
+/// let back = GaussMarkov::from_ar1(&ar, 100.0)?;
+/// assert!((back.beta() - 0.01).abs() < 1e-12);
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GaussMarkov {
+    beta: f64,
+    sigma2: f64,
+}
+
+impl GaussMarkov {
+    /// Builds GM with `beta` > 0 (1/s) and stationary variance `sigma2` = σ_G² > 0.
+    pub fn new(beta: f64, sigma2: f64) -> Result<Self> {
+        Ok(Self {
+            beta: check_positive("GM", "beta", beta)?,
+            sigma2: check_positive("GM", "sigma2", sigma2)?,
+        })
+    }
+    /// β in 1/s.
+    pub fn beta(&self) -> f64 {
+        self.beta
+    }
+    /// The stationary variance σ_G².
+    pub fn sigma2(&self) -> f64 {
+        self.sigma2
+    }
+    /// The correlation time 1/β in seconds.
+    pub fn correlation_time(&self) -> f64 {
+        1.0 / self.beta
+    }
+    /// The equivalent AR1 at sampling rate `rate_hz`: φ = e^{−β/rate}, v² = σ_G² (1 − φ²).
+    pub fn to_ar1(&self, rate_hz: f64) -> Result<Ar1> {
+        let dt = 1.0 / check_rate(rate_hz)?;
+        let phi = (-self.beta * dt).exp();
+        // 1 − φ² = −expm1(−2βΔt), accurate for small βΔt.
+        let v2 = self.sigma2 * -(-2.0 * self.beta * dt).exp_m1();
+        Ar1::new(phi, v2)
+    }
+    /// The GM equivalent to an AR1 with φ ∈ (0, 1) at sampling rate `rate_hz`:
+    /// β = −ln φ · rate, σ_G² = v² / (1 − φ²).
+    pub fn from_ar1(ar1: &Ar1, rate_hz: f64) -> Result<Self> {
+        let rate = check_rate(rate_hz)?;
+        if ar1.phi() <= 0.0 {
+            return Err(ProcessError::InvalidParameter {
+                process: "AR1",
+                name: "phi",
+                value: ar1.phi(),
+                requirement: "must lie in (0, 1) to map onto a Gauss-Markov process",
+            });
+        }
+        Self::new(-ar1.phi().ln() * rate, ar1.stationary_variance())
+    }
+}
+
+/// Moving average of order 1 (MA1, book Example 4.1): X_t = W_t + θ W_{t−1},
+/// W_t iid N(0, σ²).
+///
+/// `theta` is any finite real; `sigma2` > 0 is the innovation variance (unit²).
+///
+/// ```
+/// use processes::Ma1;
+/// let ma = Ma1::new(0.5, 2.0)?;
+/// assert_eq!((ma.theta(), ma.sigma2()), (0.5, 2.0));
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ma1 {
+    theta: f64,
+    sigma2: f64,
+}
+
+impl Ma1 {
+    /// Builds MA1 with finite `theta` and innovation variance `sigma2` > 0.
+    pub fn new(theta: f64, sigma2: f64) -> Result<Self> {
+        Ok(Self {
+            theta: check_finite("MA1", "theta", theta)?,
+            sigma2: check_positive("MA1", "sigma2", sigma2)?,
+        })
+    }
+    /// The moving-average coefficient θ.
+    pub fn theta(&self) -> f64 {
+        self.theta
+    }
+    /// The innovation variance σ².
+    pub fn sigma2(&self) -> f64 {
+        self.sigma2
+    }
+}
+
+/// The kind of a latent process, without values; also a model's "slot" to be estimated.
+///
+/// ```
+/// use processes::ProcessKind;
+/// assert_eq!(ProcessKind::Ar1.code(), "AR1");
+/// assert_eq!(ProcessKind::Ar1.param_names(), &["phi", "sigma2"]);
+/// assert_eq!("rw".parse::<ProcessKind>()?, ProcessKind::RandomWalk);
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum ProcessKind {
+    /// Quantization noise, `QN`.
+    #[serde(rename = "QN")]
+    QuantizationNoise,
+    /// White noise, `WN`.
+    #[serde(rename = "WN")]
+    WhiteNoise,
+    /// Random walk, `RW`.
+    #[serde(rename = "RW")]
+    RandomWalk,
+    /// Drift, `DR`.
+    #[serde(rename = "DR")]
+    Drift,
+    /// First-order autoregressive, `AR1`.
+    #[serde(rename = "AR1")]
+    Ar1,
+    /// Gauss-Markov, `GM`.
+    #[serde(rename = "GM")]
+    GaussMarkov,
+    /// Moving average of order 1, `MA1`.
+    #[serde(rename = "MA1")]
+    Ma1,
+}
+
+impl ProcessKind {
+    /// Every kind, in the conventional order QN, WN, RW, DR, AR1, GM, MA1.
+    pub const ALL: [ProcessKind; 7] = [
+        ProcessKind::QuantizationNoise,
+        ProcessKind::WhiteNoise,
+        ProcessKind::RandomWalk,
+        ProcessKind::Drift,
+        ProcessKind::Ar1,
+        ProcessKind::GaussMarkov,
+        ProcessKind::Ma1,
+    ];
+
+    /// The short code used in model strings: `WN`, `QN`, `DR`, `RW`, `AR1`, `GM`, `MA1`.
+    pub fn code(self) -> &'static str {
+        match self {
+            ProcessKind::WhiteNoise => "WN",
+            ProcessKind::QuantizationNoise => "QN",
+            ProcessKind::Drift => "DR",
+            ProcessKind::RandomWalk => "RW",
+            ProcessKind::Ar1 => "AR1",
+            ProcessKind::GaussMarkov => "GM",
+            ProcessKind::Ma1 => "MA1",
+        }
+    }
+
+    /// Parameter names in the order of [`Process::params`].
+    pub fn param_names(self) -> &'static [&'static str] {
+        match self {
+            ProcessKind::WhiteNoise => &["sigma2"],
+            ProcessKind::QuantizationNoise => &["q2"],
+            ProcessKind::Drift => &["omega"],
+            ProcessKind::RandomWalk => &["gamma2"],
+            ProcessKind::Ar1 => &["phi", "sigma2"],
+            ProcessKind::GaussMarkov => &["beta", "sigma2"],
+            ProcessKind::Ma1 => &["theta", "sigma2"],
+        }
+    }
+
+    /// Number of parameters.
+    pub fn n_params(self) -> usize {
+        self.param_names().len()
+    }
+
+    /// Whether the process is (weakly) stationary (book Remark 2.6): WN, QN, AR1, GM and
+    /// MA1 are; DR and RW are not.
+    pub fn is_stationary(self) -> bool {
+        !matches!(self, ProcessKind::Drift | ProcessKind::RandomWalk)
+    }
+
+    /// Whether a model may hold several components of this kind and stay identifiable
+    /// (only AR1 and GM may repeat).
+    pub fn may_repeat(self) -> bool {
+        matches!(self, ProcessKind::Ar1 | ProcessKind::GaussMarkov)
+    }
+}
+
+impl fmt::Display for ProcessKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.code())
+    }
+}
+
+impl std::str::FromStr for ProcessKind {
+    type Err = ProcessError;
+    fn from_str(s: &str) -> Result<Self> {
+        let t = s.trim();
+        ProcessKind::ALL
+            .into_iter()
+            .find(|k| k.code().eq_ignore_ascii_case(t))
+            .ok_or_else(|| ProcessError::Parse {
+                input: s.to_string(),
+                position: 0,
+                message: format!(
+                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, GM, MA1"
+                ),
+            })
+    }
+}
+
+/// Any one latent process with its parameter values.
+///
+/// ```
+/// use processes::{Process, ProcessKind, Ar1};
+/// let p = Process::from(Ar1::new(0.5, 3.0)?);
+/// assert_eq!(p.kind(), ProcessKind::Ar1);
+/// assert_eq!(p.params(), vec![0.5, 3.0]);
+/// assert_eq!(p.autocovariance(1, 1.0)?, 0.5 * 3.0 / (1.0 - 0.25));
+/// let q = Process::from_params(ProcessKind::Ar1, &[0.5, 3.0])?;
+/// assert_eq!(p, q);
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ProcessRepr", into = "ProcessRepr")]
+pub enum Process {
+    /// White noise.
+    WhiteNoise(WhiteNoise),
+    /// Quantization noise.
+    QuantizationNoise(QuantizationNoise),
+    /// Drift.
+    Drift(Drift),
+    /// Random walk.
+    RandomWalk(RandomWalk),
+    /// First-order autoregressive process.
+    Ar1(Ar1),
+    /// Gauss-Markov process.
+    GaussMarkov(GaussMarkov),
+    /// Moving average of order 1.
+    Ma1(Ma1),
+}
+
+macro_rules! impl_from_process {
+    ($($t:ident),*) => {$(
+        impl From<$t> for Process {
+            fn from(p: $t) -> Self { Process::$t(p) }
+        }
+    )*};
+}
+impl_from_process!(
+    WhiteNoise,
+    QuantizationNoise,
+    Drift,
+    RandomWalk,
+    Ar1,
+    GaussMarkov,
+    Ma1
+);
+
+impl Process {
+    /// The kind of this process.
+    pub fn kind(&self) -> ProcessKind {
+        match self {
+            Process::WhiteNoise(_) => ProcessKind::WhiteNoise,
+            Process::QuantizationNoise(_) => ProcessKind::QuantizationNoise,
+            Process::Drift(_) => ProcessKind::Drift,
+            Process::RandomWalk(_) => ProcessKind::RandomWalk,
+            Process::Ar1(_) => ProcessKind::Ar1,
+            Process::GaussMarkov(_) => ProcessKind::GaussMarkov,
+            Process::Ma1(_) => ProcessKind::Ma1,
+        }
+    }
+
+    /// Parameter values in the order of [`ProcessKind::param_names`].
+    pub fn params(&self) -> Vec<f64> {
+        match *self {
+            Process::WhiteNoise(p) => vec![p.sigma2],
+            Process::QuantizationNoise(p) => vec![p.q2],
+            Process::Drift(p) => vec![p.omega],
+            Process::RandomWalk(p) => vec![p.gamma2],
+            Process::Ar1(p) => vec![p.phi, p.sigma2],
+            Process::GaussMarkov(p) => vec![p.beta, p.sigma2],
+            Process::Ma1(p) => vec![p.theta, p.sigma2],
+        }
+    }
+
+    /// Builds a process of `kind` from its parameter values (same order as
+    /// [`ProcessKind::param_names`]), validating them.
+    pub fn from_params(kind: ProcessKind, values: &[f64]) -> Result<Self> {
+        if values.len() != kind.n_params() {
+            return Err(ProcessError::InvalidArgument(format!(
+                "{} takes {} parameter(s) ({}), got {}",
+                kind.code(),
+                kind.n_params(),
+                kind.param_names().join(", "),
+                values.len()
+            )));
+        }
+        let v = values;
+        Ok(match kind {
+            ProcessKind::WhiteNoise => WhiteNoise::new(v[0])?.into(),
+            ProcessKind::QuantizationNoise => QuantizationNoise::new(v[0])?.into(),
+            ProcessKind::Drift => Drift::new(v[0])?.into(),
+            ProcessKind::RandomWalk => RandomWalk::new(v[0])?.into(),
+            ProcessKind::Ar1 => Ar1::new(v[0], v[1])?.into(),
+            ProcessKind::GaussMarkov => GaussMarkov::new(v[0], v[1])?.into(),
+            ProcessKind::Ma1 => Ma1::new(v[0], v[1])?.into(),
+        })
+    }
+
+    /// Whether the process is (weakly) stationary (book Remark 2.6).
+    pub fn is_stationary(&self) -> bool {
+        self.kind().is_stationary()
+    }
+
+    /// The process as an AR1 at sampling rate `rate_hz` when it is one (AR1 itself, or GM
+    /// through the book's map); `None` for the other kinds.
+    pub fn as_ar1(&self, rate_hz: f64) -> Result<Option<Ar1>> {
+        match self {
+            Process::Ar1(a) => Ok(Some(*a)),
+            Process::GaussMarkov(g) => g.to_ar1(rate_hz).map(Some),
+            _ => Ok(None),
+        }
+    }
+
+    /// Mean E[X_t] at time index `t` = 1, 2, … (ω t for drift, 0 otherwise).
+    pub fn mean_at(&self, t: u64) -> f64 {
+        match self {
+            Process::Drift(d) => d.omega * t as f64,
+            _ => 0.0,
+        }
+    }
+
+    /// Variance Var(X_t) at time index `t` = 1, 2, … : t γ² for RW, 0 for DR, and the
+    /// stationary variance γ(0) otherwise. `rate_hz` is needed for GM only.
+    pub fn variance_at(&self, t: u64, rate_hz: f64) -> Result<f64> {
+        check_rate(rate_hz)?;
+        match self {
+            Process::RandomWalk(r) => Ok(r.gamma2 * t as f64),
+            Process::Drift(_) => Ok(0.0),
+            _ => self.autocovariance(0, rate_hz),
+        }
+    }
+
+    /// Autocovariance γ(h) at lag `h` (samples) of a stationary process.
+    /// `rate_hz` is needed for GM only. Errors for RW and DR, which are not stationary.
+    pub fn autocovariance(&self, h: u64, rate_hz: f64) -> Result<f64> {
+        check_rate(rate_hz)?;
+        Ok(match *self {
+            Process::WhiteNoise(p) => {
+                if h == 0 {
+                    p.sigma2
+                } else {
+                    0.0
+                }
+            }
+            Process::QuantizationNoise(p) => match h {
+                0 => 2.0 * p.q2,
+                1 => -p.q2,
+                _ => 0.0,
+            },
+            Process::Ma1(p) => match h {
+                0 => (1.0 + p.theta * p.theta) * p.sigma2,
+                1 => p.theta * p.sigma2,
+                _ => 0.0,
+            },
+            Process::Ar1(p) => p.stationary_variance() * powi_u64(p.phi, h),
+            Process::GaussMarkov(g) => {
+                // σ_G² e^{−β h Δt}, computed directly (no rounding through φ^h).
+                g.sigma2 * (-g.beta * h as f64 / rate_hz).exp()
+            }
+            Process::RandomWalk(_) | Process::Drift(_) => {
+                return Err(ProcessError::NotDefined {
+                    what: "autocovariance γ(h)",
+                    process: self.kind().code(),
+                    why: "the process is not stationary (book Remark 2.6)",
+                });
+            }
+        })
+    }
+
+    /// Autocorrelation ρ(h) = γ(h)/γ(0) of a stationary process (see [`Self::autocovariance`]).
+    pub fn autocorrelation(&self, h: u64, rate_hz: f64) -> Result<f64> {
+        Ok(self.autocovariance(h, rate_hz)? / self.autocovariance(0, rate_hz)?)
+    }
+}
+
+/// x^n for a non-negative integer exponent of any size.
+pub(crate) fn powi_u64(x: f64, n: u64) -> f64 {
+    if n <= i32::MAX as u64 {
+        x.powi(n as i32)
+    } else {
+        x.powf(n as f64)
+    }
+}
+
+/// Plain serde form of [`Process`]; deserializing goes through the validating constructors.
+#[derive(Serialize, Deserialize)]
+#[serde(tag = "process")]
+enum ProcessRepr {
+    #[serde(rename = "WN")]
+    WhiteNoise { sigma2: f64 },
+    #[serde(rename = "QN")]
+    QuantizationNoise { q2: f64 },
+    #[serde(rename = "DR")]
+    Drift { omega: f64 },
+    #[serde(rename = "RW")]
+    RandomWalk { gamma2: f64 },
+    #[serde(rename = "AR1")]
+    Ar1 { phi: f64, sigma2: f64 },
+    #[serde(rename = "GM")]
+    GaussMarkov { beta: f64, sigma2: f64 },
+    #[serde(rename = "MA1")]
+    Ma1 { theta: f64, sigma2: f64 },
+}
+
+impl TryFrom<ProcessRepr> for Process {
+    type Error = ProcessError;
+    fn try_from(r: ProcessRepr) -> Result<Self> {
+        Ok(match r {
+            ProcessRepr::WhiteNoise { sigma2 } => WhiteNoise::new(sigma2)?.into(),
+            ProcessRepr::QuantizationNoise { q2 } => QuantizationNoise::new(q2)?.into(),
+            ProcessRepr::Drift { omega } => Drift::new(omega)?.into(),
+            ProcessRepr::RandomWalk { gamma2 } => RandomWalk::new(gamma2)?.into(),
+            ProcessRepr::Ar1 { phi, sigma2 } => Ar1::new(phi, sigma2)?.into(),
+            ProcessRepr::GaussMarkov { beta, sigma2 } => GaussMarkov::new(beta, sigma2)?.into(),
+            ProcessRepr::Ma1 { theta, sigma2 } => Ma1::new(theta, sigma2)?.into(),
+        })
+    }
+}
+
+impl From<Process> for ProcessRepr {
+    fn from(p: Process) -> Self {
+        match p {
+            Process::WhiteNoise(p) => ProcessRepr::WhiteNoise { sigma2: p.sigma2 },
+            Process::QuantizationNoise(p) => ProcessRepr::QuantizationNoise { q2: p.q2 },
+            Process::Drift(p) => ProcessRepr::Drift { omega: p.omega },
+            Process::RandomWalk(p) => ProcessRepr::RandomWalk { gamma2: p.gamma2 },
+            Process::Ar1(p) => ProcessRepr::Ar1 {
+                phi: p.phi,
+                sigma2: p.sigma2,
+            },
+            Process::GaussMarkov(p) => ProcessRepr::GaussMarkov {
+                beta: p.beta,
+                sigma2: p.sigma2,
+            },
+            Process::Ma1(p) => ProcessRepr::Ma1 {
+                theta: p.theta,
+                sigma2: p.sigma2,
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_invalid_parameter_is_rejected_with_its_name() {
+        let cases: Vec<(Result<Process>, &str)> = vec![
+            (WhiteNoise::new(0.0).map(Into::into), "sigma2"),
+            (WhiteNoise::new(f64::NAN).map(Into::into), "sigma2"),
+            (QuantizationNoise::new(-1.0).map(Into::into), "q2"),
+            (Drift::new(f64::INFINITY).map(Into::into), "omega"),
+            (Drift::new(0.0).map(Into::into), "omega"),
+            (RandomWalk::new(-1e-9).map(Into::into), "gamma2"),
+            (Ar1::new(1.0, 1.0).map(Into::into), "phi"),
+            (Ar1::new(-1.0, 1.0).map(Into::into), "phi"),
+            (Ar1::new(f64::NAN, 1.0).map(Into::into), "phi"),
+            (Ar1::new(0.5, 0.0).map(Into::into), "sigma2"),
+            (GaussMarkov::new(0.0, 1.0).map(Into::into), "beta"),
+            (
+                GaussMarkov::new(1.0, f64::INFINITY).map(Into::into),
+                "sigma2",
+            ),
+            (Ma1::new(f64::NEG_INFINITY, 1.0).map(Into::into), "theta"),
+            (Ma1::new(0.3, -2.0).map(Into::into), "sigma2"),
+        ];
+        for (r, name) in cases {
+            match r {
+                Err(ProcessError::InvalidParameter { name: n, .. }) => assert_eq!(n, name),
+                other => panic!("expected an invalid {name}, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn gm_and_ar1_map_both_ways() {
+        let gm = GaussMarkov::new(0.5, 2.0).unwrap();
+        let ar = gm.to_ar1(10.0).unwrap();
+        assert!((ar.phi() - (-0.05f64).exp()).abs() < 1e-15);
+        assert!((ar.stationary_variance() - 2.0).abs() < 1e-13);
+        let back = GaussMarkov::from_ar1(&ar, 10.0).unwrap();
+        assert!((back.beta() - 0.5).abs() < 1e-13);
+        assert!((back.sigma2() - 2.0).abs() < 1e-13);
+        assert!(GaussMarkov::from_ar1(&Ar1::new(-0.5, 1.0).unwrap(), 10.0).is_err());
+        assert!(gm.to_ar1(0.0).is_err());
+        // GM and its AR1 have the same autocovariance.
+        let (pg, pa) = (Process::from(gm), Process::from(ar));
+        for h in [0, 1, 7, 100] {
+            let (a, b) = (
+                pg.autocovariance(h, 10.0).unwrap(),
+                pa.autocovariance(h, 10.0).unwrap(),
+            );
+            assert!((a - b).abs() <= 1e-12 * a.abs(), "h={h}: {a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn theory_of_each_process() {
+        let qn = Process::from(QuantizationNoise::new(2.0).unwrap());
+        assert_eq!(qn.autocovariance(0, 1.0).unwrap(), 4.0);
+        assert_eq!(qn.autocorrelation(1, 1.0).unwrap(), -0.5);
+        assert_eq!(qn.autocovariance(2, 1.0).unwrap(), 0.0);
+        let ma = Process::from(Ma1::new(0.5, 2.0).unwrap());
+        assert_eq!(ma.autocorrelation(1, 1.0).unwrap(), 0.5 / 1.25); // book Example 4.1
+        let rw = Process::from(RandomWalk::new(3.0).unwrap());
+        assert_eq!(rw.variance_at(10, 1.0).unwrap(), 30.0);
+        assert!(rw.autocovariance(0, 1.0).is_err());
+        let dr = Process::from(Drift::new(-0.5).unwrap());
+        assert_eq!(dr.mean_at(4), -2.0);
+        assert_eq!(dr.variance_at(4, 1.0).unwrap(), 0.0);
+        assert!(!dr.is_stationary() && !rw.is_stationary() && qn.is_stationary());
+    }
+
+    #[test]
+    fn serde_round_trip_validates() {
+        let p = Process::from(Ar1::new(0.9, 1e-6).unwrap());
+        let json = serde_json::to_string(&p).unwrap();
+        assert_eq!(json, r#"{"process":"AR1","phi":0.9,"sigma2":1e-6}"#);
+        assert_eq!(serde_json::from_str::<Process>(&json).unwrap(), p);
+        let bad = serde_json::from_str::<Process>(r#"{"process":"AR1","phi":2.0,"sigma2":1.0}"#);
+        assert!(bad.unwrap_err().to_string().contains("phi"));
+    }
+}

@@ -1,0 +1,342 @@
+//! Time-series types: a single channel ([`TimeSeries`], the book's `gts`) and a
+//! multi-channel IMU record ([`ImuRecord`], simts' `imu`).
+
+use crate::error::{ProcessError, Result};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// Physical unit of a channel. Inertial units drive the IEEE 952 conversions downstream.
+///
+/// ```
+/// use processes::Unit;
+/// assert_eq!("deg/s".parse::<Unit>()?, Unit::DegPerSec);
+/// assert_eq!("m/s^2".parse::<Unit>()?, Unit::MetrePerSec2);
+/// assert!(Unit::RadPerSec.is_angular_rate());
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+pub enum Unit {
+    /// Degrees per second (gyroscope).
+    #[serde(rename = "deg/s")]
+    DegPerSec,
+    /// Radians per second (gyroscope).
+    #[serde(rename = "rad/s")]
+    RadPerSec,
+    /// Standard gravity, 9.80665 m/s² (accelerometer).
+    #[serde(rename = "g")]
+    G,
+    /// Metres per second squared (accelerometer).
+    #[serde(rename = "m/s^2")]
+    MetrePerSec2,
+    /// No unit stated.
+    #[default]
+    #[serde(rename = "unitless")]
+    Unitless,
+    /// Any other unit, by name.
+    #[serde(untagged)]
+    Other(String),
+}
+
+impl Unit {
+    /// True for gyroscope units (°/s, rad/s).
+    pub fn is_angular_rate(&self) -> bool {
+        matches!(self, Unit::DegPerSec | Unit::RadPerSec)
+    }
+    /// True for accelerometer units (g, m/s²).
+    pub fn is_acceleration(&self) -> bool {
+        matches!(self, Unit::G | Unit::MetrePerSec2)
+    }
+    /// The unit's symbol as printed, e.g. `"°/s"`.
+    pub fn symbol(&self) -> &str {
+        match self {
+            Unit::DegPerSec => "°/s",
+            Unit::RadPerSec => "rad/s",
+            Unit::G => "g",
+            Unit::MetrePerSec2 => "m/s²",
+            Unit::Unitless => "",
+            Unit::Other(s) => s,
+        }
+    }
+}
+
+impl fmt::Display for Unit {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.symbol())
+    }
+}
+
+impl std::str::FromStr for Unit {
+    type Err = ProcessError;
+    /// Accepts `deg/s dps °/s rad/s rps g m/s^2 m/s2 m/s² mps2` (any case); `""`/`none`
+    /// is unitless. Anything else is an error (use [`Unit::Other`] explicitly).
+    fn from_str(s: &str) -> Result<Self> {
+        let t = s.trim().to_ascii_lowercase();
+        Ok(match t.as_str() {
+            "deg/s" | "dps" | "°/s" | "degps" | "deg/sec" => Unit::DegPerSec,
+            "rad/s" | "rps" | "radps" | "rad/sec" => Unit::RadPerSec,
+            "g" => Unit::G,
+            "m/s^2" | "m/s2" | "m/s²" | "mps2" | "m/s/s" => Unit::MetrePerSec2,
+            "" | "none" | "unitless" | "1" => Unit::Unitless,
+            _ => {
+                return Err(ProcessError::InvalidArgument(format!(
+                    "unknown unit {s:?}; expected deg/s, rad/s, g, m/s^2 or none"
+                )));
+            }
+        })
+    }
+}
+
+/// A regularly sampled single-channel time series (book Definition 2.1).
+///
+/// Values are finite; `rate_hz` is the sampling rate in Hz (Δt = 1/rate); `start` is the
+/// time of the first sample in seconds.
+///
+/// ```
+/// use processes::{TimeSeries, Unit};
+/// let ts = TimeSeries::new(vec![0.1, -0.2, 0.05], 100.0)?
+///     .with_name("gyro_x")
+///     .with_unit(Unit::DegPerSec);
+/// assert_eq!(ts.len(), 3);
+/// assert_eq!(ts.dt(), 0.01);
+/// assert_eq!(ts.time(2), 0.02);
+/// let err = TimeSeries::new(vec![1.0, f64::NAN], 100.0).unwrap_err();
+/// assert!(err.to_string().contains("index 1"));
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TimeSeries {
+    values: Vec<f64>,
+    rate_hz: f64,
+    start: f64,
+    unit: Unit,
+    name: String,
+}
+
+impl TimeSeries {
+    /// Builds a series, checking the rate is finite and > 0 and that every value is finite
+    /// (the error names the first bad index). Name `"x"`, start 0 s, unitless.
+    pub fn new(values: Vec<f64>, rate_hz: f64) -> Result<Self> {
+        Self::named(values, rate_hz, "x")
+    }
+
+    /// As [`Self::new`] with a name (used in error messages too).
+    pub fn named(values: Vec<f64>, rate_hz: f64, name: &str) -> Result<Self> {
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
+            return Err(ProcessError::InvalidRate(rate_hz));
+        }
+        if let Some(index) = values.iter().position(|v| !v.is_finite()) {
+            return Err(ProcessError::NonFiniteValue {
+                name: name.to_string(),
+                index,
+                value: values[index],
+            });
+        }
+        Ok(Self {
+            values,
+            rate_hz,
+            start: 0.0,
+            unit: Unit::Unitless,
+            name: name.to_string(),
+        })
+    }
+
+    /// Sets the name.
+    pub fn with_name(mut self, name: &str) -> Self {
+        self.name = name.to_string();
+        self
+    }
+    /// Sets the unit.
+    pub fn with_unit(mut self, unit: Unit) -> Self {
+        self.unit = unit;
+        self
+    }
+    /// Sets the start time in seconds (must be finite).
+    pub fn with_start(mut self, start: f64) -> Result<Self> {
+        if !start.is_finite() {
+            return Err(ProcessError::InvalidArgument(format!(
+                "start time must be finite, got {start}"
+            )));
+        }
+        self.start = start;
+        Ok(self)
+    }
+    /// The samples.
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+    /// Takes the samples out.
+    pub fn into_values(self) -> Vec<f64> {
+        self.values
+    }
+    /// Number of samples T.
+    pub fn len(&self) -> usize {
+        self.values.len()
+    }
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
+    }
+    /// Sampling rate in Hz.
+    pub fn rate_hz(&self) -> f64 {
+        self.rate_hz
+    }
+    /// Sampling interval Δt = 1/rate in seconds.
+    pub fn dt(&self) -> f64 {
+        1.0 / self.rate_hz
+    }
+    /// Time of the first sample in seconds.
+    pub fn start(&self) -> f64 {
+        self.start
+    }
+    /// Time in seconds of sample `i` (zero-based): start + i Δt.
+    pub fn time(&self, i: usize) -> f64 {
+        self.start + i as f64 / self.rate_hz
+    }
+    /// Duration T Δt in seconds.
+    pub fn duration(&self) -> f64 {
+        self.values.len() as f64 / self.rate_hz
+    }
+    /// The unit.
+    pub fn unit(&self) -> &Unit {
+        &self.unit
+    }
+    /// The name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+}
+
+/// The kind of sensor a channel of an IMU record comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Sensor {
+    /// Gyroscope (angular rate).
+    Gyroscope,
+    /// Accelerometer (specific force).
+    Accelerometer,
+    /// Anything else.
+    Other,
+}
+
+/// A multi-channel record of one IMU at one sampling rate (simts' `imu`): e.g. three
+/// gyroscope and three accelerometer axes, each with its unit.
+///
+/// ```
+/// use processes::{ImuRecord, Sensor, TimeSeries, Unit};
+/// let gx = TimeSeries::new(vec![0.0; 8], 100.0)?.with_name("gyro_x").with_unit(Unit::DegPerSec);
+/// let az = TimeSeries::new(vec![-1.0; 8], 100.0)?.with_name("acc_z").with_unit(Unit::G);
+/// let imu = ImuRecord::new(vec![(Sensor::Gyroscope, gx), (Sensor::Accelerometer, az)])?;
+/// assert_eq!(imu.len(), 8);
+/// assert_eq!(imu.channels_of(Sensor::Accelerometer).count(), 1);
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImuRecord {
+    channels: Vec<(Sensor, TimeSeries)>,
+}
+
+impl ImuRecord {
+    /// Builds a record; every channel must have the same length and rate.
+    pub fn new(channels: Vec<(Sensor, TimeSeries)>) -> Result<Self> {
+        let Some((_, first)) = channels.first() else {
+            return Err(ProcessError::InvalidArgument(
+                "an IMU record needs at least one channel".into(),
+            ));
+        };
+        let (n, rate) = (first.len(), first.rate_hz());
+        for (_, c) in &channels {
+            if c.len() != n {
+                return Err(ProcessError::LengthMismatch {
+                    name: c.name().to_string(),
+                    len: c.len(),
+                    expected: n,
+                });
+            }
+            if c.rate_hz() != rate {
+                return Err(ProcessError::InvalidArgument(format!(
+                    "channel {:?} is sampled at {} Hz but the record at {rate} Hz",
+                    c.name(),
+                    c.rate_hz()
+                )));
+            }
+        }
+        Ok(Self { channels })
+    }
+    /// All channels with their sensor kind.
+    pub fn channels(&self) -> &[(Sensor, TimeSeries)] {
+        &self.channels
+    }
+    /// The channels of one sensor kind.
+    pub fn channels_of(&self, sensor: Sensor) -> impl Iterator<Item = &TimeSeries> {
+        self.channels
+            .iter()
+            .filter(move |(s, _)| *s == sensor)
+            .map(|(_, c)| c)
+    }
+    /// Samples per channel.
+    pub fn len(&self) -> usize {
+        self.channels[0].1.len()
+    }
+    /// True when the channels have no samples.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// The common sampling rate in Hz.
+    pub fn rate_hz(&self) -> f64 {
+        self.channels[0].1.rate_hz()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_series_name_the_first_bad_index() {
+        let e =
+            TimeSeries::named(vec![0.0, 1.0, f64::INFINITY, f64::NAN], 10.0, "acc_z").unwrap_err();
+        assert_eq!(
+            e,
+            ProcessError::NonFiniteValue {
+                name: "acc_z".into(),
+                index: 2,
+                value: f64::INFINITY
+            }
+        );
+        for rate in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(matches!(
+                TimeSeries::new(vec![1.0], rate),
+                Err(ProcessError::InvalidRate(_))
+            ));
+        }
+        assert!(
+            TimeSeries::new(vec![1.0], 1.0)
+                .unwrap()
+                .with_start(f64::NAN)
+                .is_err()
+        );
+    }
+
+    #[test]
+    fn records_check_lengths_and_rates() {
+        let a = TimeSeries::named(vec![0.0; 4], 10.0, "a").unwrap();
+        let b = TimeSeries::named(vec![0.0; 5], 10.0, "b").unwrap();
+        let c = TimeSeries::named(vec![0.0; 4], 20.0, "c").unwrap();
+        assert!(matches!(
+            ImuRecord::new(vec![(Sensor::Gyroscope, a.clone()), (Sensor::Gyroscope, b)]),
+            Err(ProcessError::LengthMismatch {
+                len: 5,
+                expected: 4,
+                ..
+            })
+        ));
+        assert!(ImuRecord::new(vec![(Sensor::Gyroscope, a), (Sensor::Gyroscope, c)]).is_err());
+        assert!(ImuRecord::new(vec![]).is_err());
+    }
+
+    #[test]
+    fn units_parse_and_reject() {
+        assert_eq!("RAD/S".parse::<Unit>().unwrap(), Unit::RadPerSec);
+        assert_eq!("m/s²".parse::<Unit>().unwrap(), Unit::MetrePerSec2);
+        assert!("furlongs".parse::<Unit>().is_err());
+    }
+}

@@ -1,0 +1,1 @@
+//! imunoise layer `spectral` (being built: see the crate's issue).
