@@ -1,3 +1,36 @@
-fn main() {
-    println!("xtask: no tasks yet");
+//! Repository chores: `cargo xtask <task>`. Reports that are too slow for `cargo test`
+//! (Monte Carlo coverage, speed comparisons with peer tools) live here.
+//!
+//! Each task lives in its own module; `main` only dispatches.
+
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let task = args.first().map(String::as_str).unwrap_or("help");
+    let rest = &args[args.len().min(1)..];
+    let result: Result<(), String> = match task {
+        // tasks: one arm each (keep this list sorted)
+        "help" | "--help" | "-h" => {
+            println!("usage: cargo xtask <task> [args]\n\ntasks:");
+            for (name, what) in TASKS {
+                println!("  {name:<24} {what}");
+            }
+            Ok(())
+        }
+        other => Err(format!("unknown task {other:?}; run `cargo xtask help`")),
+    };
+    let _ = rest;
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
+
+/// Task names and one-line descriptions, for `cargo xtask help`.
+const TASKS: &[(&str, &str)] = &[
+    // ("name", "description"),
+];
