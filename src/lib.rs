@@ -5,8 +5,16 @@
 //! - [`spectral`]: PSD, ACF and the theoretical Allan variance.
 //! - [`avar`]: the maximum-overlapping Allan variance estimator and its confidence intervals.
 //! - [`gmwm_prep`]: fitting composite models to the Allan variance.
+//!
+//! The command's own layers live here too: [`io`] reads IMU logs (text, gzip, binary)
+//! and [`error`] locates every input problem by file, line and column.
 
 pub use avar;
 pub use gmwm_prep;
 pub use processes;
 pub use spectral;
+
+pub mod error;
+pub mod io;
+
+pub use error::{Error, Result};
