@@ -25,6 +25,7 @@ pub mod error;
 pub mod model;
 pub mod process;
 pub mod series;
+pub mod simulate;
 
 pub use error::{ProcessError, Result};
 pub use model::{Component, Model};
@@ -32,3 +33,4 @@ pub use process::{
     Ar1, Drift, GaussMarkov, Ma1, Process, ProcessKind, QuantizationNoise, RandomWalk, WhiteNoise,
 };
 pub use series::{ImuRecord, Sensor, TimeSeries, Unit};
+pub use simulate::{CHUNK_LEN, Simulation};

@@ -140,6 +140,19 @@ impl TimeSeries {
         })
     }
 
+    /// A series from values already known to be finite (e.g. checked while simulating),
+    /// with a rate already validated. Not public: every public constructor checks.
+    pub(crate) fn from_checked(values: Vec<f64>, rate_hz: f64, name: &str) -> Self {
+        debug_assert!(rate_hz.is_finite() && rate_hz > 0.0);
+        Self {
+            values,
+            rate_hz,
+            start: 0.0,
+            unit: Unit::Unitless,
+            name: name.to_string(),
+        }
+    }
+
     /// Sets the name.
     pub fn with_name(mut self, name: &str) -> Self {
         self.name = name.to_string();
