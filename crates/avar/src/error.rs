@@ -1,0 +1,71 @@
+//! The error type of the crate.
+
+use thiserror::Error;
+
+/// Everything that can go wrong when estimating an Allan variance.
+///
+/// Library functions return this instead of panicking on bad user input.
+///
+/// ```
+/// use avar::{allan_variance, AvarConfig, AvarError};
+/// let err = allan_variance(&[], 100.0, &AvarConfig::default()).unwrap_err();
+/// assert!(matches!(err, AvarError::Empty));
+/// ```
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum AvarError {
+    /// The input series has no samples.
+    #[error("the input series is empty")]
+    Empty,
+    /// Fewer samples than the estimator needs.
+    #[error("too few samples: got {got} rate samples, need at least {need}")]
+    TooShort {
+        /// Number of rate samples given (for angle input: angle samples − 1).
+        got: usize,
+        /// Minimum number of rate samples.
+        need: usize,
+    },
+    /// A NaN or infinite sample.
+    #[error("non-finite sample {value} at index {index}")]
+    NonFinite {
+        /// Zero-based index of the first offending sample.
+        index: usize,
+        /// The offending value.
+        value: f64,
+    },
+    /// The sums overflowed although every sample is finite (values near f64::MAX).
+    #[error("overflow while accumulating the series (samples too large in magnitude)")]
+    Overflow,
+    /// The sampling rate is not a finite positive number.
+    #[error("invalid sampling rate {0} Hz: must be finite and > 0")]
+    InvalidRate(f64),
+    /// The CI level α is not in (0, 1).
+    #[error("invalid alpha {0}: must satisfy 0 < alpha < 1")]
+    InvalidAlpha(f64),
+    /// A cluster size of zero was requested.
+    #[error("cluster size m = 0 is not allowed (m counts samples, m >= 1)")]
+    ZeroScale,
+    /// A cluster size too large for the series (an AV needs 2m <= T).
+    #[error(
+        "cluster size m = {m} is too large for T = {t} rate samples (need 2m <= T, i.e. m <= {max})"
+    )]
+    ScaleTooLarge {
+        /// The requested cluster size (samples).
+        m: u64,
+        /// Number of rate samples.
+        t: usize,
+        /// Largest admissible cluster size.
+        max: u64,
+    },
+    /// The scale grid is malformed (e.g. a non-positive step) or yields no scale for this length.
+    #[error("invalid scale grid: {0}")]
+    InvalidScales(String),
+    /// An error in one channel of a multi-channel call.
+    #[error("channel {channel}: {source}")]
+    Channel {
+        /// Zero-based channel index.
+        channel: usize,
+        /// The error of that channel.
+        source: Box<AvarError>,
+    },
+}
