@@ -1,1 +1,35 @@
-//! imunoise layer `gmwm_prep` (being built: see the crate's issue).
+//! # gmwm-prep — fitting composite noise models to the Allan variance
+//!
+//! Three estimators of the book's Chapter 4 family, from the least to the most reliable:
+//! - [`ieee`]: the IEEE Std 952 read-off of N, B, K, Q, R from an Allan deviation curve,
+//!   with automatic detection of the slope regions (REFERENCES §5);
+//! - [`avlr`]: AV linear regression (book §4.4, R avar's `avlr`): each process on its own
+//!   scale window by a fixed-slope log-log mean;
+//! - [`gmwm`]: a GMWM-type estimator θ̂ = argmin (ν̂ − ν(θ))ᵀ Ω (ν̂ − ν(θ)) for any model of
+//!   the `processes` crate, with inference (delta method, J-test, WIC).
+//!
+//! The input is a plain [`AvCurve`] (cluster sizes, AV values, optional CIs/variances,
+//! sampling rate), so published curves can be fitted as well as curves from the `avar` crate.
+//! Parameters are per sample (as in `processes`); [`units`] gives the per-second and IEEE
+//! forms (REFERENCES §5).
+//!
+//! ```ignore
+//! use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}};
+//! let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+//! let m: Vec<u64> = (1..=18).map(|j| 1u64 << j).collect();
+//! let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+//! let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(1_000_000);
+//! let fit = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+//! assert!((fit.theta[0] / 1e-4 - 1.0).abs() < 1e-6);
+//! # Ok::<(), gmwm_prep::FitError>(())
+//! ```ignore
+
+pub mod curve;
+pub mod error;
+pub mod ieee;
+pub mod stats;
+pub mod theory;
+pub mod units;
+
+pub use curve::{AvCurve, CurvePoint};
+pub use error::{FitError, Result};

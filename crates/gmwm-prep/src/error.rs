@@ -1,0 +1,63 @@
+//! The error type of the `gmwm-prep` crate.
+
+use thiserror::Error;
+
+/// Everything that can go wrong when reading, fitting or bootstrapping an Allan variance curve.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum FitError {
+    /// An error of the `processes` layer (bad model, bad parameter, simulation).
+    #[error(transparent)]
+    Process(#[from] processes::ProcessError),
+    /// An AV curve value (τ, m, AV, CI bound, variance) that is not finite or not positive.
+    #[error("AV curve point {index}: {what} = {value} must be finite and > 0")]
+    NonFinite {
+        /// Zero-based index of the point in the curve.
+        index: usize,
+        /// Which quantity, e.g. `"avar"`.
+        what: &'static str,
+        /// The rejected value.
+        value: f64,
+    },
+    /// An AV curve whose scales are not strictly increasing, or otherwise malformed.
+    #[error("invalid AV curve: {0}")]
+    InvalidCurve(String),
+    /// Fewer usable scales than the method needs (e.g. fewer scales than parameters).
+    #[error("too few scales: {needed} needed for {what}, got {got}")]
+    TooFewScales {
+        /// What needs them, e.g. `"a 5-parameter model"`.
+        what: String,
+        /// How many are needed.
+        needed: usize,
+        /// How many there are.
+        got: usize,
+    },
+    /// A model that cannot be fitted by this method (e.g. not identifiable from the AV).
+    #[error("model cannot be fitted: {0}")]
+    Unidentifiable(String),
+    /// A scale window (AVLR) that is empty or out of the curve's range.
+    #[error("invalid scale window for {process}: {message}")]
+    InvalidWindow {
+        /// Process code.
+        process: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// A weighting or covariance matrix that has the wrong size or is not positive definite.
+    #[error("invalid weighting/covariance matrix: {0}")]
+    InvalidMatrix(String),
+    /// A confidence level outside (0, 1).
+    #[error("significance level alpha must lie in (0, 1), got {0}")]
+    InvalidAlpha(f64),
+    /// The optimizer produced a non-finite objective from every start.
+    #[error("optimization failed: {0}")]
+    OptimizationFailed(String),
+    /// Any other invalid argument.
+    #[error("invalid argument: {0}")]
+    InvalidArgument(String),
+    /// An error of the empirical AV layer, as text (bootstrap).
+    #[error("Allan variance estimation failed: {0}")]
+    Avar(String),
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T, E = FitError> = std::result::Result<T, E>;
