@@ -250,3 +250,72 @@ fn ocxo_matches_stable32_tables() {
         Estimator::NonOverlapping,
     );
 }
+
+/// The reference file holds the book's MOAV computed in extended precision.
+const TOL_ADIS_EXTENDED: f64 = 1e-10;
+
+fn check_adis(which: &str) {
+    use std::io::Read;
+    let Some(d) = data_or_skip("adis16405") else {
+        return;
+    };
+    let mut text = String::new();
+    flate2::read::GzDecoder::new(
+        std::fs::File::open(d.join(format!("adis16405/adis16405_{which}.csv.gz"))).unwrap(),
+    )
+    .read_to_string(&mut text)
+    .unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_owned)
+        .collect();
+    let mut cols: Vec<Vec<f64>> = vec![Vec::with_capacity(1_000_000); header.len()];
+    for l in lines.filter(|l| !l.is_empty()) {
+        for (c, v) in cols.iter_mut().zip(l.split(',')) {
+            c.push(v.parse().unwrap());
+        }
+    }
+    let refs =
+        std::fs::read_to_string(d.join(format!("adis16405/reference_moav_{which}.csv"))).unwrap();
+    let slices: Vec<&[f64]> = cols.iter().map(|c| c.as_slice()).collect();
+    let avs = avar::allan_variance_channels(&slices, 100.0, &cfg(Scales::Dyadic)).unwrap();
+    let mut checked = 0;
+    let mut worst = 0.0f64;
+    for l in refs.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        let ci = header.iter().position(|h| h == f[0]).unwrap();
+        let m: u64 = f[1].parse().unwrap();
+        let want: f64 = f[3].parse().unwrap();
+        let p = avs[ci]
+            .points
+            .iter()
+            .find(|p| p.m == m)
+            .unwrap_or_else(|| panic!("m={m} missing"));
+        assert!((p.tau - f[2].parse::<f64>().unwrap()).abs() < 1e-12);
+        let r = rel(p.avar, want);
+        worst = worst.max(r);
+        assert!(
+            r < TOL_ADIS_EXTENDED,
+            "{which} {} m={m}: {} vs {want} (rel {r:e})",
+            f[0],
+            p.avar
+        );
+        checked += 1;
+    }
+    // 6 columns x 18 dyadic scales (m = 2..2^18)
+    assert_eq!(checked, 6 * 18);
+    eprintln!("adis16405 {which}: {checked} values, worst relative difference {worst:e}");
+}
+
+#[test]
+fn adis16405_imu1_matches_extended_precision_reference() {
+    check_adis("imu1");
+}
+
+#[test]
+fn adis16405_imu2_matches_extended_precision_reference() {
+    check_adis("imu2");
+}
