@@ -1,0 +1,424 @@
+//! Closed-form theoretical Allan variance (AV) of every latent process, its analytic
+//! gradient with respect to the process parameters, and the theoretical Haar wavelet
+//! variance (WV) of the GMWM (`../shared/REFERENCES.md` §2–§3).
+//!
+//! | process | AV(m) |
+//! |---|---|
+//! | WN  | σ² / m |
+//! | QN  | 3 Q² / m² |
+//! | RW  | γ² (2m² + 1) / (6m) |
+//! | DR  | ω² m² / 2 |
+//! | AR1 | v² (m − 3φ − mφ² + 4φ^(m+1) − φ^(2m+1)) / (m² (1−φ)² (1−φ²)) |
+//! | GM  | AR1 with φ = e^(−βΔt), v² = σ_G² (1 − e^(−2βΔt)) |
+//! | MA1 | σ² (m (1+θ)² − 3θ) / m²  (book Example 4.1, rearranged) |
+//!
+//! # Numerical care
+//! The AR1 numerator N(φ) = m(1−φ²) − φ(1−φ^m)(3−φ^m) has a triple root at φ = 1: for
+//! φ → 1 (typical IMU models have φ = 0.995 … 0.99999, GM even closer to 1) the textbook
+//! formula loses up to −3·log10((2m+1)(1−φ)) digits. Here, with L = −ln φ (= βΔt for GM,
+//! exact), N is evaluated as
+//! - for y = (2m+1)L ≤ 2: the Taylor series N = Σ_{k≥3} (−L)^k c_k / k!,
+//!   c_k = 4(m+1)^k − (2m+1)^k − m 2^k − 3 (c_0 = c_1 = c_2 = 0 exactly), divided by L³
+//!   analytically, with the ratio (L/(1−φ))³ applied afterwards;
+//! - otherwise directly, with φ^m = ±exp(m ln|φ|) and 1 − φ^m by `expm1` (so φ near −1 is
+//!   also accurate).
+//!
+//! The derivatives use the same two branches (logarithmic derivatives in L on the series
+//! branch). The MA1 form m(1+θ)² − 3θ avoids the cancellation of the book's
+//! (1+θ²)m + (2m−3)θ at θ ≈ −1.
+
+use crate::error::{Result, check_m, check_rate, check_tau_j};
+use processes::{Model, Process};
+
+/// Largest y = (2m+1)·L for which the AR1 numerator is summed as a Taylor series.
+const SERIES_MAX_Y: f64 = 2.0;
+/// Relative size of a Taylor term below which the series is considered converged.
+const SERIES_REL_EPS: f64 = 1e-18;
+/// Hard cap on the number of Taylor terms (y ≤ 2 needs about 30).
+const SERIES_MAX_TERMS: usize = 120;
+
+/// The AR1 coefficient in the forms the formulas need, each computed accurately.
+#[derive(Debug, Clone, Copy)]
+struct Phi {
+    /// φ itself.
+    phi: f64,
+    /// a = 1 − φ.
+    a: f64,
+    /// b = 1 + φ.
+    b: f64,
+    /// L = −ln φ for φ > 0.
+    l: Option<f64>,
+}
+
+impl Phi {
+    /// From φ given as a number (AR1): 1 − φ and 1 + φ are exact in the ranges where
+    /// they matter (Sterbenz), and −ln φ = −log1p(−(1 − φ)) is accurate near 1.
+    fn from_phi(phi: f64) -> Self {
+        let a = 1.0 - phi;
+        let l = if phi > 0.0 {
+            Some(if phi >= 0.5 { -(-a).ln_1p() } else { -phi.ln() })
+        } else {
+            None
+        };
+        Phi {
+            phi,
+            a,
+            b: 1.0 + phi,
+            l,
+        }
+    }
+
+    /// From L = βΔt (GM): φ = e^(−L), 1 − φ = −expm1(−L), no rounding through φ.
+    fn from_l(l: f64) -> Self {
+        let phi = (-l).exp();
+        Phi {
+            phi,
+            a: -(-l).exp_m1(),
+            b: 1.0 + phi,
+            l: Some(l),
+        }
+    }
+}
+
+/// G(L) = N(L)/L³ and G'(L) by their Taylor series (valid for (2m+1)L ≤ [`SERIES_MAX_Y`]).
+fn numerator_series(m: f64, l: f64) -> (f64, f64) {
+    // c_k L^(k-3) = 4(m+1)^3 u1^(k-3) − (2m+1)^3 u2^(k-3) − 8m u3^(k-3) − 3 L^(k-3)
+    // c_k L^(k-4) = 4(m+1)^4 u1^(k-4) − (2m+1)^4 u2^(k-4) − 16m u3^(k-4) − 3 L^(k-4)
+    let (m1, m2) = (m + 1.0, 2.0 * m + 1.0);
+    let (u1, u2, u3) = (m1 * l, m2 * l, 2.0 * l);
+    let (a3, b3) = (4.0 * m1 * m1 * m1, m2 * m2 * m2);
+    let (a4, b4) = (a3 * m1, b3 * m2);
+    // powers for G: index k−3; for G': index k−4.
+    let (mut p1, mut p2, mut p3, mut p0) = (1.0f64, 1.0f64, 1.0f64, 1.0f64);
+    let (mut q1, mut q2, mut q3, mut q0) = (1.0f64, 1.0f64, 1.0f64, 1.0f64);
+    let mut fact = 6.0f64; // k! at k = 3
+    let mut g = 0.0;
+    let mut gp = 0.0;
+    let mut sign = -1.0; // (−1)^k at k = 3
+    let mut small = 0;
+    for k in 3..SERIES_MAX_TERMS {
+        let ck = a3 * p1 - b3 * p2 - 8.0 * m * p3 - 3.0 * p0;
+        let tg = sign * ck / fact;
+        g += tg;
+        let mut tgp = 0.0;
+        if k >= 4 {
+            let ck4 = a4 * q1 - b4 * q2 - 16.0 * m * q3 - 3.0 * q0;
+            tgp = sign * ck4 * (k as f64 - 3.0) / fact;
+            gp += tgp;
+            q1 *= u1;
+            q2 *= u2;
+            q3 *= u3;
+            q0 *= l;
+        }
+        p1 *= u1;
+        p2 *= u2;
+        p3 *= u3;
+        p0 *= l;
+        sign = -sign;
+        fact *= (k + 1) as f64;
+        if tg.abs() <= SERIES_REL_EPS * g.abs() && tgp.abs() <= SERIES_REL_EPS * gp.abs() {
+            small += 1;
+            if small >= 2 {
+                break;
+            }
+        } else {
+            small = 0;
+        }
+    }
+    (g, gp)
+}
+
+/// (a − Lφ)/(L a) = 1/L − φ/a ≥ 0, without cancellation for small L.
+fn q_term(p: &Phi, l: f64) -> f64 {
+    // a − Lφ = 1 − (1+L)e^{−L} = Σ_{k≥2} (−1)^k (k−1) L^k / k!
+    let num = if l < 0.5 {
+        let mut s = 0.0;
+        let mut pow = 1.0; // L^(k−2)
+        let mut fact = 2.0;
+        let mut sign = 1.0;
+        for k in 2..40 {
+            let t = sign * (k as f64 - 1.0) * pow / fact;
+            s += t;
+            if t.abs() < 1e-18 * s.abs() {
+                break;
+            }
+            pow *= l;
+            fact *= (k + 1) as f64;
+            sign = -sign;
+        }
+        s * l * l
+    } else {
+        p.a - l * p.phi
+    };
+    num / (l * p.a)
+}
+
+/// φ^m and 1 − φ^m, both accurate (sign-aware, `expm1` near |φ| = 1).
+fn phi_pow(p: &Phi, m: u64) -> (f64, f64) {
+    if p.phi == 0.0 {
+        return (0.0, 1.0);
+    }
+    let mf = m as f64;
+    // ln|φ| accurately: near +1 through L, near −1 through log1p(−(1+φ)).
+    let ln_abs = match p.l {
+        Some(l) => -l,
+        None => {
+            if p.phi <= -0.5 {
+                (-p.b).ln_1p()
+            } else {
+                (-p.phi).ln()
+            }
+        }
+    };
+    let x = mf * ln_abs;
+    let odd_negative = p.phi < 0.0 && m % 2 == 1;
+    if odd_negative {
+        let mag = x.exp();
+        (-mag, 1.0 + mag)
+    } else {
+        (x.exp(), -x.exp_m1())
+    }
+}
+
+/// The AR1 factor F(φ, m) = AV / v² and its derivative dF/dφ.
+fn ar1_factor(p: &Phi, m: u64) -> (f64, f64) {
+    let mf = m as f64;
+    if let Some(l) = p.l
+        && (2.0 * mf + 1.0) * l <= SERIES_MAX_Y
+    {
+        let (g, gp) = numerator_series(mf, l);
+        let r = l / p.a;
+        let f = g * r * r * r / (mf * mf * p.b);
+        let f_l = f * (gp / g + 3.0 * q_term(p, l) + p.phi / p.b);
+        return (f, -f_l / p.phi);
+    }
+    let (pm, e) = phi_pow(p, m);
+    let phi = p.phi;
+    let n = mf * p.a * p.b - phi * e * (2.0 + e);
+    let d = mf * mf * p.a * p.a * p.a * p.b;
+    let f = n / d;
+    let np = -2.0 * mf * phi - 3.0 + 4.0 * (mf + 1.0) * pm - (2.0 * mf + 1.0) * pm * pm;
+    let fp = np / d - f * (1.0 / p.b - 3.0 / p.a);
+    (f, fp)
+}
+
+/// The GM factor H(L, m) = AV / σ_G² and dH/dL, L = βΔt.
+fn gm_factor(l: f64, m: u64) -> (f64, f64) {
+    let p = Phi::from_l(l);
+    let mf = m as f64;
+    if (2.0 * mf + 1.0) * l <= SERIES_MAX_Y {
+        let (g, gp) = numerator_series(mf, l);
+        let r = l / p.a;
+        // H = (1 − φ²) F = N / (m² a²) = G L³ / (m² a²)
+        let h = g * r * r * l / (mf * mf);
+        let h_l = h * (gp / g + 3.0 * q_term(&p, l) + p.phi / p.a);
+        return (h, h_l);
+    }
+    let (f, fp) = ar1_factor(&p, m);
+    let one_m_phi2 = p.a * p.b;
+    // d/dL = −φ d/dφ; d(1 − φ²)/dL = 2φ².
+    let h = one_m_phi2 * f;
+    let h_l = 2.0 * p.phi * p.phi * f - p.phi * one_m_phi2 * fp;
+    (h, h_l)
+}
+
+/// AV and its gradient (in the order of [`Process::params`]) after validation.
+fn av_and_gradient(process: &Process, m: u64, rate_hz: f64) -> Result<(f64, Vec<f64>)> {
+    let rate = check_rate(rate_hz)?;
+    let mf = check_m(m)? as f64;
+    Ok(match *process {
+        Process::WhiteNoise(p) => (p.sigma2() / mf, vec![1.0 / mf]),
+        Process::QuantizationNoise(p) => {
+            let k = 3.0 / (mf * mf);
+            (p.q2() * k, vec![k])
+        }
+        Process::RandomWalk(p) => {
+            let k = mf / 3.0 + 1.0 / (6.0 * mf);
+            (p.gamma2() * k, vec![k])
+        }
+        Process::Drift(p) => {
+            let w = p.omega();
+            (0.5 * (w * mf) * (w * mf), vec![w * mf * mf])
+        }
+        Process::Ma1(p) => {
+            let (t, s2) = (p.theta(), p.sigma2());
+            let k = (mf * (1.0 + t) * (1.0 + t) - 3.0 * t) / (mf * mf);
+            let dk = (2.0 * mf * (1.0 + t) - 3.0) / (mf * mf);
+            (s2 * k, vec![s2 * dk, k])
+        }
+        Process::Ar1(p) => {
+            let (f, fp) = ar1_factor(&Phi::from_phi(p.phi()), m);
+            (p.sigma2() * f, vec![p.sigma2() * fp, f])
+        }
+        Process::GaussMarkov(g) => {
+            let dt = 1.0 / rate;
+            let (h, h_l) = gm_factor(g.beta() * dt, m);
+            (g.sigma2() * h, vec![g.sigma2() * h_l * dt, h])
+        }
+    })
+}
+
+/// Theoretical Allan variance of one process at cluster size `m` ≥ 1 (samples), in the
+/// process's unit², by the closed forms of `REFERENCES.md` §2 (see the module docs for
+/// the numerically stable evaluation). `rate_hz` (Hz) is used by GM (φ = e^(−β/rate));
+/// the averaging time is τ = m / rate seconds.
+///
+/// ```
+/// use processes::{Ar1, Process, WhiteNoise};
+/// use spectral::allan_variance;
+/// let wn = Process::from(WhiteNoise::new(2.0)?);
+/// assert_eq!(allan_variance(&wn, 4, 100.0)?, 0.5);
+/// // AR1 at m = 1: γ(0) − γ(1) = v²/(1+φ), even with φ extremely close to 1.
+/// let ar = Process::from(Ar1::new(0.999_999, 1.0)?);
+/// let av = allan_variance(&ar, 1, 1.0)?;
+/// assert!((av - 1.0 / 1.999_999).abs() < 1e-15);
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result<f64> {
+    Ok(av_and_gradient(process, m, rate_hz)?.0)
+}
+
+/// Gradient ∂AV/∂θ of [`allan_variance`] with respect to each parameter, in the order of
+/// [`Process::params`] (per-sample parameters; GM: β in 1/s and σ_G²). Analytic.
+///
+/// ```
+/// use processes::{Process, RandomWalk};
+/// use spectral::allan_variance_gradient;
+/// let rw = Process::from(RandomWalk::new(1e-9)?);
+/// // AV = γ²(2m²+1)/(6m) is linear in γ².
+/// assert_eq!(allan_variance_gradient(&rw, 1, 1.0)?, vec![0.5]);
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn allan_variance_gradient(process: &Process, m: u64, rate_hz: f64) -> Result<Vec<f64>> {
+    Ok(av_and_gradient(process, m, rate_hz)?.1)
+}
+
+/// Allan variance and its gradient together (one evaluation of the shared terms).
+///
+/// ```
+/// use processes::{Ar1, Process};
+/// use spectral::{allan_variance, allan_variance_with_gradient};
+/// let ar = Process::from(Ar1::new(0.99, 1e-6)?);
+/// let (av, grad) = allan_variance_with_gradient(&ar, 16, 100.0)?;
+/// assert_eq!(av, allan_variance(&ar, 16, 100.0)?);
+/// assert_eq!(grad.len(), 2);
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn allan_variance_with_gradient(
+    process: &Process,
+    m: u64,
+    rate_hz: f64,
+) -> Result<(f64, Vec<f64>)> {
+    av_and_gradient(process, m, rate_hz)
+}
+
+/// Theoretical AV of a fully specified model: the sum of its components' AVs (book
+/// Corollary 4.1). Errors if the model has slots without values.
+///
+/// ```
+/// use processes::{WhiteNoise, RandomWalk, Model};
+/// use spectral::model_allan_variance;
+/// let model = (WhiteNoise::new(1.0)? + RandomWalk::new(6.0)?)?;
+/// // 1/m + 6(2m²+1)/(6m) at m = 1: 1 + 3.
+/// assert_eq!(model_allan_variance(&model, 1, 1.0)?, 4.0);
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn model_allan_variance(model: &Model, m: u64, rate_hz: f64) -> Result<f64> {
+    let mut s = 0.0;
+    for p in model.processes()? {
+        s += allan_variance(&p, m, rate_hz)?;
+    }
+    Ok(s)
+}
+
+/// Gradient of [`model_allan_variance`] with respect to the model's flat parameter vector
+/// (component order, each in the order of [`Process::params`], as [`Model::with_params`]).
+///
+/// ```
+/// use processes::{WhiteNoise, QuantizationNoise};
+/// use spectral::model_allan_variance_gradient;
+/// let model = (QuantizationNoise::new(1.0)? + WhiteNoise::new(1.0)?)?;
+/// assert_eq!(model_allan_variance_gradient(&model, 2, 1.0)?, vec![0.75, 0.5]);
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn model_allan_variance_gradient(model: &Model, m: u64, rate_hz: f64) -> Result<Vec<f64>> {
+    let mut g = Vec::with_capacity(model.n_params());
+    for p in model.processes()? {
+        g.extend(allan_variance_gradient(&p, m, rate_hz)?);
+    }
+    Ok(g)
+}
+
+/// Theoretical Haar wavelet variance ν²(τ_j) of one process at the level scale `tau_j`
+/// (samples; τ_j = 2^j for the MODWT level j, any even τ_j ≥ 2 accepted):
+/// ν²_j = AV(m = τ_j/2) / 2 (`REFERENCES.md` §3). Unit²; `rate_hz` for GM.
+///
+/// ```
+/// use processes::{Process, QuantizationNoise};
+/// use spectral::haar_wavelet_variance;
+/// let qn = Process::from(QuantizationNoise::new(1.0)?);
+/// assert_eq!(haar_wavelet_variance(&qn, 4, 1.0)?, 6.0 / 16.0); // 6Q²/τ²
+/// assert!(haar_wavelet_variance(&qn, 3, 1.0).is_err());       // odd scale
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn haar_wavelet_variance(process: &Process, tau_j: u64, rate_hz: f64) -> Result<f64> {
+    let m = check_tau_j(tau_j)?;
+    Ok(0.5 * allan_variance(process, m, rate_hz)?)
+}
+
+/// Gradient of [`haar_wavelet_variance`] in the order of [`Process::params`].
+///
+/// ```
+/// use processes::{Process, WhiteNoise};
+/// use spectral::haar_wavelet_variance_gradient;
+/// let wn = Process::from(WhiteNoise::new(3.0)?);
+/// assert_eq!(haar_wavelet_variance_gradient(&wn, 8, 1.0)?, vec![1.0 / 8.0]); // σ²/τ
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn haar_wavelet_variance_gradient(
+    process: &Process,
+    tau_j: u64,
+    rate_hz: f64,
+) -> Result<Vec<f64>> {
+    let m = check_tau_j(tau_j)?;
+    let mut g = allan_variance_gradient(process, m, rate_hz)?;
+    g.iter_mut().for_each(|x| *x *= 0.5);
+    Ok(g)
+}
+
+/// Haar wavelet variance of a fully specified model (sum over its components).
+///
+/// ```
+/// use processes::{WhiteNoise, RandomWalk};
+/// use spectral::model_haar_wavelet_variance;
+/// let model = (WhiteNoise::new(2.0)? + RandomWalk::new(12.0)?)?;
+/// // σ²/τ + γ²(τ²+2)/(12τ) at τ = 2: 1 + 3.
+/// assert_eq!(model_haar_wavelet_variance(&model, 2, 1.0)?, 4.0);
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn model_haar_wavelet_variance(model: &Model, tau_j: u64, rate_hz: f64) -> Result<f64> {
+    let m = check_tau_j(tau_j)?;
+    Ok(0.5 * model_allan_variance(model, m, rate_hz)?)
+}
+
+/// Gradient of [`model_haar_wavelet_variance`] with respect to the model's flat parameter
+/// vector (same order as [`Model::with_params`]).
+///
+/// ```
+/// use processes::{WhiteNoise, Drift};
+/// use spectral::model_haar_wavelet_variance_gradient;
+/// let model = (WhiteNoise::new(2.0)? + Drift::new(1.0)?)?;
+/// // ∂/∂σ² of σ²/τ, ∂/∂ω of ω²τ²/16, at τ = 4.
+/// assert_eq!(model_haar_wavelet_variance_gradient(&model, 4, 1.0)?, vec![0.25, 2.0]);
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn model_haar_wavelet_variance_gradient(
+    model: &Model,
+    tau_j: u64,
+    rate_hz: f64,
+) -> Result<Vec<f64>> {
+    let m = check_tau_j(tau_j)?;
+    let mut g = model_allan_variance_gradient(model, m, rate_hz)?;
+    g.iter_mut().for_each(|x| *x *= 0.5);
+    Ok(g)
+}
