@@ -17,6 +17,7 @@
 //!
 //! All sums use Neumaier's compensated summation.
 
+use crate::dd::Dd;
 use crate::error::{Result, SpectralError, check_m, check_rate};
 use processes::Process;
 
@@ -210,7 +211,36 @@ fn variogram_parts(process: &Process, h: u64, rate: f64) -> (f64, f64) {
 pub fn lemma42_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result<f64> {
     let rate = check_rate(rate_hz)?;
     check_m(m)?;
+    if let Process::Ar1(p) = process
+        && p.phi() < 0.0
+    {
+        return Ok(ar1_negative_phi_dd(p.phi(), p.sigma2(), m));
+    }
     let scale = variogram_parts(process, 1, rate).0;
     let unit = allan_variance_from_variogram(|h| variogram_parts(process, h, rate).1, m)?;
     Ok(scale * unit)
+}
+
+/// Lemma 4.2 (ACF form) for an AR1 with φ < 0 in double-double arithmetic. With φ near −1
+/// the ACF alternates in sign and the sum's terms exceed its value by a factor up to
+/// ~m²/(1+φ) for even m; ~32 digits keep the result accurate to f64 precision for
+/// m ≤ 2^30 · (1+φ)^(1/2). φ is a double, so φ^h is formed exactly up to dd rounding.
+fn ar1_negative_phi_dd(phi: f64, v2: f64, m: u64) -> f64 {
+    let n = 2 * m as usize;
+    let mut pow = Vec::with_capacity(n + 1);
+    let mut p = Dd::from(1.0);
+    for _ in 0..=n {
+        pow.push(p);
+        p = p * Dd::from(phi);
+    }
+    let mu = m as usize;
+    let mut b = Dd::from(m as f64) * (Dd::from(1.0) - pow[mu]);
+    for i in 1..mu {
+        let t = Dd::from(2.0) * pow[mu - i] - pow[i] - pow[n - i];
+        b = b + Dd::from(i as f64) * t;
+    }
+    // σ_X² = v² / ((1 − φ)(1 + φ)), with 1 ± φ formed exactly in dd.
+    let den = (Dd::from(1.0) - Dd::from(phi)) * (Dd::from(1.0) + Dd::from(phi));
+    let mf = Dd::from(m as f64);
+    (Dd::from(v2) * b).div(den * mf * mf).to_f64()
 }

@@ -21,6 +21,7 @@
 //! ```
 
 pub mod closed_form;
+mod dd;
 pub mod error;
 pub mod lemma42;
 pub mod tolerances;

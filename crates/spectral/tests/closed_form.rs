@@ -1,0 +1,140 @@
+//! Closed forms against the book's Lemma 4.2 (semivariogram form, O(m)) and the analytic
+//! gradients against finite differences.
+
+mod common_processes;
+use common_processes::{RATE, fixtures, m_grid};
+use processes::{Ar1, Ma1, Process};
+use spectral::tolerances::{FINITE_DIFF_REL, SUM_REL};
+use spectral::{
+    allan_variance, allan_variance_from_acf, allan_variance_gradient, haar_wavelet_variance,
+    lemma42_allan_variance,
+};
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+#[test]
+fn closed_form_equals_lemma42_sum_on_the_whole_grid() {
+    let mut worst = (0.0, String::new());
+    for (name, p) in fixtures() {
+        for m in m_grid() {
+            let c = allan_variance(&p, m, RATE).unwrap();
+            let s = lemma42_allan_variance(&p, m, RATE).unwrap();
+            let r = rel(c, s);
+            assert!(
+                r <= SUM_REL,
+                "{name} m={m}: closed {c:e} vs sum {s:e} (rel {r:e})"
+            );
+            if r > worst.0 {
+                worst = (r, format!("{name} m={m}"));
+            }
+        }
+    }
+    eprintln!(
+        "worst closed-form vs Lemma 4.2 gap: {:e} at {}",
+        worst.0, worst.1
+    );
+}
+
+#[test]
+fn book_acf_form_agrees_where_it_is_well_conditioned() {
+    // The literal ACF form of Lemma 4.2 on ρ(h) = φ^h, for moderate φ.
+    for phi in [-0.7, 0.2, 0.8] {
+        let p = Process::from(Ar1::new(phi, 0.5).unwrap());
+        let var = 0.5 / (1.0 - phi * phi);
+        for m in [1u64, 2, 3, 10, 100] {
+            let s = allan_variance_from_acf(var, |h| phi.powi(h as i32), m).unwrap();
+            let c = allan_variance(&p, m, 1.0).unwrap();
+            assert!(rel(c, s) <= SUM_REL, "phi={phi} m={m}: {c} vs {s}");
+        }
+    }
+}
+
+#[test]
+fn ma1_reproduces_book_example_4_1() {
+    // (1+θ²)σ²/m² · (m + (2m − 3) θ/(1+θ²)), the book's expression, for θ away from −1
+    // where it is well conditioned.
+    for (theta, s2) in [(0.5, 2.0), (-0.3, 1.0), (3.0, 0.1)] {
+        let p = Process::from(Ma1::new(theta, s2).unwrap());
+        for m in [1u64, 2, 3, 5, 64, 1000] {
+            let mf = m as f64;
+            let t2 = 1.0 + theta * theta;
+            let book = t2 * s2 / (mf * mf) * (mf + (2.0 * mf - 3.0) * theta / t2);
+            let c = allan_variance(&p, m, 1.0).unwrap();
+            assert!(
+                rel(c, book) <= SUM_REL,
+                "theta={theta} m={m}: {c} vs {book}"
+            );
+        }
+    }
+}
+
+#[test]
+fn haar_wv_matches_references_section_3() {
+    for (name, p) in fixtures() {
+        let pr = p.params();
+        for j in 1..=20u32 {
+            let tau = 1u64 << j;
+            let t = tau as f64;
+            let v = haar_wavelet_variance(&p, tau, RATE).unwrap();
+            let expect = match p {
+                Process::WhiteNoise(_) => pr[0] / t,
+                Process::QuantizationNoise(_) => 6.0 * pr[0] / (t * t),
+                Process::RandomWalk(_) => pr[0] * (t * t + 2.0) / (12.0 * t),
+                Process::Drift(_) => pr[0] * pr[0] * t * t / 16.0,
+                // REFERENCES §3 AR1 form; well conditioned for |φ| ≤ 0.9 and moderate τ.
+                Process::Ar1(a) if a.phi().abs() <= 0.9 => {
+                    let (f, v2) = (a.phi(), a.sigma2());
+                    v2 * ((f * f - 1.0) * t + 2.0 * f * (f.powf(t) - 4.0 * f.powf(t / 2.0) + 3.0))
+                        / ((f - 1.0).powi(3) * (f + 1.0) * t * t)
+                }
+                _ => continue,
+            };
+            assert!(
+                rel(v, expect) <= SUM_REL,
+                "{name} tau={tau}: {v} vs {expect}"
+            );
+        }
+    }
+}
+
+/// Central difference with one Richardson step: error O(h⁴).
+fn richardson(f: impl Fn(f64) -> f64, x: f64, h: f64) -> f64 {
+    let d = |h: f64| (f(x + h) - f(x - h)) / (2.0 * h);
+    (4.0 * d(h / 2.0) - d(h)) / 3.0
+}
+
+#[test]
+fn gradients_match_finite_differences() {
+    for (name, p) in fixtures() {
+        let kind = p.kind();
+        let theta = p.params();
+        for m in [1u64, 2, 3, 7, 64, 1000, 1 << 14, 1 << 20] {
+            let g = allan_variance_gradient(&p, m, RATE).unwrap();
+            for (k, &x) in theta.iter().enumerate() {
+                // step: 1e-3 of the parameter, and within 1e-3 of the distance to φ = ±1
+                let mut h = 1e-3 * if x == 0.0 { 1e-3 } else { x.abs() };
+                if kind.code() == "AR1" && k == 0 {
+                    h = h.min(1e-3 * (1.0 - x.abs()));
+                }
+                let f = |v: f64| {
+                    let mut t = theta.clone();
+                    t[k] = v;
+                    allan_variance(&Process::from_params(kind, &t).unwrap(), m, RATE).unwrap()
+                };
+                let fd = richardson(f, x, h);
+                // scale: |g| or, near a zero of the derivative, |AV|/|θ|
+                let scale = g[k].abs().max(f(x) / x.abs().max(1e-300) * 1e-6);
+                let err = (g[k] - fd).abs() / scale;
+                assert!(
+                    err <= FINITE_DIFF_REL,
+                    "{name} m={m} d/d{}: analytic {:e} vs FD {:e} ({err:e})",
+                    kind.param_names()[k],
+                    g[k],
+                    fd
+                );
+            }
+        }
+    }
+}
