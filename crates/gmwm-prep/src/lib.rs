@@ -13,7 +13,7 @@
 //! Parameters are per sample (as in `processes`); [`units`] gives the per-second and IEEE
 //! forms (REFERENCES §5).
 //!
-//! ```ignore
+//! ```
 //! use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}};
 //! let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
 //! let m: Vec<u64> = (1..=18).map(|j| 1u64 << j).collect();
@@ -22,10 +22,11 @@
 //! let fit = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
 //! assert!((fit.theta[0] / 1e-4 - 1.0).abs() < 1e-6);
 //! # Ok::<(), gmwm_prep::FitError>(())
-//! ```ignore
+//! ```
 
 pub mod curve;
 pub mod error;
+pub mod gmwm;
 pub mod ieee;
 pub mod stats;
 pub mod theory;

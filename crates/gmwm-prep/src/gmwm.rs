@@ -1,0 +1,1185 @@
+//! The GMWM-type estimator on the Allan variance (or Haar wavelet variance):
+//!
+//! θ̂ = argmin_θ (ν̂ − ν(θ))ᵀ Ω (ν̂ − ν(θ))  (Guerrier et al. 2013; REFERENCES §6)
+//!
+//! for any model of the `processes` crate, ν(θ) the sum of the components' closed-form AVs
+//! ([`crate::theory`]) at the curve's cluster sizes.
+//!
+//! - **Weighting Ω.** [`Weighting::Diagonal`] (default): Ω = diag(1 / Var̂(ν̂_j)) with
+//!   Var̂(ν̂_j) = r_j ν_j², r_j the relative variance of scale j carried by the curve
+//!   ([`AvCurve::relative_variances`]: EDF, CI or variance), and ν_j = ν̂_j in a first step,
+//!   then ν_j = ν_j(θ̂₁) of that first fit (two-step: the weights no longer correlate with the
+//!   residuals, which removes the downward bias of plain 1/ν̂² weighting; both steps are
+//!   consistent). [`Weighting::Full`]: Ω = V⁻¹ from a covariance matrix V of ν̂ (e.g. the
+//!   parametric bootstrap one of [`crate::bootstrap`]), used as given.
+//! - **Transforms.** Variances are fitted on the log scale; drift as log|ω| with a fixed sign;
+//!   MA1's θ = tanh(η) (invertible branch); AR1 φ ∈ (0, 1) and GM β through λ = −ln φ (= βΔt),
+//!   all AR1/GM components in one chain λ₁ = e^{η₁}, λ_k = λ_{k−1}·logistic(η_k), so
+//!   φ₁ < φ₂ < … in model order (identifiable). [`PhiRange::Symmetric`] lets AR1's φ range over
+//!   (−1, 1) via tanh instead (no ordering: then use a single AR1).
+//! - **Starting values** (deterministic, no random search). With the nonlinear parameters
+//!   fixed, ν(θ) is linear in the variances, so for every combination of AR1/GM correlation
+//!   times taken on the curve's own scale grid (λ = 1/m_j, ordered) the variances are solved
+//!   by weighted non-negative least squares (Lawson–Hanson). The `n_starts` best combinations
+//!   start the optimizer.
+//! - **Optimizer.** Levenberg–Marquardt on the whitened residuals with the analytic Jacobian
+//!   (chain rule through the transforms), solved with faer's Cholesky.
+
+use crate::curve::AvCurve;
+use crate::error::{FitError, Result};
+use crate::theory::{ar1_unit, component_avars, kind_avar_grad, model_avar_jac};
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+use processes::{Component, Model, Process, ProcessKind};
+use serde::{Deserialize, Serialize};
+
+/// Which moments the curve holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum Moments {
+    /// Allan variance at cluster sizes m (default).
+    #[default]
+    AllanVariance,
+    /// Haar wavelet variance at dyadic levels τ_j = 2m, stored at `m = τ_j / 2`:
+    /// ν²_j = AV(m)/2 (REFERENCES §3).
+    HaarWaveletVariance,
+}
+
+impl Moments {
+    fn factor(self) -> f64 {
+        match self {
+            Moments::AllanVariance => 1.0,
+            Moments::HaarWaveletVariance => 0.5,
+        }
+    }
+}
+
+/// A dense symmetric matrix (row-major), e.g. the covariance of the AV estimates.
+///
+/// ```
+/// use gmwm_prep::gmwm::CovMatrix;
+/// let c = CovMatrix::diagonal(&[1.0, 4.0]);
+/// assert_eq!(c.get(1, 1), 4.0);
+/// assert!(CovMatrix::new(2, vec![1.0; 3]).is_err());
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CovMatrix {
+    /// Dimension.
+    pub n: usize,
+    /// Entries, row-major, n².
+    pub data: Vec<f64>,
+}
+
+impl CovMatrix {
+    /// Checks the size and finiteness of the entries.
+    pub fn new(n: usize, data: Vec<f64>) -> Result<Self> {
+        if data.len() != n * n {
+            return Err(FitError::InvalidMatrix(format!(
+                "{} entries for a {n}×{n} matrix",
+                data.len()
+            )));
+        }
+        if let Some(x) = data.iter().find(|x| !x.is_finite()) {
+            return Err(FitError::InvalidMatrix(format!("non-finite entry {x}")));
+        }
+        Ok(Self { n, data })
+    }
+    /// A diagonal matrix.
+    pub fn diagonal(d: &[f64]) -> Self {
+        let n = d.len();
+        let mut data = vec![0.0; n * n];
+        for i in 0..n {
+            data[i * n + i] = d[i];
+        }
+        Self { n, data }
+    }
+    /// Entry (i, j).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        self.data[i * self.n + j]
+    }
+    /// The diagonal.
+    pub fn diag(&self) -> Vec<f64> {
+        (0..self.n).map(|i| self.get(i, i)).collect()
+    }
+    pub(crate) fn to_mat(&self) -> Mat<f64> {
+        Mat::from_fn(self.n, self.n, |i, j| self.get(i, j))
+    }
+    pub(crate) fn from_mat(m: &Mat<f64>) -> Self {
+        let n = m.nrows();
+        let mut data = Vec::with_capacity(n * n);
+        for i in 0..n {
+            for j in 0..n {
+                data.push(m[(i, j)]);
+            }
+        }
+        Self { n, data }
+    }
+}
+
+/// The weighting matrix Ω.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub enum Weighting {
+    /// Ω = diag(1/Var̂(ν̂_j)) from the curve's CIs/EDF/variances, two-step (module doc).
+    #[default]
+    Diagonal,
+    /// Ω = V⁻¹ for the given covariance matrix V of ν̂ (one row/column per scale).
+    Full(CovMatrix),
+}
+
+/// Range of the AR1 coefficient φ.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum PhiRange {
+    /// φ ∈ (0, 1), several AR1/GM ordered by φ (default; the inertial-sensor case).
+    #[default]
+    Positive,
+    /// φ ∈ (−1, 1) through tanh; no ordering among AR1s.
+    Symmetric,
+}
+
+/// Options of [`fit`].
+///
+/// ```
+/// let o = gmwm_prep::gmwm::GmwmOptions::default();
+/// assert_eq!((o.n_starts, o.drift_sign), (4, 1.0));
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GmwmOptions {
+    /// AV (default) or Haar WV moments.
+    pub moments: Moments,
+    /// Weighting matrix.
+    pub weighting: Weighting,
+    /// Range of AR1's φ.
+    pub phi_range: PhiRange,
+    /// Number of deterministic starts (best grid combinations) refined by the optimizer.
+    pub n_starts: usize,
+    /// Iteration limit of each Levenberg–Marquardt run.
+    pub max_iter: usize,
+    /// Sign of the drift slope ω (the AV only determines |ω|): +1 or −1.
+    pub drift_sign: f64,
+}
+
+impl Default for GmwmOptions {
+    fn default() -> Self {
+        Self {
+            moments: Moments::AllanVariance,
+            weighting: Weighting::Diagonal,
+            phi_range: PhiRange::Positive,
+            n_starts: 4,
+            max_iter: 300,
+            drift_sign: 1.0,
+        }
+    }
+}
+
+/// How the optimizer ended.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Convergence {
+    /// True when a convergence criterion was met before the iteration limit.
+    pub converged: bool,
+    /// Levenberg–Marquardt iterations of the retained run (all steps).
+    pub iterations: usize,
+    /// ‖∇Q‖∞ in the unconstrained parameters at the solution.
+    pub gradient_norm: f64,
+    /// Objective Q(θ̂) = (ν̂ − ν(θ̂))ᵀ Ω (ν̂ − ν(θ̂)).
+    pub objective: f64,
+    /// Which start (0 = best grid point) gave the retained solution.
+    pub start: usize,
+    /// Number of starts run.
+    pub starts: usize,
+}
+
+/// A fitted model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GmwmFit {
+    /// The fitted model (per-sample parameters).
+    pub model: Model,
+    /// Component kinds, in model order.
+    pub kinds: Vec<ProcessKind>,
+    /// Flat parameter vector θ̂ (model order, each in `param_names` order), per sample.
+    pub theta: Vec<f64>,
+    /// Optimizer report.
+    pub convergence: Convergence,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Moments fitted.
+    pub moments: Moments,
+    /// Cluster sizes of the fitted scales (samples).
+    pub m: Vec<u64>,
+    /// Averaging times (s).
+    pub tau: Vec<f64>,
+    /// Observed moments ν̂.
+    pub observed: Vec<f64>,
+    /// Fitted moments ν(θ̂).
+    pub fitted: Vec<f64>,
+    /// Each component's moments at θ̂ (one vector per component).
+    pub components: Vec<Vec<f64>>,
+    /// The whitening matrix W (J×J row-major) with Ω = WᵀW actually used in the last step.
+    pub whitening: CovMatrix,
+    /// Series length of the curve, if known.
+    pub n: Option<u64>,
+}
+
+impl GmwmFit {
+    /// Number of parameters p.
+    pub fn n_params(&self) -> usize {
+        self.theta.len()
+    }
+    /// The weighting matrix Ω = WᵀW.
+    pub fn omega(&self) -> CovMatrix {
+        let w = self.whitening.to_mat();
+        CovMatrix::from_mat(&(w.transpose() * &w))
+    }
+    /// Jacobian ∂ν/∂θ at θ̂ (J×p).
+    pub fn jacobian(&self) -> Mat<f64> {
+        let m: Vec<f64> = self.m.iter().map(|&x| x as f64).collect();
+        let (j, p) = (m.len(), self.theta.len());
+        let mut av = vec![0.0; j];
+        let mut jac = vec![0.0; j * p];
+        model_avar_jac(
+            &self.kinds,
+            &self.theta,
+            &m,
+            self.rate_hz,
+            &mut av,
+            &mut jac,
+        );
+        let f = self.moments.factor();
+        Mat::from_fn(j, p, |a, b| f * jac[a * p + b])
+    }
+}
+
+/// Largest number of AR1/GM grid combinations tried for starting values.
+const MAX_GRID_COMBOS: usize = 4000;
+/// Smallest λ = −ln φ accepted (φ closer to 1 than this is a random walk in disguise).
+const MIN_LAMBDA: f64 = 1e-13;
+
+/// The problem in unconstrained coordinates.
+pub(crate) struct Problem {
+    kinds: Vec<ProcessKind>,
+    offsets: Vec<usize>,
+    p: usize,
+    m: Vec<f64>,
+    nu_hat: Vec<f64>,
+    w: Mat<f64>,
+    rate: f64,
+    factor: f64,
+    phi_range: PhiRange,
+    drift_sign: f64,
+    /// Components in the λ chain (AR1 in Positive mode, all GM).
+    chain: Vec<usize>,
+}
+
+fn logistic(x: f64) -> f64 {
+    if x >= 0.0 {
+        1.0 / (1.0 + (-x).exp())
+    } else {
+        let e = x.exp();
+        e / (1.0 + e)
+    }
+}
+
+impl Problem {
+    fn in_chain(&self, c: usize) -> bool {
+        match self.kinds[c] {
+            ProcessKind::GaussMarkov => true,
+            ProcessKind::Ar1 => self.phi_range == PhiRange::Positive,
+            _ => false,
+        }
+    }
+
+    /// θ(η) and T = ∂θ/∂η (p×p); None when θ is not admissible.
+    fn theta(&self, eta: &[f64]) -> Option<(Vec<f64>, Mat<f64>)> {
+        let p = self.p;
+        let mut th = vec![0.0; p];
+        let mut t = Mat::<f64>::zeros(p, p);
+        let mut chain_lam = 0.0;
+        let mut chain_dlog: Vec<(usize, f64)> = Vec::new();
+        let mut first = true;
+        for (c, &k) in self.kinds.iter().enumerate() {
+            let at = self.offsets[c];
+            match k {
+                ProcessKind::WhiteNoise
+                | ProcessKind::QuantizationNoise
+                | ProcessKind::RandomWalk => {
+                    th[at] = eta[at].exp();
+                    t[(at, at)] = th[at];
+                }
+                ProcessKind::Drift => {
+                    th[at] = self.drift_sign * eta[at].exp();
+                    t[(at, at)] = th[at];
+                }
+                ProcessKind::Ma1 => {
+                    th[at] = eta[at].tanh();
+                    t[(at, at)] = 1.0 - th[at] * th[at];
+                    th[at + 1] = eta[at + 1].exp();
+                    t[(at + 1, at + 1)] = th[at + 1];
+                }
+                ProcessKind::Ar1 | ProcessKind::GaussMarkov => {
+                    if self.in_chain(c) {
+                        if first {
+                            chain_lam = eta[at].exp();
+                            chain_dlog = vec![(at, 1.0)];
+                            first = false;
+                        } else {
+                            let s = logistic(eta[at]);
+                            chain_lam *= s;
+                            chain_dlog.push((at, 1.0 - s));
+                        }
+                        if !(chain_lam.is_finite() && chain_lam > MIN_LAMBDA) {
+                            return None;
+                        }
+                        if k == ProcessKind::Ar1 {
+                            let phi = (-chain_lam).exp();
+                            th[at] = phi;
+                            for &(i, d) in &chain_dlog {
+                                t[(at, i)] = -phi * chain_lam * d;
+                            }
+                        } else {
+                            th[at] = chain_lam * self.rate;
+                            for &(i, d) in &chain_dlog {
+                                t[(at, i)] = th[at] * d;
+                            }
+                        }
+                    } else {
+                        th[at] = eta[at].tanh();
+                        if th[at].abs() >= 1.0 {
+                            return None;
+                        }
+                        t[(at, at)] = 1.0 - th[at] * th[at];
+                    }
+                    th[at + 1] = eta[at + 1].exp();
+                    t[(at + 1, at + 1)] = th[at + 1];
+                }
+            }
+        }
+        if th.iter().all(|x| x.is_finite()) {
+            Some((th, t))
+        } else {
+            None
+        }
+    }
+
+    /// η(θ) (inverse of [`Self::theta`]); chain components must be ordered.
+    fn eta(&self, th: &[f64]) -> Vec<f64> {
+        let mut eta = vec![0.0; self.p];
+        let mut prev_lam: Option<f64> = None;
+        for (c, &k) in self.kinds.iter().enumerate() {
+            let at = self.offsets[c];
+            match k {
+                ProcessKind::WhiteNoise
+                | ProcessKind::QuantizationNoise
+                | ProcessKind::RandomWalk => eta[at] = th[at].ln(),
+                ProcessKind::Drift => eta[at] = th[at].abs().ln(),
+                ProcessKind::Ma1 => {
+                    eta[at] = th[at].clamp(-0.999, 0.999).atanh();
+                    eta[at + 1] = th[at + 1].ln();
+                }
+                ProcessKind::Ar1 | ProcessKind::GaussMarkov => {
+                    if self.in_chain(c) {
+                        let lam = if k == ProcessKind::Ar1 {
+                            -th[at].ln()
+                        } else {
+                            th[at] / self.rate
+                        };
+                        match prev_lam {
+                            None => eta[at] = lam.ln(),
+                            Some(pl) => {
+                                let r = (lam / pl).clamp(1e-12, 1.0 - 1e-9);
+                                eta[at] = (r / (1.0 - r)).ln();
+                            }
+                        }
+                        prev_lam = Some(match prev_lam {
+                            None => lam,
+                            Some(pl) => pl * (lam / pl).clamp(1e-12, 1.0 - 1e-9),
+                        });
+                    } else {
+                        eta[at] = th[at].clamp(-0.999_999, 0.999_999).atanh();
+                    }
+                    eta[at + 1] = th[at + 1].ln();
+                }
+            }
+        }
+        eta
+    }
+
+    /// Whitened residuals r = W(ν̂ − ν(θ)) and their Jacobian in η (J×p).
+    fn residuals(&self, eta: &[f64], with_jac: bool) -> Option<(Vec<f64>, Mat<f64>, Vec<f64>)> {
+        let (th, t) = self.theta(eta)?;
+        let (j, p) = (self.m.len(), self.p);
+        let mut av = vec![0.0; j];
+        let mut jac = vec![0.0; j * p];
+        model_avar_jac(&self.kinds, &th, &self.m, self.rate, &mut av, &mut jac);
+        let d = Mat::from_fn(j, 1, |a, _| self.nu_hat[a] - self.factor * av[a]);
+        let r = &self.w * &d;
+        let res: Vec<f64> = (0..j).map(|a| r[(a, 0)]).collect();
+        if !res.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let jr = if with_jac {
+            let a = Mat::from_fn(j, p, |x, y| -self.factor * jac[x * p + y]);
+            &(&self.w * &a) * &t
+        } else {
+            Mat::zeros(0, 0)
+        };
+        Some((res, jr, th))
+    }
+
+    fn objective(&self, eta: &[f64]) -> f64 {
+        match self.residuals(eta, false) {
+            Some((r, _, _)) => r.iter().map(|x| x * x).sum(),
+            None => f64::INFINITY,
+        }
+    }
+
+    /// Levenberg–Marquardt from `eta0`.
+    fn levenberg_marquardt(&self, eta0: &[f64], max_iter: usize) -> (Vec<f64>, Convergence) {
+        let p = self.p;
+        let mut eta = eta0.to_vec();
+        let mut conv = Convergence {
+            converged: false,
+            iterations: 0,
+            gradient_norm: f64::INFINITY,
+            objective: f64::INFINITY,
+            start: 0,
+            starts: 1,
+        };
+        let Some((mut r, mut jr, _)) = self.residuals(&eta, true) else {
+            return (eta, conv);
+        };
+        let mut f: f64 = r.iter().map(|x| x * x).sum();
+        let mut mu = -1.0;
+        let mut nu = 2.0;
+        for it in 0..max_iter {
+            conv.iterations = it + 1;
+            let jt = jr.transpose();
+            let h = jt * &jr;
+            let rv = Mat::from_fn(r.len(), 1, |a, _| r[a]);
+            let g = jt * &rv;
+            let gnorm = (0..p).map(|i| g[(i, 0)].abs()).fold(0.0, f64::max);
+            conv.gradient_norm = 2.0 * gnorm;
+            // Gauss–Newton decrement gᵀH⁻¹g: the largest decrease a full step could still
+            // bring (invariant to the parametrization). Q is on a χ² scale, so a possible
+            // decrease below 1e-12·(1 + Q) is irrelevant.
+            let dec = newton_decrement(&h, &g);
+            if gnorm == 0.0 || dec <= GN_DECREMENT_TOL * (1.0 + f) {
+                conv.converged = true;
+                break;
+            }
+            if mu < 0.0 {
+                mu = 1e-3 * (0..p).map(|i| h[(i, i)]).fold(0.0, f64::max);
+            }
+            let mut accepted = false;
+            for _ in 0..60 {
+                let mut a = h.clone();
+                for i in 0..p {
+                    a[(i, i)] += mu * h[(i, i)].max(1e-300) + 1e-300;
+                }
+                let Ok(llt) = a.llt(Side::Lower) else {
+                    mu *= nu;
+                    nu *= 2.0;
+                    continue;
+                };
+                let step = llt.solve(-&g);
+                let cand: Vec<f64> = (0..p).map(|i| eta[i] + step[(i, 0)]).collect();
+                let f_new = self.objective(&cand);
+                // predicted reduction of the Gauss–Newton model
+                let mut pred = 0.0;
+                for i in 0..p {
+                    let mut hs = 0.0;
+                    for k in 0..p {
+                        hs += h[(i, k)] * step[(k, 0)];
+                    }
+                    pred -= step[(i, 0)] * (2.0 * g[(i, 0)] + hs);
+                }
+                if f_new.is_finite() && f_new < f {
+                    let rho = (f - f_new) / pred.max(1e-300);
+                    let rel = (f - f_new) / f.max(1e-300);
+                    let smax = (0..p).map(|i| step[(i, 0)].abs()).fold(0.0, f64::max);
+                    eta = cand;
+                    mu *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
+                    nu = 2.0;
+                    let (r2, j2, _) = self.residuals(&eta, true).expect("finite objective");
+                    r = r2;
+                    jr = j2;
+                    f = f_new;
+                    accepted = true;
+                    if rel < 1e-13 || smax < 1e-11 {
+                        conv.converged = true;
+                    }
+                    break;
+                }
+                mu *= nu;
+                nu *= 2.0;
+                if !mu.is_finite() {
+                    break;
+                }
+            }
+            if !accepted || conv.converged {
+                if !accepted {
+                    // no decrease possible: at a (numerical) minimum when the gradient is tiny
+                    // relative to the curvature
+                    conv.converged = dec <= GN_FLOOR_TOL * (1.0 + f);
+                }
+                break;
+            }
+        }
+        // final gradient norm
+        if let Some((r, jr, _)) = self.residuals(&eta, true) {
+            let rv = Mat::from_fn(r.len(), 1, |a, _| r[a]);
+            let g = jr.transpose() * &rv;
+            conv.gradient_norm = 2.0 * (0..p).map(|i| g[(i, 0)].abs()).fold(0.0, f64::max);
+        }
+        conv.objective = f;
+        (eta, conv)
+    }
+}
+
+/// Convergence when the Gauss–Newton decrement is below this fraction of 1 + Q.
+const GN_DECREMENT_TOL: f64 = 1e-12;
+/// When no step decreases Q any more (rounding floor), the point counts as converged if the
+/// decrement is below this fraction of 1 + Q.
+const GN_FLOOR_TOL: f64 = 1e-8;
+
+/// gᵀ(H + tiny ridge)⁻¹g.
+fn newton_decrement(h: &Mat<f64>, g: &Mat<f64>) -> f64 {
+    let p = h.nrows();
+    let mut a = h.clone();
+    for i in 0..p {
+        a[(i, i)] += 1e-14 * h[(i, i)].abs() + 1e-300;
+    }
+    let x = match a.llt(Side::Lower) {
+        Ok(l) => l.solve(g),
+        Err(_) => return f64::INFINITY,
+    };
+    (0..p).map(|i| x[(i, 0)] * g[(i, 0)]).sum::<f64>().abs()
+}
+
+/// Non-negative least squares min ‖A x − b‖, x ≥ 0 (Lawson–Hanson), A given by columns.
+pub(crate) fn nnls(cols: &[Vec<f64>], b: &[f64]) -> (Vec<f64>, f64) {
+    let n = cols.len();
+    let rows = b.len();
+    // scale columns to unit norm for the tolerances
+    let norms: Vec<f64> = cols
+        .iter()
+        .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-300))
+        .collect();
+    let a = |i: usize, k: usize| cols[k][i] / norms[k];
+    let mut x = vec![0.0; n];
+    let mut passive = vec![false; n];
+    let resid = |x: &[f64]| -> Vec<f64> {
+        (0..rows)
+            .map(|i| b[i] - (0..n).map(|k| a(i, k) * x[k]).sum::<f64>())
+            .collect()
+    };
+    let solve_passive = |passive: &[bool]| -> Vec<f64> {
+        let idx: Vec<usize> = (0..n).filter(|&k| passive[k]).collect();
+        let q = idx.len();
+        let mut s = vec![0.0; n];
+        if q == 0 {
+            return s;
+        }
+        let mut h = Mat::<f64>::from_fn(q, q, |u, v| {
+            (0..rows).map(|i| a(i, idx[u]) * a(i, idx[v])).sum()
+        });
+        for u in 0..q {
+            h[(u, u)] *= 1.0 + 1e-12;
+        }
+        let rhs = Mat::<f64>::from_fn(q, 1, |u, _| (0..rows).map(|i| a(i, idx[u]) * b[i]).sum());
+        let sol = match h.llt(Side::Lower) {
+            Ok(l) => l.solve(&rhs),
+            Err(_) => h.partial_piv_lu().solve(&rhs),
+        };
+        for (u, &k) in idx.iter().enumerate() {
+            s[k] = sol[(u, 0)];
+        }
+        s
+    };
+    let tol = 1e-12 * (rows as f64);
+    for _ in 0..3 * n + 3 {
+        let r = resid(&x);
+        let w: Vec<f64> = (0..n)
+            .map(|k| (0..rows).map(|i| a(i, k) * r[i]).sum())
+            .collect();
+        let Some(t) = (0..n)
+            .filter(|&k| !passive[k] && w[k] > tol)
+            .max_by(|&u, &v| w[u].total_cmp(&w[v]))
+        else {
+            break;
+        };
+        passive[t] = true;
+        for _ in 0..3 * n + 3 {
+            let s = solve_passive(&passive);
+            if (0..n).filter(|&k| passive[k]).all(|k| s[k] > 0.0) {
+                x = s;
+                break;
+            }
+            let mut alpha = 1.0f64;
+            for k in 0..n {
+                if passive[k] && s[k] <= 0.0 {
+                    alpha = alpha.min(x[k] / (x[k] - s[k]));
+                }
+            }
+            for k in 0..n {
+                x[k] += alpha * (s[k] - x[k]);
+                if passive[k] && x[k] <= 1e-15 {
+                    passive[k] = false;
+                    x[k] = 0.0;
+                }
+            }
+        }
+    }
+    let r = resid(&x);
+    let ss = r.iter().map(|v| v * v).sum();
+    for k in 0..n {
+        x[k] /= norms[k];
+    }
+    (x, ss)
+}
+
+/// Builds the whitening matrix W (Ω = WᵀW) from relative variances and reference values.
+fn diag_whitening(reference: &[f64], rel_var: &[f64]) -> Mat<f64> {
+    let j = reference.len();
+    Mat::from_fn(j, j, |a, b| {
+        if a == b {
+            1.0 / (reference[a].abs() * rel_var[a].sqrt())
+        } else {
+            0.0
+        }
+    })
+}
+
+/// W = L⁻¹ for V = L Lᵀ, computed on the correlation scale for conditioning.
+pub(crate) fn full_whitening(v: &CovMatrix) -> Result<Mat<f64>> {
+    let j = v.n;
+    let d: Vec<f64> = (0..j).map(|i| v.get(i, i)).collect();
+    if let Some(x) = d.iter().find(|x| !(**x > 0.0)) {
+        return Err(FitError::InvalidMatrix(format!(
+            "covariance has a non-positive variance {x}"
+        )));
+    }
+    let s: Vec<f64> = d.iter().map(|x| x.sqrt()).collect();
+    let c = Mat::<f64>::from_fn(j, j, |a, b| v.get(a, b) / (s[a] * s[b]));
+    let llt = c
+        .llt(Side::Lower)
+        .map_err(|_| FitError::InvalidMatrix("covariance is not positive definite".into()))?;
+    let mut inv = Mat::<f64>::identity(j, j);
+    llt.L().solve_lower_triangular_in_place(&mut inv);
+    // W = L_C⁻¹ D⁻¹
+    Ok(Mat::from_fn(j, j, |a, b| inv[(a, b)] / s[b]))
+}
+
+/// Shapes g_k(m_j) (AV per unit variance) of component `c` for given nonlinear parameter.
+fn shape(kind: ProcessKind, nonlin: f64, m: &[f64], rate: f64, factor: f64) -> Vec<f64> {
+    let mut g = [0.0; 2];
+    m.iter()
+        .map(|&mj| {
+            factor
+                * match kind {
+                    ProcessKind::Drift => mj * mj / 2.0,
+                    ProcessKind::Ar1 => ar1_unit(nonlin, mj).0,
+                    ProcessKind::GaussMarkov => {
+                        kind_avar_grad(kind, &[nonlin * rate, 1.0], mj, rate, &mut g)
+                    }
+                    ProcessKind::Ma1 => kind_avar_grad(kind, &[nonlin, 1.0], mj, rate, &mut g),
+                    k => kind_avar_grad(k, &[1.0], mj, rate, &mut g),
+                }
+        })
+        .collect()
+}
+
+/// All strictly increasing index tuples of length k from 0..n.
+fn combinations(n: usize, k: usize) -> Vec<Vec<usize>> {
+    let mut out = Vec::new();
+    if k == 0 {
+        out.push(Vec::new());
+        return out;
+    }
+    if k > n {
+        return out;
+    }
+    let mut idx: Vec<usize> = (0..k).collect();
+    loop {
+        out.push(idx.clone());
+        let mut i = k;
+        while i > 0 {
+            i -= 1;
+            if idx[i] != i + n - k {
+                idx[i] += 1;
+                for t in i + 1..k {
+                    idx[t] = idx[t - 1] + 1;
+                }
+                break;
+            }
+            if i == 0 {
+                return out;
+            }
+        }
+    }
+}
+
+fn n_choose_k(n: usize, k: usize) -> f64 {
+    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+}
+
+impl Problem {
+    /// Deterministic starting points (θ), best first.
+    fn starts(&self, n_starts: usize) -> Vec<Vec<f64>> {
+        let j = self.m.len();
+        let ncomp = self.kinds.len();
+        // candidate λ (per sample) on the curve's own grid: λ = 1/m_j, plus 2/m_1
+        let mut lam: Vec<f64> = std::iter::once(2.0 / self.m[0])
+            .chain(self.m.iter().map(|&m| 1.0 / m))
+            .collect();
+        let nonlin: Vec<usize> = (0..ncomp)
+            .filter(|&c| matches!(self.kinds[c], ProcessKind::Ar1 | ProcessKind::GaussMarkov))
+            .collect();
+        let k = nonlin.len();
+        while k > 0 && n_choose_k(lam.len(), k) > MAX_GRID_COMBOS as f64 && lam.len() > k {
+            lam = lam.iter().step_by(2).cloned().collect();
+        }
+        let combos = combinations(lam.len(), k);
+        let ma_grid: Vec<f64> = if self.kinds.contains(&ProcessKind::Ma1) {
+            vec![-0.5, 0.0, 0.5]
+        } else {
+            vec![0.0]
+        };
+        let wb: Vec<f64> = {
+            let b = Mat::from_fn(j, 1, |a, _| self.nu_hat[a]);
+            let wb = &self.w * &b;
+            (0..j).map(|a| wb[(a, 0)]).collect()
+        };
+        let fixed: Vec<Option<Vec<f64>>> = (0..ncomp)
+            .map(|c| match self.kinds[c] {
+                ProcessKind::Ar1 | ProcessKind::GaussMarkov | ProcessKind::Ma1 => None,
+                kd => Some(shape(kd, 0.0, &self.m, self.rate, self.factor)),
+            })
+            .collect();
+        let whiten = |g: &[f64]| -> Vec<f64> {
+            let v = Mat::from_fn(j, 1, |a, _| g[a]);
+            let w = &self.w * &v;
+            (0..j).map(|a| w[(a, 0)]).collect()
+        };
+        let fixed_w: Vec<Option<Vec<f64>>> = fixed
+            .iter()
+            .map(|g| g.as_ref().map(|g| whiten(g)))
+            .collect();
+        let mut scored: Vec<(f64, Vec<f64>, Vec<f64>, f64)> = Vec::new(); // (ss, coef, nonlin, ma)
+        for combo in &combos {
+            // chain order: first AR1/GM gets the largest λ (fastest)
+            let lams: Vec<f64> = combo.iter().map(|&i| lam[i]).collect();
+            for &th_ma in &ma_grid {
+                let mut cols = Vec::with_capacity(ncomp);
+                let mut nl = vec![0.0; ncomp];
+                let mut q = 0;
+                for c in 0..ncomp {
+                    match &fixed_w[c] {
+                        Some(g) => cols.push(g.clone()),
+                        None => {
+                            let kd = self.kinds[c];
+                            let v = match kd {
+                                ProcessKind::Ma1 => th_ma,
+                                ProcessKind::Ar1 => {
+                                    let l = lams[q];
+                                    q += 1;
+                                    (-l).exp()
+                                }
+                                _ => {
+                                    let l = lams[q];
+                                    q += 1;
+                                    l
+                                }
+                            };
+                            nl[c] = v;
+                            cols.push(whiten(&shape(kd, v, &self.m, self.rate, self.factor)));
+                        }
+                    }
+                }
+                let (coef, ss) = nnls(&cols, &wb);
+                scored.push((ss, coef, nl, th_ma));
+            }
+        }
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        scored.truncate(n_starts.max(1));
+        // floor for inactive components: 1e-3 of the largest variance the curve allows
+        scored
+            .into_iter()
+            .map(|(_, coef, nl, _)| {
+                let mut th = vec![0.0; self.p];
+                for c in 0..ncomp {
+                    let kd = self.kinds[c];
+                    let at = self.offsets[c];
+                    let g = shape(kd, nl[c], &self.m, self.rate, self.factor);
+                    let bound = (0..j)
+                        .map(|a| self.nu_hat[a] / g[a].max(1e-300))
+                        .fold(f64::INFINITY, f64::min);
+                    let cv = if coef[c] > 1e-6 * bound {
+                        coef[c]
+                    } else {
+                        1e-3 * bound
+                    };
+                    match kd {
+                        ProcessKind::Drift => th[at] = self.drift_sign * cv.sqrt(),
+                        ProcessKind::Ar1 => {
+                            th[at] = nl[c];
+                            th[at + 1] = cv;
+                        }
+                        ProcessKind::GaussMarkov => {
+                            th[at] = nl[c] * self.rate;
+                            th[at + 1] = cv;
+                        }
+                        ProcessKind::Ma1 => {
+                            th[at] = nl[c];
+                            th[at + 1] = cv;
+                        }
+                        _ => th[at] = cv,
+                    }
+                }
+                th
+            })
+            .collect()
+    }
+
+    fn run(&self, starts: &[Vec<f64>], max_iter: usize) -> Result<(Vec<f64>, Convergence)> {
+        let mut best: Option<(Vec<f64>, Convergence)> = None;
+        for (i, th) in starts.iter().enumerate() {
+            let eta0 = self.eta(th);
+            let (eta, mut conv) = self.levenberg_marquardt(&eta0, max_iter);
+            conv.start = i;
+            conv.starts = starts.len();
+            if conv.objective.is_finite()
+                && best
+                    .as_ref()
+                    .is_none_or(|(_, b)| conv.objective < b.objective * (1.0 - 1e-12))
+            {
+                best = Some((eta, conv));
+            }
+        }
+        best.ok_or_else(|| FitError::OptimizationFailed("no start gave a finite objective".into()))
+    }
+}
+
+/// Checks a template model for what the AV can identify.
+fn check_template(model: &Model, phi_range: PhiRange) -> Result<Vec<ProcessKind>> {
+    let kinds = model.kinds();
+    // processes::Model already rejects duplicated WN/QN/RW/DR/MA1.
+    let n_ar = kinds.iter().filter(|k| **k == ProcessKind::Ar1).count();
+    if phi_range == PhiRange::Symmetric && n_ar > 1 {
+        return Err(FitError::Unidentifiable(
+            "several AR1 with φ ∈ (−1, 1) cannot be ordered; use PhiRange::Positive".into(),
+        ));
+    }
+    Ok(kinds)
+}
+
+fn offsets(kinds: &[ProcessKind]) -> (Vec<usize>, usize) {
+    let mut o = Vec::with_capacity(kinds.len());
+    let mut at = 0;
+    for k in kinds {
+        o.push(at);
+        at += k.n_params();
+    }
+    (o, at)
+}
+
+pub(crate) fn build_problem(
+    curve: &AvCurve,
+    kinds: Vec<ProcessKind>,
+    opts: &GmwmOptions,
+    reference: Option<&[f64]>,
+) -> Result<Problem> {
+    let (offs, p) = offsets(&kinds);
+    let j = curve.len();
+    let nu_hat = curve.avar();
+    let w = match &opts.weighting {
+        Weighting::Diagonal => {
+            diag_whitening(reference.unwrap_or(&nu_hat), &curve.relative_variances())
+        }
+        Weighting::Full(v) => {
+            if v.n != j {
+                return Err(FitError::InvalidMatrix(format!(
+                    "covariance is {}×{} but the curve has {j} scales",
+                    v.n, v.n
+                )));
+            }
+            full_whitening(v)?
+        }
+    };
+    let mut prob = Problem {
+        kinds,
+        offsets: offs,
+        p,
+        m: curve.points.iter().map(|q| q.m as f64).collect(),
+        nu_hat,
+        w,
+        rate: curve.rate_hz,
+        factor: opts.moments.factor(),
+        phi_range: opts.phi_range,
+        drift_sign: if opts.drift_sign < 0.0 { -1.0 } else { 1.0 },
+        chain: Vec::new(),
+    };
+    prob.chain = (0..prob.kinds.len())
+        .filter(|&c| prob.in_chain(c))
+        .collect();
+    Ok(prob)
+}
+
+/// Fits `template` (its values, if any, are ignored) to the curve (see module doc).
+///
+/// Errors: an invalid curve (non-finite or non-positive AV, …), fewer scales than
+/// parameters, several AR1 with [`PhiRange::Symmetric`], a bad covariance matrix.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, theory::model_avar};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + AR1(phi=0.99, sigma2=1e-7)".parse()?;
+/// let m: Vec<u64> = (1..=16).map(|j| 1u64 << j).collect();
+/// let curve = AvCurve::from_m(&m, &model_avar(&truth, &m, 100.0)?, 100.0)?;
+/// let f = fit(&curve, &"WN + AR1".parse()?, &GmwmOptions::default())?;
+/// assert!(f.convergence.converged);
+/// assert!((f.theta[1] - 0.99).abs() < 1e-8);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
+pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<GmwmFit> {
+    curve.validate()?;
+    let kinds = check_template(template, opts.phi_range)?;
+    let p = template.n_params();
+    if curve.len() < p {
+        return Err(FitError::TooFewScales {
+            what: format!("the {p}-parameter model {}", template.template()),
+            needed: p,
+            got: curve.len(),
+        });
+    }
+    let prob = build_problem(curve, kinds.clone(), opts, None)?;
+    let starts = prob.starts(opts.n_starts);
+    let (mut eta, mut conv) = prob.run(&starts, opts.max_iter)?;
+    let mut prob_final = prob;
+    if opts.weighting == Weighting::Diagonal {
+        // second step: weights from the first-step fitted curve
+        let (th1, _) = prob_final.theta(&eta).ok_or_else(|| {
+            FitError::OptimizationFailed("first step ended outside the parameter space".into())
+        })?;
+        let m: Vec<f64> = curve.points.iter().map(|q| q.m as f64).collect();
+        let comps = component_avars(&kinds, &th1, &m, curve.rate_hz);
+        let f = opts.moments.factor();
+        let reference: Vec<f64> = (0..m.len())
+            .map(|a| f * comps.iter().map(|c| c[a]).sum::<f64>())
+            .collect();
+        let prob2 = build_problem(curve, kinds.clone(), opts, Some(&reference))?;
+        let mut starts2 = vec![th1];
+        starts2.extend(prob2.starts(opts.n_starts));
+        let (eta2, mut conv2) = prob2.run(&starts2, opts.max_iter)?;
+        conv2.iterations += conv.iterations;
+        eta = eta2;
+        conv = conv2;
+        prob_final = prob2;
+    }
+    let (theta, _) = prob_final.theta(&eta).ok_or_else(|| {
+        FitError::OptimizationFailed("solution outside the parameter space".into())
+    })?;
+    finish(curve, template, opts, prob_final, theta, conv)
+}
+
+fn finish(
+    curve: &AvCurve,
+    template: &Model,
+    opts: &GmwmOptions,
+    prob: Problem,
+    theta: Vec<f64>,
+    conv: Convergence,
+) -> Result<GmwmFit> {
+    let kinds = prob.kinds.clone();
+    let model = template.with_params(&theta)?;
+    let m: Vec<f64> = prob.m.clone();
+    let f = opts.moments.factor();
+    let components: Vec<Vec<f64>> = component_avars(&kinds, &theta, &m, curve.rate_hz)
+        .into_iter()
+        .map(|c| c.into_iter().map(|v| f * v).collect())
+        .collect();
+    let fitted: Vec<f64> = (0..m.len())
+        .map(|a| components.iter().map(|c| c[a]).sum())
+        .collect();
+    Ok(GmwmFit {
+        model,
+        kinds,
+        theta,
+        convergence: conv,
+        rate_hz: curve.rate_hz,
+        moments: opts.moments,
+        m: curve.m(),
+        tau: curve.tau(),
+        observed: curve.avar(),
+        fitted,
+        components,
+        whitening: CovMatrix::from_mat(&prob.w),
+        n: curve.n,
+    })
+}
+
+/// The processes of a fitted model, in model order.
+pub fn fitted_processes(fit: &GmwmFit) -> Vec<Process> {
+    fit.model
+        .components()
+        .iter()
+        .filter_map(|c| match c {
+            Component::Known(p) => Some(*p),
+            Component::Slot(_) => None,
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::theory::model_avar;
+
+    fn exact_curve(model: &str, rate: f64, jmax: u32) -> AvCurve {
+        let truth: Model = model.parse().unwrap();
+        let m: Vec<u64> = (1..=jmax).map(|j| 1u64 << j).collect();
+        let av = model_avar(&truth, &m, rate).unwrap();
+        AvCurve::from_m(&m, &av, rate)
+            .unwrap()
+            .with_n(1 << (jmax + 2))
+    }
+
+    #[test]
+    fn nnls_matches_a_known_solution() {
+        // b = 2·a0 + 0·a1 with a1 pointing away: the constrained solution is (2, 0).
+        let cols = vec![vec![1.0, 0.0, 1.0], vec![-1.0, 1.0, 0.0]];
+        let b = vec![2.0 + 0.5, -0.5, 2.0];
+        let (x, _) = nnls(&cols, &b);
+        // the passive-set solve carries a 1e-12 relative ridge
+        assert!(x[1] == 0.0 && (x[0] - 2.25).abs() < 1e-10, "{x:?}");
+    }
+
+    #[test]
+    fn combinations_are_complete() {
+        assert_eq!(combinations(4, 2).len(), 6);
+        assert_eq!(combinations(5, 3).len(), 10);
+        assert_eq!(combinations(3, 0), vec![Vec::<usize>::new()]);
+    }
+
+    #[test]
+    fn transforms_round_trip_and_order_ar1s() {
+        let curve = exact_curve(
+            "WN(sigma2=1) + AR1(phi=0.9, sigma2=1) + AR1(phi=0.99, sigma2=1)",
+            1.0,
+            10,
+        );
+        let prob = build_problem(
+            &curve,
+            "WN + 2*AR1".parse::<Model>().unwrap().kinds(),
+            &GmwmOptions::default(),
+            None,
+        )
+        .unwrap();
+        let th = vec![2.0, 0.9, 3.0, 0.99, 4.0];
+        let (back, t) = prob.theta(&prob.eta(&th)).unwrap();
+        for (a, b) in th.iter().zip(&back) {
+            assert!((a - b).abs() < 1e-12 * a.abs(), "{th:?} vs {back:?}");
+        }
+        // Jacobian of the transform against central differences
+        let eta = prob.eta(&th);
+        for i in 0..5 {
+            let h = 1e-6;
+            let (mut a, mut b) = (eta.clone(), eta.clone());
+            a[i] += h;
+            b[i] -= h;
+            let (ta, _) = prob.theta(&a).unwrap();
+            let (tb, _) = prob.theta(&b).unwrap();
+            for k in 0..5 {
+                let fd = (ta[k] - tb[k]) / (2.0 * h);
+                assert!(
+                    (fd - t[(k, i)]).abs() < 1e-6 * (1.0 + fd.abs()),
+                    "T[{k},{i}]"
+                );
+            }
+        }
+    }
+
+    /// Exact theoretical curves must be fitted back to the truth (no noise: the minimum is 0
+    /// at the truth). 1e-6 relative leaves room for the optimizer's stopping rule.
+    const EXACT_FIT_REL_TOL: f64 = 1e-6;
+
+    #[test]
+    fn exact_curves_are_fitted_back() {
+        let cases = [
+            (
+                "WN(sigma2=1e-4) + RW(gamma2=1e-10) + AR1(phi=0.995, sigma2=1e-7)",
+                "WN + RW + AR1",
+            ),
+            (
+                "QN(q2=1e-5) + WN(sigma2=1e-4) + RW(gamma2=1e-10)",
+                "QN + WN + RW",
+            ),
+            (
+                "WN(sigma2=1e-4) + AR1(phi=0.99, sigma2=1e-7) + AR1(phi=0.999, sigma2=1e-9)",
+                "WN + 2*AR1",
+            ),
+            ("WN(sigma2=1e-4) + DR(omega=1e-8)", "WN + DR"),
+        ];
+        for (truth, tpl) in cases {
+            let curve = exact_curve(truth, 100.0, 18);
+            let f = fit(&curve, &tpl.parse().unwrap(), &GmwmOptions::default()).unwrap();
+            let t: Model = truth.parse().unwrap();
+            let want: Vec<f64> = t
+                .processes()
+                .unwrap()
+                .iter()
+                .flat_map(|p| p.params())
+                .collect();
+            for (a, b) in f.theta.iter().zip(&want) {
+                assert!(
+                    (a / b - 1.0).abs() < EXACT_FIT_REL_TOL,
+                    "{tpl}: got {:?} want {want:?} ({:?})",
+                    f.theta,
+                    f.convergence
+                );
+            }
+            assert!(f.convergence.converged, "{tpl}: {:?}", f.convergence);
+        }
+    }
+
+    #[test]
+    fn bad_inputs_are_clear_errors() {
+        let curve = exact_curve("WN(sigma2=1e-4) + RW(gamma2=1e-10)", 100.0, 4);
+        let e = fit(
+            &curve,
+            &"QN + WN + RW + AR1".parse().unwrap(),
+            &GmwmOptions::default(),
+        );
+        assert!(
+            matches!(
+                e,
+                Err(FitError::TooFewScales {
+                    needed: 5,
+                    got: 4,
+                    ..
+                })
+            ),
+            "{e:?}"
+        );
+        let mut bad = curve.clone();
+        bad.points[2].avar = f64::NAN;
+        assert!(matches!(
+            fit(&bad, &"WN".parse().unwrap(), &GmwmOptions::default()),
+            Err(FitError::NonFinite { index: 2, .. })
+        ));
+        let sym = GmwmOptions {
+            phi_range: PhiRange::Symmetric,
+            ..Default::default()
+        };
+        assert!(matches!(
+            fit(&curve, &"2*AR1".parse().unwrap(), &sym),
+            Err(FitError::Unidentifiable(_))
+        ));
+        assert!("WN + WN".parse::<Model>().is_err());
+        let full = GmwmOptions {
+            weighting: Weighting::Full(CovMatrix::diagonal(&[1.0; 3])),
+            ..Default::default()
+        };
+        assert!(matches!(
+            fit(&curve, &"WN".parse().unwrap(), &full),
+            Err(FitError::InvalidMatrix(_))
+        ));
+    }
+}
