@@ -27,7 +27,6 @@ fn two_prod(a: f64, b: f64) -> (f64, f64) {
 }
 
 impl Dd {
-    pub(crate) const ZERO: Dd = Dd { hi: 0.0, lo: 0.0 };
     pub(crate) fn from(x: f64) -> Dd {
         Dd { hi: x, lo: 0.0 }
     }

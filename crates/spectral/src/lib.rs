@@ -24,6 +24,8 @@ pub mod closed_form;
 mod dd;
 pub mod error;
 pub mod lemma42;
+pub mod psd;
+pub mod quadrature;
 pub mod tolerances;
 
 pub use closed_form::{
@@ -35,4 +37,9 @@ pub use error::{Result, SpectralError};
 pub use lemma42::{
     allan_variance_from_acf, allan_variance_from_acv, allan_variance_from_variogram,
     lemma42_allan_variance, variogram,
+};
+pub use psd::{model_psd, psd};
+pub use quadrature::{
+    discrete_lemma41_allan_variance, lemma41_allan_variance, model_quadrature_allan_variance,
+    quadrature_allan_variance,
 };

@@ -32,3 +32,11 @@ pub const AMBIGUITY_PSD_MIN_REL_DIFF: f64 = 0.10;
 
 /// Welch PSD of a simulated AR1 inside its chi-square CI at ≥ 90 % of the frequencies.
 pub const WELCH_MIN_COVERAGE: f64 = 0.90;
+
+/// PSD formula vs the direct Fourier sum Δt Σ γ(h) e^(−2πifhΔt) (≤ 800 terms, AR1 tail
+/// below 0.8^400 ≈ 1e-39): roundoff of the sum only.
+pub const PSD_FOURIER_REL: f64 = 1e-12;
+
+/// A 20-point Gauss-Legendre rule on polynomials of degree ≤ 39 (exact in exact
+/// arithmetic): roundoff of 20 terms.
+pub const GAUSS_LEGENDRE_REL: f64 = 1e-14;
