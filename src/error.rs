@@ -46,6 +46,9 @@ pub enum Error {
     /// An error of the `processes` layer (model text, parameters, simulation).
     #[error(transparent)]
     Process(#[from] processes::ProcessError),
+    /// An error of the `avar` layer.
+    #[error(transparent)]
+    Avar(#[from] avar::AvarError),
     /// JSON serialisation failed.
     #[error("JSON output: {0}")]
     Json(#[from] serde_json::Error),
@@ -61,7 +64,7 @@ impl Error {
                 source.kind(),
                 std::io::ErrorKind::NotFound | std::io::ErrorKind::PermissionDenied
             ),
-            Error::Process(_) => true,
+            Error::Process(_) | Error::Avar(_) => true,
             Error::Json(_) => false,
         }
     }

@@ -14,7 +14,9 @@ pub use gmwm_prep;
 pub use processes;
 pub use spectral;
 
+pub mod cli;
 pub mod error;
 pub mod io;
+pub mod units;
 
 pub use error::{Error, Result};

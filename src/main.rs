@@ -1,4 +1,11 @@
-//! The `imunoise` command (being built: see the CLI issue).
+//! The `imunoise` command: see `imunoise --help`.
+
+use clap::Parser;
+
 fn main() {
-    println!("imunoise");
+    let cli = imunoise::cli::Cli::parse();
+    if let Err(e) = imunoise::cli::run(cli) {
+        eprintln!("error: {e}");
+        std::process::exit(e.exit_code());
+    }
 }

@@ -1,0 +1,227 @@
+//! The `imunoise` command: argument parsing (clap) and the subcommands.
+//!
+//! Every subcommand prints machine-readable output on stdout and messages on stderr;
+//! errors return an [`Error`] whose [`Error::exit_code`] the binary exits with.
+
+use crate::error::{Error, Result};
+use crate::io::{self, BinaryType, ReadOptions, Table};
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+pub mod avar_cmd;
+pub mod demo;
+pub mod simulate;
+pub mod theory;
+
+/// Stochastic calibration of inertial sensors: Allan variance with confidence intervals,
+/// theoretical curves of noise models, simulation.
+#[derive(Debug, Parser)]
+#[command(name = "imunoise", version, about, long_about = None)]
+#[command(
+    after_help = "Examples:\n  imunoise demo\n  imunoise avar log.csv.gz --rate 100 --format json\n  imunoise simulate --model \"WN(sigma2=1e-4)+RW(gamma2=1e-10)\" -n 100000 --rate 100 --seed 1 -o sim.csv"
+)]
+pub struct Cli {
+    /// No progress bars or notes on stderr (errors are still printed).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
+    /// The subcommand.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Allan variance (with confidence intervals) of every channel of a log file.
+    #[command(after_help = avar_cmd::EXAMPLES)]
+    Avar(avar_cmd::AvarArgs),
+    /// Simulate K independent channels of a noise model to CSV or raw f64.
+    #[command(after_help = simulate::EXAMPLES)]
+    Simulate(simulate::SimulateArgs),
+    /// Theoretical Allan variance/deviation of a model and of each of its components.
+    #[command(after_help = theory::EXAMPLES)]
+    Theory(theory::TheoryArgs),
+    /// Simulate a realistic 6-axis MEMS IMU with known noise, analyse it and print true
+    /// against estimated parameters. Needs no files.
+    #[command(after_help = demo::EXAMPLES)]
+    Demo(demo::DemoArgs),
+}
+
+/// Runs the parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    let ui = Ui::new(cli.quiet);
+    match cli.command {
+        Command::Avar(a) => avar_cmd::run(&a, &ui),
+        Command::Simulate(a) => simulate::run(&a, &ui),
+        Command::Theory(a) => theory::run(&a, &ui),
+        Command::Demo(a) => demo::run(&a, &ui),
+    }
+}
+
+/// Progress and notes on stderr: shown only when stderr is a terminal and not `--quiet`.
+#[derive(Debug, Clone, Copy)]
+pub struct Ui {
+    /// Whether progress bars are drawn.
+    pub progress: bool,
+    /// Whether notes are printed.
+    pub notes: bool,
+}
+
+impl Ui {
+    /// Decides from `--quiet` and whether stderr is a terminal.
+    pub fn new(quiet: bool) -> Self {
+        Ui {
+            progress: !quiet && std::io::stderr().is_terminal(),
+            notes: !quiet,
+        }
+    }
+
+    /// A spinner with a message (hidden when progress is off).
+    pub fn spinner(&self, msg: impl Into<String>) -> ProgressBar {
+        if !self.progress {
+            return ProgressBar::hidden();
+        }
+        let pb = ProgressBar::new_spinner();
+        pb.set_message(msg.into());
+        pb.enable_steady_tick(std::time::Duration::from_millis(120));
+        pb
+    }
+
+    /// A bar of `len` steps with a message (hidden when progress is off).
+    pub fn bar(&self, len: u64, msg: impl Into<String>) -> ProgressBar {
+        if !self.progress {
+            return ProgressBar::hidden();
+        }
+        let pb = ProgressBar::new(len);
+        if let Ok(style) =
+            ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
+        {
+            pb.set_style(style.progress_chars("=> "));
+        }
+        pb.set_message(msg.into());
+        pb
+    }
+
+    /// Prints a note on stderr unless quiet.
+    pub fn note(&self, msg: impl AsRef<str>) {
+        if self.notes {
+            eprintln!("{}", msg.as_ref());
+        }
+    }
+}
+
+/// A sampling rate in Hz: a finite number > 0.
+pub fn parse_rate(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "the sampling rate must be a finite number > 0 Hz, got {s}"
+        ))
+    }
+}
+
+/// The input file and how to read it (shared by the analysis subcommands).
+#[derive(Debug, Clone, Args)]
+pub struct InputArgs {
+    /// Input log: CSV, TSV or whitespace-separated text with or without a header line
+    /// (gzip-compressed is read transparently), or raw little-endian binary with --binary.
+    pub file: PathBuf,
+    /// Sampling rate in Hz (required, > 0).
+    #[arg(long, short = 'r', value_name = "HZ", value_parser = parse_rate, allow_negative_numbers = true)]
+    pub rate: f64,
+    /// Columns to analyse: header names or 1-based indices and ranges, e.g. `gyro_x,acc_z` or `1-3`.
+    #[arg(long, value_name = "LIST")]
+    pub columns: Option<String>,
+    /// Read raw little-endian binary of this type (f64, f32, i16, i32), row-major.
+    #[arg(long, value_name = "TYPE")]
+    pub binary: Option<BinaryType>,
+    /// Channels per row of binary input.
+    #[arg(long, value_name = "K")]
+    pub channels: Option<usize>,
+    /// Multiply every value by this factor (e.g. 1/131 for MPU-6050 gyro counts → °/s).
+    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true)]
+    pub scale: Option<f64>,
+    /// Channel names (comma list, after --columns), replacing the header's.
+    #[arg(long, value_name = "LIST")]
+    pub names: Option<String>,
+    /// Units: one for all channels or a comma list (deg/s, rad/s, g, m/s^2, none).
+    /// Default: inferred from name suffixes (_dps, _rads, _g, _mps2), else none.
+    #[arg(long, value_name = "UNIT")]
+    pub unit: Option<String>,
+}
+
+impl InputArgs {
+    /// Reads the file as the flags say (with a spinner on a terminal).
+    pub fn read(&self, ui: &Ui) -> Result<Table> {
+        let opts = ReadOptions {
+            binary: self.binary,
+            channels: self.channels,
+            scale: self.scale,
+            columns: self.columns.as_deref().map(io::parse_columns).transpose()?,
+            names: self
+                .names
+                .as_deref()
+                .map(|s| s.split(',').map(|n| n.trim().to_string()).collect()),
+        };
+        let pb = ui.spinner(format!("reading {}", self.file.display()));
+        let t = io::read_table(&self.file, &opts);
+        pb.finish_and_clear();
+        t
+    }
+}
+
+/// Output formats of the table-like subcommands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Aligned text for people.
+    Table,
+    /// JSON (shapes documented per subcommand).
+    Json,
+    /// CSV with a header line.
+    Csv,
+}
+
+/// Parses `--scales`: `dyadic` (book default), `dyadic1` (with m = 1), `octave`, `decade`,
+/// `all`, `logN` (N per decade) or an explicit list `m1,m2,…`.
+pub fn parse_scales(s: &str) -> std::result::Result<avar::Scales, String> {
+    use avar::Scales;
+    let t = s.trim().to_ascii_lowercase();
+    Ok(match t.as_str() {
+        "dyadic" => Scales::Dyadic,
+        "dyadic1" | "dyadic-with-one" => Scales::DyadicWithOne,
+        "octave" => Scales::Octave,
+        "decade" => Scales::Decade,
+        "all" => Scales::All,
+        _ if t.starts_with("log") => Scales::LogSpaced {
+            per_decade: t[3..]
+                .parse()
+                .map_err(|_| format!("{s:?}: expected logN with N points per decade"))?,
+        },
+        _ => Scales::Explicit(
+            t.split(',')
+                .map(|m| {
+                    m.trim().parse::<u64>().map_err(|_| {
+                        format!(
+                            "{s:?}: expected dyadic, dyadic1, octave, decade, all, logN or a list of cluster sizes m1,m2,…"
+                        )
+                    })
+                })
+                .collect::<std::result::Result<_, _>>()?,
+        ),
+    })
+}
+
+/// Maps an `avar` error of one channel to a message naming the file and channel.
+pub fn avar_error(file: &str, channel: &str, e: avar::AvarError) -> Error {
+    Error::File {
+        file: file.to_string(),
+        message: format!("channel {channel:?}: {e}"),
+    }
+}
