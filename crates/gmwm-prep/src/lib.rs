@@ -24,6 +24,7 @@
 //! # Ok::<(), gmwm_prep::FitError>(())
 //! ```
 
+pub mod avlr;
 pub mod curve;
 pub mod error;
 pub mod gmwm;
