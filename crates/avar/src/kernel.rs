@@ -126,41 +126,38 @@ fn chunk_partial(f: SumFn, c: &[f64], m: usize, i: usize) -> f64 {
     if lo >= hi { 0.0 } else { f(c, m, lo, hi) }
 }
 
+/// Scales handled together per pass over the k-chunks (bounds the partial-sum table to
+/// n_chunks × SCALE_BATCH values; consecutive scales of a batch share cached lag blocks).
+const SCALE_BATCH: usize = 128;
+
 /// Σ_{k=2m}^{T} (c_k − 2c_{k−m} + c_{k−2m})² for each m in `ms`, where `c` has T + 1 entries
-/// (the maximum-overlapping sums of eq. 4.2). Deterministic for any rayon thread count.
+/// (the maximum-overlapping sums of eq. 4.2). Deterministic for any rayon thread count: the value
+/// for a given m is the Neumaier sum, in chunk order, of the fixed-lane chunk partials, whatever
+/// other scales are requested.
 pub(crate) fn overlapping_sums(c: &[f64], ms: &[u64]) -> Vec<f64> {
     let f = sumsq_fn();
     let n_chunks = c.len().div_ceil(CHUNK);
-    let finish = |m: usize, part: &mut dyn FnMut(usize) -> f64| {
-        let mut acc = Neumaier::default();
-        for i in (2 * m) / CHUNK..n_chunks {
-            acc.add(part(i));
-        }
-        acc.value()
-    };
-    if ms.len() <= 64 {
-        // parallel over chunks, all scales per chunk (lags of dyadic scales are shared in cache)
+    let mut out = Vec::with_capacity(ms.len());
+    for batch in ms.chunks(SCALE_BATCH) {
+        // parallel over chunks; each chunk runs every scale of the batch while it is in cache
         let parts: Vec<Vec<f64>> = (0..n_chunks)
             .into_par_iter()
             .map(|i| {
-                ms.iter()
+                batch
+                    .iter()
                     .map(|&m| chunk_partial(f, c, m as usize, i))
                     .collect()
             })
             .collect();
-        ms.iter()
-            .enumerate()
-            .map(|(s, &m)| finish(m as usize, &mut |i| parts[i][s]))
-            .collect()
-    } else {
-        // parallel over scales
-        ms.par_iter()
-            .map(|&m| {
-                let m = m as usize;
-                finish(m, &mut |i| chunk_partial(f, c, m, i))
-            })
-            .collect()
+        for (s, &m) in batch.iter().enumerate() {
+            let mut acc = Neumaier::default();
+            for part in parts.iter().skip((2 * m as usize) / CHUNK) {
+                acc.add(part[s]);
+            }
+            out.push(acc.value());
+        }
     }
+    out
 }
 
 /// Non-overlapping sums: Σ over k = 2m, 3m, …, ⌊T/m⌋·m of (c_k − 2c_{k−m} + c_{k−2m})².
