@@ -144,6 +144,42 @@ impl AvCurve {
         Ok(c)
     }
 
+    /// The curve of an `avar` result: its cluster sizes, AV values, CI bounds and EDFs, series
+    /// length and CI level. Errors when an AV is zero or not finite.
+    ///
+    /// ```
+    /// use avar::{allan_variance, AvarConfig};
+    /// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
+    /// let av = allan_variance(&x, 10.0, &AvarConfig::default()).unwrap();
+    /// let c = gmwm_prep::AvCurve::from_avar(&av)?;
+    /// assert_eq!(c.len(), av.points.len());
+    /// assert_eq!(c.n, Some(4096));
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
+    pub fn from_avar(av: &avar::AllanVariance) -> Result<Self> {
+        let points = av
+            .points
+            .iter()
+            .map(|p| CurvePoint {
+                m: p.m,
+                tau: p.tau,
+                avar: p.avar,
+                avar_lo: p.avar_lo,
+                avar_hi: p.avar_hi,
+                var: None,
+                edf: p.edf,
+            })
+            .collect();
+        let c = Self {
+            rate_hz: av.rate_hz,
+            n: Some(av.n as u64),
+            alpha: av.alpha,
+            points,
+        };
+        c.validate()?;
+        Ok(c)
+    }
+
     /// Sets the series length `n` (samples).
     pub fn with_n(mut self, n: u64) -> Self {
         self.n = Some(n);

@@ -54,9 +54,9 @@ pub enum FitError {
     /// Any other invalid argument.
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
-    /// An error of the empirical AV layer, as text (bootstrap).
-    #[error("Allan variance estimation failed: {0}")]
-    Avar(String),
+    /// An error of the empirical AV layer (`avar`), e.g. in a bootstrap replication.
+    #[error(transparent)]
+    Avar(#[from] avar::AvarError),
 }
 
 /// Shorthand for results of this crate.

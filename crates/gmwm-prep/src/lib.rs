@@ -25,10 +25,12 @@
 //! ```
 
 pub mod avlr;
+pub mod bootstrap;
 pub mod curve;
 pub mod error;
 pub mod gmwm;
 pub mod ieee;
+pub mod inference;
 pub mod stats;
 pub mod theory;
 pub mod units;

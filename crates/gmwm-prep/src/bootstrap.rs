@@ -1,0 +1,244 @@
+//! Parametric bootstrap: simulate the fitted model (`processes`), estimate the AV of each
+//! replicate (`avar`) at the same scales, refit. Replicates run in parallel (rayon) and are
+//! reproducible: replicate b draws stream b of the given seed, whatever the thread count.
+//!
+//! One run gives both the covariance matrix V of the AV estimates at θ̂ (to use as the full
+//! weighting matrix or in the delta method) and the bootstrap distribution of θ̂ (percentile
+//! CIs with the α/2 and 1 − α/2 quantiles).
+
+use crate::avlr::{AvlrFit, avlr};
+use crate::curve::AvCurve;
+use crate::error::{FitError, Result};
+use crate::gmwm::{CovMatrix, GmwmFit, GmwmOptions, Moments, fit};
+use crate::stats::z_two_sided;
+use avar::{AvarConfig, Scales};
+use processes::Model;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Options of a parametric bootstrap.
+///
+/// ```
+/// let b = gmwm_prep::bootstrap::BootstrapOptions::new(100, 42, 1_000_000);
+/// assert_eq!(b.alpha, 0.05);
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BootstrapOptions {
+    /// Number of replications B.
+    pub replications: usize,
+    /// Seed; replicate b uses stream b of it.
+    pub seed: u64,
+    /// Length of each simulated series (samples), normally the original length.
+    pub n: usize,
+    /// AV estimation settings (its `scales` are replaced by the fit's cluster sizes).
+    pub avar: AvarConfig,
+    /// Significance level of the intervals.
+    pub alpha: f64,
+}
+
+impl BootstrapOptions {
+    /// B replications of length n with seed, default AV settings, 95% intervals.
+    pub fn new(replications: usize, seed: u64, n: usize) -> Self {
+        Self {
+            replications,
+            seed,
+            n,
+            avar: AvarConfig::default(),
+            alpha: 0.05,
+        }
+    }
+    fn check(&self) -> Result<()> {
+        if self.replications < 2 {
+            return Err(FitError::InvalidArgument(
+                "a bootstrap needs at least 2 replications".into(),
+            ));
+        }
+        if !(self.alpha > 0.0 && self.alpha < 1.0) {
+            return Err(FitError::InvalidAlpha(self.alpha));
+        }
+        Ok(())
+    }
+}
+
+/// Result of [`parametric_bootstrap`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BootstrapResult {
+    /// Replications whose refit succeeded.
+    pub replications: usize,
+    /// Replications whose refit failed (left out).
+    pub failed: usize,
+    /// Refitted θ* of each successful replication.
+    pub theta: Vec<Vec<f64>>,
+    /// Bootstrap standard deviation of each parameter.
+    pub se: Vec<f64>,
+    /// Percentile CIs [q_{α/2}, q_{1−α/2}] of each parameter.
+    pub ci: Vec<(f64, f64)>,
+    /// Sample covariance of the replicates' AV (J×J): an estimate of Var(ν̂) at θ̂.
+    pub av_cov: CovMatrix,
+    /// Mean of the replicates' AV.
+    pub av_mean: Vec<f64>,
+}
+
+/// AV curve of one simulated replicate of `model`.
+pub fn simulate_curve(
+    model: &Model,
+    m: &[u64],
+    rate_hz: f64,
+    n: usize,
+    seed: u64,
+    stream: u64,
+    config: &AvarConfig,
+) -> Result<AvCurve> {
+    let x = model.simulate_stream(n, rate_hz, seed, stream)?;
+    let cfg = AvarConfig {
+        scales: Scales::Explicit(m.to_vec()),
+        ..config.clone()
+    };
+    let av = avar::allan_variance(x.values(), rate_hz, &cfg)?;
+    AvCurve::from_avar(&av)
+}
+
+/// Quantile of sorted data (linear interpolation, R type 7).
+pub(crate) fn quantile(sorted: &[f64], q: f64) -> f64 {
+    let h = (sorted.len() - 1) as f64 * q;
+    let lo = h.floor() as usize;
+    let hi = (lo + 1).min(sorted.len() - 1);
+    sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
+}
+
+fn mean_cov(rows: &[Vec<f64>]) -> (Vec<f64>, CovMatrix) {
+    let n = rows.len() as f64;
+    let d = rows[0].len();
+    let mean: Vec<f64> = (0..d)
+        .map(|k| rows.iter().map(|r| r[k]).sum::<f64>() / n)
+        .collect();
+    let mut data = vec![0.0; d * d];
+    for r in rows {
+        for a in 0..d {
+            for b in 0..d {
+                data[a * d + b] += (r[a] - mean[a]) * (r[b] - mean[b]);
+            }
+        }
+    }
+    data.iter_mut().for_each(|x| *x /= n - 1.0);
+    (mean, CovMatrix { n: d, data })
+}
+
+/// Parametric bootstrap of a GMWM fit: B replicates simulated from `fit.model`, each refitted
+/// with `template` and `opts` (see module doc). AV moments only.
+pub fn parametric_bootstrap(
+    fit_: &GmwmFit,
+    template: &Model,
+    opts: &GmwmOptions,
+    boot: &BootstrapOptions,
+) -> Result<BootstrapResult> {
+    boot.check()?;
+    if fit_.moments != Moments::AllanVariance {
+        return Err(FitError::InvalidArgument(
+            "the parametric bootstrap simulates Allan variances only".into(),
+        ));
+    }
+    let reps: Vec<Result<(Vec<f64>, Option<Vec<f64>>)>> = (0..boot.replications)
+        .into_par_iter()
+        .map(|b| {
+            let c = simulate_curve(
+                &fit_.model,
+                &fit_.m,
+                fit_.rate_hz,
+                boot.n,
+                boot.seed,
+                b as u64,
+                &boot.avar,
+            )?;
+            let th = fit(&c, template, opts).ok().map(|f| f.theta);
+            Ok((c.avar(), th))
+        })
+        .collect();
+    let mut avs = Vec::new();
+    let mut thetas = Vec::new();
+    for r in reps {
+        let (av, th) = r?;
+        avs.push(av);
+        if let Some(t) = th {
+            thetas.push(t);
+        }
+    }
+    let failed = boot.replications - thetas.len();
+    if thetas.len() < 2 {
+        return Err(FitError::OptimizationFailed(format!(
+            "{failed} of {} bootstrap refits failed",
+            boot.replications
+        )));
+    }
+    let (av_mean, av_cov) = mean_cov(&avs);
+    let (_, th_cov) = mean_cov(&thetas);
+    let p = thetas[0].len();
+    let se = (0..p).map(|k| th_cov.get(k, k).sqrt()).collect();
+    let ci = (0..p)
+        .map(|k| {
+            let mut v: Vec<f64> = thetas.iter().map(|t| t[k]).collect();
+            v.sort_by(f64::total_cmp);
+            (
+                quantile(&v, boot.alpha / 2.0),
+                quantile(&v, 1.0 - boot.alpha / 2.0),
+            )
+        })
+        .collect();
+    Ok(BootstrapResult {
+        replications: thetas.len(),
+        failed,
+        theta: thetas,
+        se,
+        ci,
+        av_cov,
+        av_mean,
+    })
+}
+
+/// Parametric bootstrap CIs for AVLR (as R avar's `avlr(ci = TRUE)`, with the normal
+/// *quantile* z_{1−α/2}, not the density): simulate the AVLR model on the fit's scales, re-apply
+/// AVLR with the same windows, and set each estimate's `sd` and `ci = θ̂ ± z_{1−α/2} sd`
+/// (per-sample parameters). The point estimates are left as they are (no bias correction).
+pub fn avlr_bootstrap(fit_: &AvlrFit, m: &[u64], boot: &BootstrapOptions) -> Result<AvlrFit> {
+    boot.check()?;
+    let reps: Vec<Result<Vec<f64>>> = (0..boot.replications)
+        .into_par_iter()
+        .map(|b| {
+            let c = simulate_curve(
+                &fit_.model,
+                m,
+                fit_.rate_hz,
+                boot.n,
+                boot.seed,
+                b as u64,
+                &boot.avar,
+            )?;
+            let f = avlr(&c, &fit_.windows)?;
+            Ok(f.estimates.iter().map(|e| e.per_sample).collect())
+        })
+        .collect();
+    let rows: Vec<Vec<f64>> = reps.into_iter().collect::<Result<_>>()?;
+    let (_, cov) = mean_cov(&rows);
+    let z = z_two_sided(boot.alpha);
+    let mut out = fit_.clone();
+    for (k, e) in out.estimates.iter_mut().enumerate() {
+        let sd = cov.get(k, k).sqrt();
+        e.sd = Some(sd);
+        e.ci_lo = Some(e.per_sample - z * sd);
+        e.ci_hi = Some(e.per_sample + z * sd);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantile_type_7() {
+        let v = [1.0, 2.0, 3.0, 4.0, 5.0];
+        assert_eq!(quantile(&v, 0.5), 3.0);
+        assert_eq!(quantile(&v, 0.25), 2.0);
+        assert_eq!(quantile(&v, 0.1), 1.4);
+    }
+}

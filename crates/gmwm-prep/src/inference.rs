@@ -1,0 +1,298 @@
+//! Inference for a GMWM fit: delta-method covariance B V Bᵀ, confidence intervals with the
+//! two-sided quantile z_{1−α/2}, the J goodness-of-fit test and the WIC, and model selection
+//! among sub-models by WIC (REFERENCES §6).
+//!
+//! V is the covariance matrix of the observed moments ν̂. The AV estimates at different scales
+//! are strongly correlated, so V should be a full matrix, e.g. the parametric bootstrap one of
+//! [`crate::bootstrap`]; [`diagonal_covariance`] (from the curve's CIs) ignores the
+//! correlations and gives optimistic standard errors.
+
+use crate::curve::AvCurve;
+use crate::error::{FitError, Result};
+use crate::gmwm::{CovMatrix, GmwmFit, GmwmOptions, PhiRange, Weighting, fit};
+use crate::stats::{chi2_sf, z_two_sided};
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+use processes::{Component, Model, ProcessKind};
+use serde::{Deserialize, Serialize};
+
+/// The J test of over-identifying restrictions.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct JTest {
+    /// J = eᵀ S⁺ e with e = ν̂ − ν(θ̂) and S = (I − AB) V (I − AB)ᵀ its asymptotic covariance
+    /// (= the GMWM objective with Ω = V⁻¹ when the fit used that Ω).
+    pub statistic: f64,
+    /// Degrees of freedom J − p (number of scales minus number of parameters).
+    pub dof: usize,
+    /// P(χ²_dof > statistic).
+    pub p_value: f64,
+}
+
+/// Delta-method inference for a fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Inference {
+    /// Significance level: intervals have coverage 1 − alpha.
+    pub alpha: f64,
+    /// Standard errors of θ̂ (per sample, same order as `theta`).
+    pub se: Vec<f64>,
+    /// CIs of θ̂: θ̂ ± z_{1−α/2}·se on the scale where θ is unconstrained (log for variances
+    /// and β, log λ = log(−ln φ) for φ ∈ (0,1), atanh for φ ∈ (−1,1) and MA1's θ), mapped back.
+    pub ci: Vec<(f64, f64)>,
+    /// Covariance of θ̂, B V Bᵀ.
+    pub cov_theta: CovMatrix,
+    /// J test (None when there are as many scales as parameters).
+    pub j_test: Option<JTest>,
+    /// WIC = Q(θ̂) + 2 tr(Ω A B V).
+    pub wic: f64,
+    /// The objective Q(θ̂) with the fit's Ω.
+    pub objective: f64,
+}
+
+/// V = diag(r_j ν̂_j²) from the curve's relative variances (ignores correlations).
+///
+/// ```
+/// use gmwm_prep::{AvCurve, CurvePoint, inference::diagonal_covariance};
+/// let mut p = CurvePoint::new(2, 0.02, 3.0);
+/// p.edf = Some(2.0); // relative variance 2/edf = 1
+/// let v = diagonal_covariance(&AvCurve::new(vec![p], 100.0, None)?);
+/// assert_eq!(v.get(0, 0), 9.0);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
+pub fn diagonal_covariance(curve: &AvCurve) -> CovMatrix {
+    let r = curve.relative_variances();
+    let d: Vec<f64> = curve
+        .points
+        .iter()
+        .zip(&r)
+        .map(|(p, r)| r * p.avar * p.avar)
+        .collect();
+    CovMatrix::diagonal(&d)
+}
+
+fn phi_range_of(fit: &GmwmFit, at: usize) -> PhiRange {
+    if fit.theta[at] > 0.0 {
+        PhiRange::Positive
+    } else {
+        PhiRange::Symmetric
+    }
+}
+
+/// B = (AᵀΩA)⁻¹AᵀΩ with column scaling for conditioning (p×J).
+fn b_matrix(a: &Mat<f64>, omega: &Mat<f64>) -> Result<Mat<f64>> {
+    let (j, p) = (a.nrows(), a.ncols());
+    let s: Vec<f64> = (0..p)
+        .map(|k| {
+            let n = (0..j)
+                .map(|i| {
+                    let x = a[(i, k)] * omega[(i, i)].abs().sqrt();
+                    x * x
+                })
+                .sum::<f64>()
+                .sqrt();
+            if n > 0.0 { 1.0 / n } else { 1.0 }
+        })
+        .collect();
+    let a_s = Mat::from_fn(j, p, |i, k| a[(i, k)] * s[k]);
+    let ato = a_s.transpose() * omega;
+    let h = &ato * &a_s;
+    let bs = match h.llt(Side::Lower) {
+        Ok(l) => l.solve(&ato),
+        Err(_) => {
+            return Err(FitError::Unidentifiable(
+                "AᵀΩA is singular at θ̂: the parameters are not identifiable from these scales"
+                    .into(),
+            ));
+        }
+    };
+    Ok(Mat::from_fn(p, j, |k, i| bs[(k, i)] * s[k]))
+}
+
+/// Delta-method inference (see module doc) with V the covariance of the observed moments.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, inference::{delta_method, diagonal_covariance}};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=18).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(1_000_000);
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let inf = delta_method(&f, &diagonal_covariance(&curve), 0.05)?;
+/// assert!(inf.ci[0].0 < 1e-4 && 1e-4 < inf.ci[0].1);
+/// assert_eq!(inf.j_test.unwrap().dof, 16);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
+pub fn delta_method(fit: &GmwmFit, v: &CovMatrix, alpha: f64) -> Result<Inference> {
+    if !(alpha > 0.0 && alpha < 1.0) {
+        return Err(FitError::InvalidAlpha(alpha));
+    }
+    let j = fit.m.len();
+    let p = fit.n_params();
+    if v.n != j {
+        return Err(FitError::InvalidMatrix(format!(
+            "V is {}×{} but the fit has {j} scales",
+            v.n, v.n
+        )));
+    }
+    let a = fit.jacobian();
+    let omega = fit.omega().to_mat();
+    let vm = v.to_mat();
+    let b = b_matrix(&a, &omega)?;
+    let cov = &(&b * &vm) * b.transpose();
+    let se: Vec<f64> = (0..p).map(|k| cov[(k, k)].max(0.0).sqrt()).collect();
+    let z = z_two_sided(alpha);
+    // per-parameter CI on its unconstrained scale
+    let mut ci = Vec::with_capacity(p);
+    let mut at = 0;
+    for &kind in &fit.kinds {
+        for (i, _) in kind.param_names().iter().enumerate() {
+            let th = fit.theta[at + i];
+            let s = se[at + i];
+            let log_ci = |x: f64| {
+                let r = (z * s / x.abs()).min(700.0);
+                let (lo, hi) = (x.abs() * (-r).exp(), x.abs() * r.exp());
+                if x < 0.0 { (-hi, -lo) } else { (lo, hi) }
+            };
+            let atanh_ci = |x: f64| {
+                let zz = x.atanh();
+                let sz = s / (1.0 - x * x);
+                ((zz - z * sz).tanh(), (zz + z * sz).tanh())
+            };
+            let c = match (kind, i) {
+                (ProcessKind::Ar1, 0) if phi_range_of(fit, at) == PhiRange::Positive => {
+                    let lam = -th.ln();
+                    let s_ll = s / (th * lam);
+                    let (l_lo, l_hi) = (lam * (-z * s_ll).exp(), lam * (z * s_ll).exp());
+                    ((-l_hi).exp(), (-l_lo).exp())
+                }
+                (ProcessKind::Ar1, 0) | (ProcessKind::Ma1, 0) => atanh_ci(th),
+                _ => log_ci(th),
+            };
+            ci.push(c);
+        }
+        at += kind.n_params();
+    }
+    // residuals, objective, J test, WIC
+    let e = Mat::from_fn(j, 1, |i, _| fit.observed[i] - fit.fitted[i]);
+    let q = (e.transpose() * &omega * &e)[(0, 0)];
+    let ab = &a * &b;
+    let wic = q + 2.0 * (&(&omega * &ab) * &vm).diagonal().column_vector().sum();
+    let j_test = if j > p {
+        let pmat = Mat::<f64>::identity(j, j) - &ab;
+        let s = &(&pmat * &vm) * pmat.transpose();
+        let d: Vec<f64> = (0..j).map(|i| vm[(i, i)].sqrt()).collect();
+        let s_sc = Mat::from_fn(j, j, |x, y| s[(x, y)] / (d[x] * d[y]));
+        let e_sc: Vec<f64> = (0..j).map(|i| e[(i, 0)] / d[i]).collect();
+        let evd = s_sc
+            .self_adjoint_eigen(Side::Lower)
+            .map_err(|_| FitError::InvalidMatrix("eigendecomposition of S failed".into()))?;
+        let vals = evd.S().column_vector();
+        let vecs = evd.U();
+        let dof = j - p;
+        let mut stat = 0.0;
+        for k in (j - dof)..j {
+            let lk = vals[k];
+            if lk <= 0.0 {
+                continue;
+            }
+            let proj: f64 = (0..j).map(|i| vecs[(i, k)] * e_sc[i]).sum();
+            stat += proj * proj / lk;
+        }
+        Some(JTest {
+            statistic: stat,
+            dof,
+            p_value: chi2_sf(stat, dof as f64),
+        })
+    } else {
+        None
+    };
+    Ok(Inference {
+        alpha,
+        se,
+        ci,
+        cov_theta: CovMatrix::from_mat(&cov),
+        j_test,
+        wic,
+        objective: q,
+    })
+}
+
+/// One candidate of a model selection.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    /// The fitted sub-model (text form, per-sample values).
+    pub model: String,
+    /// Its template (e.g. `"WN + RW"`).
+    pub template: String,
+    /// Number of parameters.
+    pub n_params: usize,
+    /// Objective with the common Ω.
+    pub objective: f64,
+    /// WIC with the common Ω and V.
+    pub wic: f64,
+    /// Whether the optimizer converged.
+    pub converged: bool,
+}
+
+/// Fits every distinct non-empty sub-model of `full` (subsets of its components) with one
+/// common weighting matrix — the Ω of the full model's fit — and ranks them by WIC computed
+/// with the moments' covariance `v` (best first). Sub-models with more parameters than
+/// scales are skipped.
+pub fn select_by_wic(
+    curve: &AvCurve,
+    full: &Model,
+    opts: &GmwmOptions,
+    v: &CovMatrix,
+) -> Result<Vec<Candidate>> {
+    let full_fit = fit(curve, full, opts)?;
+    let omega = full_fit.omega();
+    let om = omega.to_mat();
+    let j = om.nrows();
+    // V_Ω = Ω⁻¹, so that Weighting::Full(V_Ω) reproduces Ω.
+    let om_inv = om
+        .llt(Side::Lower)
+        .map_err(|_| FitError::InvalidMatrix("Ω is not positive definite".into()))?
+        .solve(Mat::<f64>::identity(j, j));
+    let common = GmwmOptions {
+        weighting: Weighting::Full(CovMatrix::from_mat(&om_inv)),
+        ..opts.clone()
+    };
+    let kinds = full.kinds();
+    let k = kinds.len();
+    if k > 12 {
+        return Err(FitError::InvalidArgument(
+            "model selection over more than 12 components is not supported".into(),
+        ));
+    }
+    let mut seen: Vec<Vec<ProcessKind>> = Vec::new();
+    let mut out = Vec::new();
+    for mask in 1u32..(1 << k) {
+        let sub: Vec<ProcessKind> = (0..k)
+            .filter(|i| mask & (1 << i) != 0)
+            .map(|i| kinds[i])
+            .collect();
+        if seen.contains(&sub) {
+            continue;
+        }
+        seen.push(sub.clone());
+        let template = Model::new(sub.iter().map(|&x| Component::Slot(x)).collect())?;
+        if template.n_params() > j {
+            continue;
+        }
+        let f = match fit(curve, &template, &common) {
+            Ok(f) => f,
+            Err(FitError::OptimizationFailed(_)) => continue,
+            Err(e) => return Err(e),
+        };
+        let inf = delta_method(&f, v, 0.05)?;
+        out.push(Candidate {
+            model: f.model.to_string(),
+            template: template.to_string(),
+            n_params: f.n_params(),
+            objective: inf.objective,
+            wic: inf.wic,
+            converged: f.convergence.converged,
+        });
+    }
+    out.sort_by(|a, b| a.wic.total_cmp(&b.wic));
+    Ok(out)
+}
