@@ -106,7 +106,7 @@ pub fn allan_variance_from_variogram(variogram: impl Fn(u64) -> f64, m: u64) -> 
 }
 
 /// Lemma 4.2 on a sampled autocovariance γ(0), γ(1), … (e.g. the empirical ACV of
-/// `empirical::autocovariance`); needs `acv.len() ≥ 2m`. Unit² in, unit² out.
+/// [`crate::empirical::autocovariance`]); needs `acv.len() ≥ 2m`. Unit² in, unit² out.
 ///
 /// ```
 /// use spectral::allan_variance_from_acv;

@@ -20,8 +20,10 @@
 //! # Ok::<(), spectral::SpectralError>(())
 //! ```
 
+pub mod ambiguity;
 pub mod closed_form;
 mod dd;
+pub mod empirical;
 pub mod error;
 pub mod lemma42;
 pub mod psd;

@@ -40,3 +40,8 @@ pub const PSD_FOURIER_REL: f64 = 1e-12;
 /// A 20-point Gauss-Legendre rule on polynomials of degree ≤ 39 (exact in exact
 /// arithmetic): roundoff of 20 terms.
 pub const GAUSS_LEGENDRE_REL: f64 = 1e-14;
+
+/// Slope and intercept of log AD vs log τ fitted on a simulated WN series (2^20 samples,
+/// m = 2..64): the relative SE of each AV estimate is ≤ ≈ 0.013 (m = 64, N/m = 16384), so
+/// log AD errors ≤ ≈ 0.007 and the fitted slope/intercept errors ≤ ≈ 0.005; 0.05 is ≈ 10 SE.
+pub const MC_LOG_AD_ABS: f64 = 0.05;

@@ -2,8 +2,8 @@
 //! (Haar WV), and the analytic gradients against finite differences. The full
 //! three-way table is in `three_ways.rs`.
 
-mod common_processes;
-use common_processes::{RATE, fixtures};
+mod common;
+use common::fixtures::{RATE, fixtures};
 use processes::{Ar1, Ma1, Process};
 use spectral::tolerances::{FINITE_DIFF_REL, SUM_REL};
 use spectral::{

@@ -5,8 +5,8 @@
 //! below that, the book's Lemma 4.2 ACF sum (loses ≈ log10(1/(m(1−φ))) digits).
 //! Derivatives: the exact derivative of either expression, also in double-double.
 
-mod common_dd;
-use common_dd::Dd;
+mod common;
+use common::dd::Dd;
 use processes::{Ar1, GaussMarkov, Process};
 use spectral::allan_variance_with_gradient;
 use spectral::tolerances::{EXTENDED_REF_REL, GRADIENT_EXTENDED_REL};

@@ -3,8 +3,8 @@
 //! Prints the worst gaps per process (`cargo test -p imunoise-spectral --test three_ways
 //! -- --nocapture`).
 
-mod common_processes;
-use common_processes::{RATE, fixtures, m_grid};
+mod common;
+use common::fixtures::{RATE, fixtures, m_grid};
 use spectral::tolerances::{QUADRATURE_REL, SUM_REL};
 use spectral::{allan_variance, lemma42_allan_variance, quadrature_allan_variance};
 

@@ -1,6 +1,6 @@
 // Double-double arithmetic for extended-precision references in tests (a copy of the
 // crate-private `dd` module: TwoSum / FMA TwoProd, ~32 digits).
-#![allow(dead_code)]
+
 use std::ops::{Add, Mul, Neg, Sub};
 
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,5 +1,4 @@
 // Shared fixtures of the integration tests (included with `mod`).
-#![allow(dead_code)]
 
 use processes::{Ar1, Drift, GaussMarkov, Ma1, Process, QuantizationNoise, RandomWalk, WhiteNoise};
 
