@@ -180,7 +180,7 @@ enum Gen {
 }
 
 impl Gen {
-    fn new(p: &Process, rate_hz: f64) -> Result<Self> {
+    fn new(p: &Process, rate_hz: f64, n: usize) -> Result<Self> {
         Ok(match *p {
             Process::WhiteNoise(w) => Gen::White {
                 sd: w.sigma2().sqrt(),
@@ -192,10 +192,10 @@ impl Gen {
             Process::RandomWalk(r) => Gen::Walk {
                 sd: r.gamma2().sqrt(),
             },
-            Process::Ar1(a) => Self::ar1(a.phi(), a.sigma2(), a.stationary_variance()),
+            Process::Ar1(a) => Self::ar1(a.phi(), a.sigma2(), a.stationary_variance(), n),
             Process::GaussMarkov(g) => {
                 let a = g.to_ar1(rate_hz)?;
-                Self::ar1(a.phi(), a.sigma2(), a.stationary_variance())
+                Self::ar1(a.phi(), a.sigma2(), a.stationary_variance(), n)
             }
             Process::Ma1(m) => Gen::Ma1 {
                 theta: m.theta(),
@@ -204,11 +204,14 @@ impl Gen {
         })
     }
 
-    fn ar1(phi: f64, v2: f64, stationary: f64) -> Self {
-        // φ^L by the same running product the fix-up pass uses (p_1 = φ, p_{j+1} = p_j φ).
+    fn ar1(phi: f64, v2: f64, stationary: f64, n: usize) -> Self {
+        // φ^L by the same running product the fix-up pass uses (p_1 = φ, p_{j+1} = p_j φ);
+        // only carries between chunks use it, so a single chunk skips the 2^16 products.
         let mut phi_l = phi;
-        for _ in 1..CHUNK_LEN {
-            phi_l *= phi;
+        if n > CHUNK_LEN {
+            for _ in 1..CHUNK_LEN {
+                phi_l *= phi;
+            }
         }
         Gen::Ar1 {
             phi,
@@ -505,36 +508,43 @@ fn run(
         .filter(|&j| plans[j].recipe.is_recurrence())
         .collect();
     let group = (4 * rayon::current_num_threads()).max(MIN_GROUP_CHUNKS);
-    let group_len = (group * CHUNK_LEN).min(total_chunks * CHUNK_LEN);
-    let mut scratch = try_zeros(rec.len() * group_len)?;
+    // Room per chunk and recurrence in the scratch buffer: a chunk, or all of a short path.
+    let room = CHUNK_LEN.min(n);
+    let stride = rec.len() * room;
+    let mut scratch = try_zeros(stride * group.min(total_chunks))?;
     let mut carries = vec![0.0f64; rec.len()];
     let mut first_bad: Option<usize> = None;
 
     for g0 in (0..total_chunks).step_by(group) {
         let g1 = (g0 + group).min(total_chunks);
         let (lo, hi) = (g0 * CHUNK_LEN, (g1 * CHUNK_LEN).min(n));
-        let stride = rec.len() * CHUNK_LEN;
+
+        // A single chunk runs on the calling thread: no hand-off to the pool.
+        let parallel = g1 - g0 > 1;
 
         // (1) local paths of the recurrences, in parallel over chunks.
+        let local_chunk = |ci: usize, s: &mut [f64]| -> Vec<f64> {
+            let k = g0 + ci;
+            let len = chunk_len(n, k);
+            rec.iter()
+                .zip(s.chunks_mut(room))
+                .map(|(&j, dst)| {
+                    let plan = &plans[j];
+                    let mut rng = plan.states[k].clone();
+                    plan.recipe.local_path(&mut rng, k, &mut dst[..len])
+                })
+                .collect()
+        };
         let ends: Vec<Vec<f64>> = if rec.is_empty() {
             vec![Vec::new(); g1 - g0]
-        } else {
+        } else if parallel {
             scratch[..(g1 - g0) * stride]
                 .par_chunks_mut(stride)
                 .enumerate()
-                .map(|(ci, s)| {
-                    let k = g0 + ci;
-                    let len = chunk_len(n, k);
-                    rec.iter()
-                        .zip(s.chunks_mut(CHUNK_LEN))
-                        .map(|(&j, dst)| {
-                            let plan = &plans[j];
-                            let mut rng = plan.states[k].clone();
-                            plan.recipe.local_path(&mut rng, k, &mut dst[..len])
-                        })
-                        .collect()
-                })
+                .map(|(ci, s)| local_chunk(ci, s))
                 .collect()
+        } else {
+            vec![local_chunk(0, &mut scratch[..stride])]
         };
 
         // (2) carries, sequentially: into_chunk[ci][r] is C_k for chunk g0 + ci.
@@ -557,58 +567,64 @@ fn run(
         }
         let scratch_ref = &scratch;
         let rec_ref = &rec;
-        let bad = out[lo..hi]
-            .par_chunks_mut(CHUNK_LEN)
-            .zip(comp_chunks.into_par_iter())
-            .zip(into_chunk.into_par_iter())
-            .enumerate()
-            .map(|(ci, ((o, mut cc), carry))| {
-                let k = g0 + ci;
-                let len = o.len();
-                let mut cursors: Vec<Cursor<'_>> = plans
-                    .iter()
-                    .enumerate()
-                    .map(|(j, plan)| {
-                        let (local, c): (&[f64], f64) = match rec_ref.iter().position(|&r| r == j) {
-                            Some(r) => {
-                                let at = ci * stride + r * CHUNK_LEN;
-                                (&scratch_ref[at..at + len], carry[r])
-                            }
-                            None => (&[], 0.0),
-                        };
-                        Cursor::new(plan, k, len, local, c)
-                    })
-                    .collect();
-                let mut tmp = [0.0f64; BLOCK_LEN];
-                let mut bad = None;
-                for b0 in (0..len).step_by(BLOCK_LEN) {
-                    let b1 = (b0 + BLOCK_LEN).min(len);
-                    let ob = &mut o[b0..b1];
-                    for (j, cur) in cursors.iter_mut().enumerate() {
-                        if j == 0 && first == First::Assign {
-                            cur.fill(ob);
-                            if let Some(c) = cc.get_mut(0) {
-                                c[b0..b1].copy_from_slice(ob);
-                            }
-                        } else {
-                            let t = &mut tmp[..b1 - b0];
-                            cur.fill(t);
-                            for (x, v) in ob.iter_mut().zip(t.iter()) {
-                                *x += v;
-                            }
-                            if let Some(c) = cc.get_mut(j) {
-                                c[b0..b1].copy_from_slice(t);
-                            }
+        let final_chunk = |ci: usize, o: &mut [f64], mut cc: Vec<&mut [f64]>, carry: Vec<f64>| {
+            let k = g0 + ci;
+            let len = o.len();
+            let mut cursors: Vec<Cursor<'_>> = plans
+                .iter()
+                .enumerate()
+                .map(|(j, plan)| {
+                    let (local, c): (&[f64], f64) = match rec_ref.iter().position(|&r| r == j) {
+                        Some(r) => {
+                            let at = ci * stride + r * room;
+                            (&scratch_ref[at..at + len], carry[r])
+                        }
+                        None => (&[], 0.0),
+                    };
+                    Cursor::new(plan, k, len, local, c)
+                })
+                .collect();
+            let mut tmp = [0.0f64; BLOCK_LEN];
+            let mut bad = None;
+            for b0 in (0..len).step_by(BLOCK_LEN) {
+                let b1 = (b0 + BLOCK_LEN).min(len);
+                let ob = &mut o[b0..b1];
+                for (j, cur) in cursors.iter_mut().enumerate() {
+                    if j == 0 && first == First::Assign {
+                        cur.fill(ob);
+                        if let Some(c) = cc.get_mut(0) {
+                            c[b0..b1].copy_from_slice(ob);
+                        }
+                    } else {
+                        let t = &mut tmp[..b1 - b0];
+                        cur.fill(t);
+                        for (x, v) in ob.iter_mut().zip(t.iter()) {
+                            *x += v;
+                        }
+                        if let Some(c) = cc.get_mut(j) {
+                            c[b0..b1].copy_from_slice(t);
                         }
                     }
-                    if bad.is_none() {
-                        bad = ob.iter().position(|v| !v.is_finite()).map(|i| b0 + i);
-                    }
                 }
-                bad.map(|i| lo + ci * CHUNK_LEN + i)
-            })
-            .filter_map(|b| b)
-            .min();
+                if bad.is_none() {
+                    bad = ob.iter().position(|v| !v.is_finite()).map(|i| b0 + i);
+                }
+            }
+            bad.map(|i| lo + ci * CHUNK_LEN + i)
+        };
+        let bad = if parallel {
+            out[lo..hi]
+                .par_chunks_mut(CHUNK_LEN)
+                .zip(comp_chunks.into_par_iter())
+                .zip(into_chunk.into_par_iter())
+                .enumerate()
+                .filter_map(|(ci, ((o, cc), carry))| final_chunk(ci, o, cc, carry))
+                .min()
+        } else {
+            let cc = comp_chunks.pop().unwrap_or_default();
+            let carry = into_chunk.pop().unwrap_or_default();
+            final_chunk(0, &mut out[lo..hi], cc, carry)
+        };
         if first_bad.is_none() {
             first_bad = bad;
         }
@@ -617,16 +633,33 @@ fn run(
 }
 
 /// A zero-filled vector of `len` values, or an error if it cannot be allocated.
+///
+/// Large buffers come from `alloc_zeroed` (fresh zero pages from the OS, no `memset` pass):
+/// on this project's machine writing 80 MB twice (zeroing, then simulating) cost as much as
+/// generating 10^7 normal variates, so the zeroing pass is avoided.
 fn try_zeros(len: usize) -> Result<Vec<f64>> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(len).map_err(|_| {
+    let too_big = || {
         ProcessError::InvalidArgument(format!(
             "cannot allocate {len} samples ({} bytes)",
-            len.saturating_mul(8)
+            len.saturating_mul(std::mem::size_of::<f64>())
         ))
-    })?;
-    v.resize(len, 0.0);
-    Ok(v)
+    };
+    if len == 0 {
+        return Ok(Vec::new());
+    }
+    let layout = std::alloc::Layout::array::<f64>(len).map_err(|_| too_big())?;
+    // SAFETY: `layout` has a non-zero size (len > 0, f64 is 8 bytes). The pointer, if not
+    // null, was allocated by the global allocator with exactly this layout (size
+    // len * size_of::<f64>(), align_of::<f64>()), which is what `Vec<f64>` with capacity
+    // `len` expects; all `len` elements are initialized, because the all-zero bit pattern
+    // is the valid f64 value 0.0.
+    unsafe {
+        let ptr = std::alloc::alloc_zeroed(layout).cast::<f64>();
+        if ptr.is_null() {
+            return Err(too_big());
+        }
+        Ok(Vec::from_raw_parts(ptr, len, len))
+    }
 }
 
 fn check_args(n: usize, rate_hz: f64) -> Result<()> {
@@ -656,7 +689,7 @@ impl Model {
         let mut state = stream_state(seed, stream);
         let mut plans = Vec::with_capacity(processes.len());
         for p in &processes {
-            plans.push(CompPlan::new(Gen::new(p, rate_hz)?, state.clone(), n));
+            plans.push(CompPlan::new(Gen::new(p, rate_hz, n)?, state.clone(), n));
             state.long_jump();
         }
         Ok(plans)
@@ -703,8 +736,10 @@ impl Model {
         seed: u64,
         stream: u64,
     ) -> Result<TimeSeries> {
-        let plans = self.plans(n, rate_hz, seed, stream)?;
+        check_args(n, rate_hz)?;
+        self.processes()?;
         let mut out = try_zeros(n)?;
+        let plans = self.plans(n, rate_hz, seed, stream)?;
         let name = self.to_string();
         if let Some(i) = run(&plans, &mut out, None, First::Assign)? {
             return Err(non_finite(&name, &out, i));
@@ -745,11 +780,13 @@ impl Model {
         seed: u64,
         stream: u64,
     ) -> Result<Simulation> {
-        let plans = self.plans(n, rate_hz, seed, stream)?;
+        check_args(n, rate_hz)?;
+        self.processes()?;
         let mut out = try_zeros(n)?;
-        let mut comps = (0..plans.len())
+        let mut comps = (0..self.len())
             .map(|_| try_zeros(n))
             .collect::<Result<Vec<_>>>()?;
+        let plans = self.plans(n, rate_hz, seed, stream)?;
         let name = self.to_string();
         if let Some(i) = run(&plans, &mut out, Some(&mut comps), First::Assign)? {
             return Err(non_finite(&name, &out, i));
@@ -800,7 +837,7 @@ impl Process {
         for _ in 0..component {
             state.long_jump();
         }
-        let plan = CompPlan::new(Gen::new(self, rate_hz)?, state, out.len());
+        let plan = CompPlan::new(Gen::new(self, rate_hz, out.len())?, state, out.len());
         match run(&[plan], out, None, First::Add)? {
             Some(i) => Err(non_finite(&self.kind().to_string(), out, i)),
             None => Ok(()),
@@ -833,6 +870,14 @@ mod tests {
         for j in [0, 1, 12345, 1 << 40, (1 << 51) - 1, 1 << 51] {
             assert_eq!(f(j), -f(top - j), "j = {j}");
         }
+    }
+
+    #[test]
+    fn impossible_allocations_are_errors() {
+        assert!(try_zeros(usize::MAX / 4).is_err()); // layout overflow
+        assert!(try_zeros(1 << 60).is_err()); // 8 EiB: the allocator refuses
+        assert_eq!(try_zeros(0).unwrap().len(), 0);
+        assert!(try_zeros(3).unwrap().iter().all(|&v| v == 0.0));
     }
 
     #[test]
