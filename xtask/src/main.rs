@@ -5,12 +5,17 @@
 
 use std::process::ExitCode;
 
+mod avar_coverage;
+mod gmwm_report;
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let task = args.first().map(String::as_str).unwrap_or("help");
     let rest = &args[args.len().min(1)..];
     let result: Result<(), String> = match task {
         // tasks: one arm each (keep this list sorted)
+        "avar-coverage" => avar_coverage::run(rest),
+        "gmwm-mc" => gmwm_report::run(rest),
         "help" | "--help" | "-h" => {
             println!("usage: cargo xtask <task> [args]\n\ntasks:");
             for (name, what) in TASKS {
@@ -33,4 +38,6 @@ fn main() -> ExitCode {
 /// Task names and one-line descriptions, for `cargo xtask help`.
 const TASKS: &[(&str, &str)] = &[
     // ("name", "description"),
+    ("avar-coverage", "Monte Carlo coverage of the avar CIs (WN, RW, AR1; all three families)"),
+    ("gmwm-mc", "Monte Carlo bias/RMSE/coverage of the GMWM vs AVLR (issue 5) and bootstrap speed"),
 ];

@@ -31,6 +31,7 @@ pub mod error;
 pub mod gmwm;
 pub mod ieee;
 pub mod inference;
+pub mod report;
 pub mod stats;
 pub mod theory;
 pub mod units;
