@@ -40,17 +40,49 @@ pub const MIN_ID_CLUSTERS: usize = 30;
 /// Greenhall's limit for evaluating the basic sum directly.
 const J_MAX: f64 = 100.0;
 
+/// Width, in standard errors of ρ, of the conservative shift applied before rounding 2ρ
+/// (see [`NoiseId::alpha`]).
+pub const CONSERVATIVE_SE: f64 = 2.0;
+
 /// Result of the lag-1 ACF noise identification.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NoiseId {
-    /// Integer power-law exponent α of the rate PSD S_y ∝ f^α (clamped to −2..=2).
+    /// The exponent used for the EDF: like `alpha_rg` but with ρ shifted up by
+    /// [`CONSERVATIVE_SE`] standard errors (se(r1) ≈ 1/√n for n cluster means) before rounding.
+    /// A lower α gives a smaller EDF (wider interval), so an uncertain identification — few
+    /// clusters at large m — errs toward the wider interval instead of mistaking white FM for
+    /// flicker PM (whose EDF is ten times larger). With many clusters it equals `alpha_rg`.
     pub alpha: i32,
+    /// Plain Riley-Greenhall integer exponent α = −round(2ρ) − 2d of the rate PSD S_y ∝ f^α
+    /// (clamped to −2..=2).
+    pub alpha_rg: i32,
     /// The unrounded estimate p = −2(ρ + d).
     pub alpha_raw: f64,
     /// Number of differencing steps taken.
     pub d: u32,
     /// ρ = r1 / (1 + r1) of the final series.
     pub rho: f64,
+}
+
+impl NoiseId {
+    fn decide(r1: f64, d: u32, n: usize) -> NoiseId {
+        let rho = r1 / (1.0 + r1);
+        let se_rho = (1.0 / (n as f64).sqrt()) / ((1.0 + r1) * (1.0 + r1));
+        let alpha_raw = -2.0 * (rho + d as f64);
+        let di = 2 * d as i32;
+        let alpha_rg = (-(2.0 * rho).round() as i32 - di).clamp(-2, 2);
+        let shifted = (rho + CONSERVATIVE_SE * se_rho).min(0.25);
+        let alpha = (-(2.0 * shifted).round() as i32 - di)
+            .clamp(-2, 2)
+            .min(alpha_rg);
+        NoiseId {
+            alpha,
+            alpha_rg,
+            alpha_raw,
+            d,
+            rho,
+        }
+    }
 }
 
 fn lag1_acf(x: &[f64]) -> f64 {
@@ -102,6 +134,7 @@ pub fn identify_noise(means: &[f64]) -> Option<NoiseId> {
     if means.len() < MIN_ID_CLUSTERS {
         return None;
     }
+    let n_id = means.len();
     let mut x = means.to_vec();
     detrend_linear(&mut x);
     let mut d = 0u32;
@@ -112,14 +145,7 @@ pub fn identify_noise(means: &[f64]) -> Option<NoiseId> {
         }
         let rho = r1 / (1.0 + r1);
         if rho < 0.25 || d >= 2 {
-            let alpha_raw = -2.0 * (rho + d as f64);
-            let alpha = (-(2.0 * rho).round() as i32 - 2 * d as i32).clamp(-2, 2);
-            return Some(NoiseId {
-                alpha,
-                alpha_raw,
-                d,
-                rho,
-            });
+            return Some(NoiseId::decide(r1, d, n_id));
         }
         x = x.windows(2).map(|w| w[1] - w[0]).collect();
         d += 1;
@@ -289,6 +315,7 @@ fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
         return None;
     }
     let inv = cum.factor / m as f64;
+    let n_id = n;
     let y = |i: usize| (c[(i + 1) * m] - c[i * m]) * inv;
     const B: usize = 1 << 14;
     let blocks = n.div_ceil(B);
@@ -353,14 +380,7 @@ fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
         }
         let rho = r1 / (1.0 + r1);
         if rho < 0.25 || d >= 2 {
-            let alpha_raw = -2.0 * (rho + d as f64);
-            let alpha = (-(2.0 * rho).round() as i32 - 2 * d as i32).clamp(-2, 2);
-            return Some(NoiseId {
-                alpha,
-                alpha_raw,
-                d,
-                rho,
-            });
+            return Some(NoiseId::decide(r1, d, n_id));
         }
     }
     None
@@ -371,23 +391,23 @@ fn chi_square(cum: &Cumulative<'_>, config: &AvarConfig, points: &mut [AvarPoint
         .par_iter()
         .map(|p| identify_noise_streaming(cum, p.m as usize))
         .collect();
-    let mut last: Option<i32> = None;
-    let first_known = ids.iter().flatten().next().map(|i| i.alpha);
+    let mut last: Option<(i32, i32)> = None;
+    let first_known = ids.iter().flatten().next().map(|i| (i.alpha, i.alpha_rg));
     let n_phase = cum.t() as u64 + 1;
     for (p, id) in points.iter_mut().zip(ids) {
-        let alpha = match id {
-            Some(id) => id.alpha,
+        let (alpha, alpha_rg) = match id {
+            Some(id) => (id.alpha, id.alpha_rg),
             // too few clusters: reuse the nearest smaller identified scale (white FM if none)
-            None => last.or(first_known).unwrap_or(0),
+            None => last.or(first_known).unwrap_or((0, 0)),
         };
-        last = Some(alpha);
+        last = Some((alpha, alpha_rg));
         let edf = edf_greenhall(
             alpha,
             p.m,
             n_phase,
             config.estimator == Estimator::Overlapping,
         );
-        p.noise_alpha = Some(alpha);
+        p.noise_alpha = Some(alpha_rg);
         if edf.is_finite() && edf > 0.0 {
             p.edf = Some(edf);
             let (lo, hi) = chi2_interval(p.avar, edf, config.alpha);
