@@ -3,6 +3,9 @@
 //! - `one_thread/*`: each process alone and the 4-component composite WN + RW + AR1 + QN at
 //!   n = 10^7 on a 1-thread rayon pool. Targets: WN ≥ 150 M samples/s; the composite's time
 //!   ≤ 1.2 × the sum of its parts' times (compare `composite` with WN + RW + AR1 + QN).
+//! - `into_buffer/*`: the same parts added with `Process::simulate_into` into a reused,
+//!   already-touched buffer on 1 thread: the generator alone, without the cost of a fresh
+//!   80 MB output (kernel page faults, ≈ 3 ns/sample on this VM).
 //! - `large/*` (only with `IMUNOISE_BENCH_LARGE=1`): WN and the composite at n = 10^8 on 1
 //!   and 2 threads. Target: 2 threads ≥ 1.7 × 1 thread.
 //!
@@ -79,6 +82,32 @@ fn one_thread(c: &mut Criterion) {
     group.finish();
 }
 
+fn into_buffer(c: &mut Criterion) {
+    let n = 10_000_000;
+    let pool1 = pool(1);
+    let mut group = c.benchmark_group("into_buffer");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3))
+        .throughput(Throughput::Elements(n as u64));
+    let mut buf = vec![1.0f64; n];
+    for (name, text) in PARTS {
+        let model: Model = text.parse().expect("valid model");
+        let process = model.processes().expect("no slots")[0];
+        group.bench_function(BenchmarkId::new(name, n), |b| {
+            b.iter(|| {
+                pool1.install(|| {
+                    process
+                        .simulate_into(black_box(&mut buf), RATE_HZ, SEED, 0, 0)
+                        .expect("simulates")
+                })
+            })
+        });
+    }
+    group.finish();
+}
+
 fn large(c: &mut Criterion) {
     if std::env::var("IMUNOISE_BENCH_LARGE").as_deref() != Ok("1") {
         return;
@@ -100,5 +129,5 @@ fn large(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, one_thread, large);
+criterion_group!(benches, one_thread, into_buffer, large);
 criterion_main!(benches);

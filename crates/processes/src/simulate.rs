@@ -41,8 +41,9 @@
 //!   e_k; (2) sequentially, the carries C_0 = 0, C_{k+1} = e_k + C_k (RW) or
 //!   e_k + φ^L C_k (AR1); (3) in parallel, X = y + C_k (RW) or X = y + φ^{j+1} C_k for the
 //!   j-th sample of the chunk (AR1), which is the exact solution of the recurrence. The
-//!   powers φ^{j+1} are a running product, and φ^L in (2) is that same product, so a
-//!   chunk's last value is exactly the next chunk's carry.
+//!   powers φ^{j+1} are four running products (lane j mod 4 times φ⁴ per step), and φ^L in
+//!   (2) is the very value lane 3 reaches, so a chunk's last value is exactly the next
+//!   chunk's carry.
 //! - The total is summed in model order: total = ((c_0 + c_1) + c_2) + …, so
 //!   [`Simulation::total`] is bit for bit [`Model::simulate`] and the sum of
 //!   [`Simulation::components`].
@@ -79,6 +80,7 @@ pub const CHUNK_LEN: usize = 1 << 16;
 
 /// Samples per inner block: each component fills a block in turn, so the block stays in L1.
 const BLOCK_LEN: usize = 512;
+const _: () = assert!(BLOCK_LEN.is_multiple_of(LANES) && CHUNK_LEN.is_multiple_of(BLOCK_LEN));
 
 /// Minimum number of chunks per group of the recurrence scheme (the group size does not
 /// change the output; it only keeps the scratch data in cache).
@@ -166,7 +168,7 @@ enum Gen {
     Walk {
         sd: f64,
     },
-    /// `sd0` is the stationary standard deviation, `phi_l` = φ^L by running product.
+    /// `sd0` is the stationary standard deviation, `phi_l` = φ^L as [`ar1_powers`] gives it.
     Ar1 {
         phi: f64,
         sd: f64,
@@ -205,12 +207,15 @@ impl Gen {
     }
 
     fn ar1(phi: f64, v2: f64, stationary: f64, n: usize) -> Self {
-        // φ^L by the same running product the fix-up pass uses (p_1 = φ, p_{j+1} = p_j φ);
-        // only carries between chunks use it, so a single chunk skips the 2^16 products.
+        // φ^L exactly as the fix-up pass reaches it (lane 3 after (L − 1)/4 steps), so the
+        // last value of a chunk is bit for bit the next chunk's carry. Only carries between
+        // chunks use it, so a single chunk skips the 2^14 products.
         let mut phi_l = phi;
         if n > CHUNK_LEN {
-            for _ in 1..CHUNK_LEN {
-                phi_l *= phi;
+            let ([.., p4], step) = ar1_powers(phi);
+            phi_l = p4;
+            for _ in 0..(CHUNK_LEN - 1) / LANES {
+                phi_l *= step;
             }
         }
         Gen::Ar1 {
@@ -241,29 +246,63 @@ impl Gen {
     /// Runs the recurrence of chunk `k` from 0 (chunk 0 of AR1: from the stationary draw)
     /// into `dst`; returns the last value.
     fn local_path(&self, rng: &mut Xoshiro256PlusPlus, k: usize, dst: &mut [f64]) -> f64 {
+        // Draw a block of standard normals in place, then run the recurrence over it: the
+        // two loops are each tight (the running value stays in a register).
         match *self {
             Gen::Walk { sd } => {
                 let mut y = 0.0;
-                for x in dst.iter_mut() {
-                    y += sd * normal(rng);
-                    *x = y;
+                for block in dst.chunks_mut(BLOCK_LEN) {
+                    fill_normals(rng, block);
+                    for x in block.iter_mut() {
+                        y += sd * *x;
+                        *x = y;
+                    }
                 }
                 y
             }
             Gen::Ar1 { phi, sd, sd0, .. } => {
-                let Some((first, rest)) = dst.split_first_mut() else {
-                    return 0.0;
-                };
-                let mut y = if k == 0 { sd0 } else { sd } * normal(rng);
-                *first = y;
-                for x in rest.iter_mut() {
-                    y = phi * y + sd * normal(rng);
-                    *x = y;
+                let mut y = 0.0;
+                for (b, block) in dst.chunks_mut(BLOCK_LEN).enumerate() {
+                    fill_normals(rng, block);
+                    let rest = if b == 0 {
+                        // X_1 of chunk 0 from the stationary law; other chunks start at 0.
+                        y = if k == 0 { sd0 } else { sd } * block[0];
+                        block[0] = y;
+                        &mut block[1..]
+                    } else {
+                        block
+                    };
+                    for x in rest.iter_mut() {
+                        y = phi * y + sd * *x;
+                        *x = y;
+                    }
                 }
                 y
             }
             _ => 0.0,
         }
+    }
+}
+
+/// Independent chains of the AR1 fix-up powers (4 multiplications in flight instead of
+/// one dependent chain).
+const LANES: usize = 4;
+
+/// The powers φ^{j+1} of the AR1 fix-up for the j-th sample of a chunk are kept in
+/// [`LANES`] chains: lane r holds φ^{r+1} at first and is multiplied by φ^4 after each of
+/// its samples (j ≡ r mod 4). Returns the initial lanes [φ, φ², φ³, φ⁴] and the step φ⁴.
+fn ar1_powers(phi: f64) -> ([f64; LANES], f64) {
+    let p2 = phi * phi;
+    let p3 = p2 * phi;
+    let p4 = p3 * phi;
+    ([phi, p2, p3, p4], p4)
+}
+
+/// Fills `dst` with standard normal draws.
+#[inline(always)]
+fn fill_normals(rng: &mut Xoshiro256PlusPlus, dst: &mut [f64]) {
+    for x in dst.iter_mut() {
+        *x = normal(rng);
     }
 }
 
@@ -329,8 +368,9 @@ enum Cursor<'a> {
     Ar1 {
         local: &'a [f64],
         carry: f64,
-        p: f64,
-        phi: f64,
+        /// φ^{j+1} for the next sample of each lane (see [`ar1_powers`]).
+        q: [f64; LANES],
+        step: f64,
         done: bool,
         pos: usize,
     },
@@ -354,14 +394,17 @@ impl<'a> Cursor<'a> {
                 carry,
                 pos: 0,
             },
-            Gen::Ar1 { phi, .. } => Cursor::Ar1 {
-                local,
-                carry,
-                p: phi,
-                phi,
-                done: carry == 0.0,
-                pos: 0,
-            },
+            Gen::Ar1 { phi, .. } => {
+                let (q, step) = ar1_powers(phi);
+                Cursor::Ar1 {
+                    local,
+                    carry,
+                    q,
+                    step,
+                    done: carry == 0.0,
+                    pos: 0,
+                }
+            }
         }
     }
 
@@ -456,8 +499,8 @@ impl<'a> Cursor<'a> {
             Cursor::Ar1 {
                 local,
                 carry,
-                p,
-                phi,
+                q,
+                step,
                 done,
                 pos,
             } => {
@@ -467,16 +510,20 @@ impl<'a> Cursor<'a> {
                     dst.copy_from_slice(src);
                     return;
                 }
-                let (c, f) = (*carry, *phi);
-                let mut q = *p;
-                for (x, y) in dst.iter_mut().zip(src) {
-                    let corr = q * c;
-                    // Once φ^{j+1} C underflows to 0 it stays 0: copy the rest.
-                    *x = if corr == 0.0 { *y } else { y + corr };
-                    q *= f;
+                // Blocks start at multiples of BLOCK_LEN (a multiple of LANES), so sample i
+                // of the block belongs to lane i mod LANES.
+                let (c, st) = (*carry, *step);
+                let mut lanes = *q;
+                for (xs, ys) in dst.chunks_mut(LANES).zip(src.chunks(LANES)) {
+                    for ((x, y), p) in xs.iter_mut().zip(ys).zip(lanes.iter_mut()) {
+                        *x = y + *p * c;
+                        *p *= st;
+                    }
                 }
-                *p = q;
-                if q * c == 0.0 {
+                *q = lanes;
+                // |φ^{j+1} C| only decreases: once every lane gives exactly 0, all later
+                // corrections are 0 and y + 0 = y.
+                if lanes.iter().all(|p| p * c == 0.0) {
                     *done = true;
                 }
             }
