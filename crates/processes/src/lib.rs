@@ -11,6 +11,11 @@
 //! - Parameters are **per sample** (Δt = 1 / rate), except GM's β (1/s) and σ_G²
 //!   (stationary variance). Time index t = 1, 2, …, T.
 //! - Every constructor validates its parameters and returns [`ProcessError`] on bad input.
+//! - Simulation ([`Model::simulate`], [`Model::simulate_components`],
+//!   [`Model::simulate_stream`], [`Process::simulate_into`]) is parallel over fixed chunks
+//!   of [`CHUNK_LEN`] samples with one xoshiro256++ stream per (seed, stream, component,
+//!   chunk), so a seed gives the same bits on any number of threads; AR1/GM and MA1/QN
+//!   start stationary, RW at X_0 = 0 (see [`simulate`] for the scheme).
 //!
 //! ```
 //! use processes::{Model, WhiteNoise, RandomWalk, Ar1};
@@ -18,6 +23,8 @@
 //! assert!(!model.is_stationary()); // a random walk is not stationary
 //! let parsed: Model = model.to_string().parse()?;
 //! assert_eq!(parsed, model);
+//! let x = model.simulate(10_000, 100.0, 42)?; // 10^4 samples at 100 Hz, seed 42
+//! assert_eq!(x, model.simulate(10_000, 100.0, 42)?);
 //! # Ok::<(), processes::ProcessError>(())
 //! ```
 

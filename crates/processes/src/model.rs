@@ -158,7 +158,7 @@ impl Model {
         self.components.iter().all(|c| c.kind().is_stationary())
     }
 
-    /// Mean E[X_t] at time index `t` = 1, 2, …: the sum of the components' means.
+    /// Mean E\[X_t\] at time index `t` = 1, 2, …: the sum of the components' means.
     pub fn mean_at(&self, t: u64) -> Result<f64> {
         Ok(self.processes()?.iter().map(|p| p.mean_at(t)).sum())
     }

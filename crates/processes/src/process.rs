@@ -543,7 +543,7 @@ impl Process {
         }
     }
 
-    /// Mean E[X_t] at time index `t` = 1, 2, … (ω t for drift, 0 otherwise).
+    /// Mean E\[X_t\] at time index `t` = 1, 2, … (ω t for drift, 0 otherwise).
     pub fn mean_at(&self, t: u64) -> f64 {
         match self {
             Process::Drift(d) => d.omega * t as f64,
