@@ -130,27 +130,26 @@ fn numerator_series(m: f64, l: f64) -> (f64, f64) {
 
 /// (a − Lφ)/(L a) = 1/L − φ/a ≥ 0, without cancellation for small L.
 fn q_term(p: &Phi, l: f64) -> f64 {
-    // a − Lφ = 1 − (1+L)e^{−L} = Σ_{k≥2} (−1)^k (k−1) L^k / k!
-    let num = if l < 0.5 {
-        let mut s = 0.0;
-        let mut pow = 1.0; // L^(k−2)
-        let mut fact = 2.0;
-        let mut sign = 1.0;
-        for k in 2..40 {
-            let t = sign * (k as f64 - 1.0) * pow / fact;
-            s += t;
-            if t.abs() < 1e-18 * s.abs() {
-                break;
-            }
-            pow *= l;
-            fact *= (k + 1) as f64;
-            sign = -sign;
+    if l >= 0.5 {
+        return (p.a - l * p.phi) / (l * p.a);
+    }
+    // a − Lφ = 1 − (1+L)e^{−L} = L² Σ_{k≥2} (−1)^k (k−1) L^(k−2) / k!
+    let mut s = 0.0;
+    let mut pow = 1.0; // L^(k−2)
+    let mut fact = 2.0;
+    let mut sign = 1.0;
+    for k in 2..40 {
+        let t = sign * (k as f64 - 1.0) * pow / fact;
+        s += t;
+        if t.abs() < 1e-18 * s.abs() {
+            break;
         }
-        s * l * l
-    } else {
-        p.a - l * p.phi
-    };
-    num / (l * p.a)
+        pow *= l;
+        fact *= (k + 1) as f64;
+        sign = -sign;
+    }
+    // (a − Lφ)/(L a) = s·L/a (no L² that could underflow)
+    s * (l / p.a)
 }
 
 /// φ^m and 1 − φ^m, both accurate (sign-aware, `expm1` near |φ| = 1).

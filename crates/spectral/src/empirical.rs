@@ -334,6 +334,6 @@ fn segment_average(
         psd,
         edf: 2.0 * k_segments as f64 / denom,
         segments: k_segments,
-        even_length: l % 2 == 0,
+        even_length: l.is_multiple_of(2),
     })
 }

@@ -78,7 +78,7 @@ pub(crate) fn check_m(m: u64) -> Result<u64> {
 }
 
 pub(crate) fn check_tau_j(tau_j: u64) -> Result<u64> {
-    if tau_j >= 2 && tau_j % 2 == 0 {
+    if tau_j >= 2 && tau_j.is_multiple_of(2) {
         Ok(tau_j / 2)
     } else {
         Err(SpectralError::InvalidScale(tau_j))

@@ -184,7 +184,7 @@ fn variogram_parts(process: &Process, h: u64, rate: f64) -> (f64, f64) {
                 } else {
                     (-phi).ln()
                 };
-                if h % 2 == 0 {
+                if h.is_multiple_of(2) {
                     -(hf * ln_abs).exp_m1()
                 } else {
                     1.0 + (hf * ln_abs).exp()

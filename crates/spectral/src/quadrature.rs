@@ -159,7 +159,7 @@ fn endpoint_correction(g: &dyn Fn(f64) -> f64, z0: f64, m: f64) -> f64 {
 /// t = π/2 − x, both passed accurately.
 fn discrete_band_integral(spec: &dyn Fn(f64, f64) -> f64, m: u64) -> f64 {
     let mf = m as f64;
-    let even = m % 2 == 0;
+    let even = m.is_multiple_of(2);
     // kernel near x = 0 (x-coordinates) and near π/2 (t-coordinates)
     let fx = |x: f64| {
         let r = (mf * x).sin().powi(2) / x.sin();

@@ -115,3 +115,82 @@ fn gradients_match_finite_differences() {
         }
     }
 }
+
+#[test]
+fn model_gradients_follow_with_params_order() {
+    use processes::Model;
+    use spectral::{
+        model_allan_variance, model_allan_variance_gradient, model_haar_wavelet_variance,
+        model_haar_wavelet_variance_gradient,
+    };
+    let model: Model =
+        "QN(1e-6) + WN(1e-4) + RW(1e-9) + DR(2e-7) + AR1(0.999, 1e-7) + GM(0.05, 1e-6) + MA1(0.4, 1e-5)"
+            .parse()
+            .unwrap();
+    let theta: Vec<f64> = model
+        .processes()
+        .unwrap()
+        .iter()
+        .flat_map(|p| p.params())
+        .collect();
+    for m in [1u64, 16, 4096] {
+        let g = model_allan_variance_gradient(&model, m, RATE).unwrap();
+        let gw = model_haar_wavelet_variance_gradient(&model, 2 * m, RATE).unwrap();
+        assert_eq!(g.len(), theta.len());
+        for k in 0..theta.len() {
+            let mut h = 1e-3 * theta[k].abs();
+            if k == 4 {
+                h = h.min(1e-3 * (1.0 - theta[k])); // φ of the AR1
+            }
+            let f = |v: f64| {
+                let mut t = theta.clone();
+                t[k] = v;
+                model_allan_variance(&model.with_params(&t).unwrap(), m, RATE).unwrap()
+            };
+            let fd = richardson(f, theta[k], h);
+            // truncation O(h⁴) within FINITE_DIFF_REL, plus the FD roundoff ≈ ε|AV|/h
+            let allowed = FINITE_DIFF_REL * g[k].abs() + 10.0 * f64::EPSILON * f(theta[k]) / h;
+            assert!(
+                (g[k] - fd).abs() <= allowed,
+                "m={m} k={k}: {} vs {fd}",
+                g[k]
+            );
+            assert!(rel(gw[k], 0.5 * g[k]) <= SUM_REL || g[k] == 0.0);
+        }
+        let wv = model_haar_wavelet_variance(&model, 2 * m, RATE).unwrap();
+        assert!(rel(wv, 0.5 * model_allan_variance(&model, m, RATE).unwrap()) <= SUM_REL);
+    }
+}
+
+#[test]
+fn extreme_parameters_reach_their_limits() {
+    use processes::GaussMarkov;
+    // φ = 1 − 2^-52: the AR1 is a random walk with γ² = v² up to O(m(1−φ)) relative.
+    let phi = 1.0 - f64::EPSILON;
+    for m in [1u64, 4, 1000] {
+        let p = Process::from(Ar1::new(phi, 1.0).unwrap());
+        let rw = (2.0 * (m * m) as f64 + 1.0) / (6.0 * m as f64);
+        let av = allan_variance(&p, m, 1.0).unwrap();
+        assert!(
+            rel(av, rw) <= 4.0 * m as f64 * f64::EPSILON,
+            "m={m}: {av} vs {rw}"
+        );
+    }
+    // GM with βΔt = 1e-200: AV = σ_G² (1 − φ²) · RW-factor → σ_G² 2L (2m²+1)/(6m),
+    // dAV/dβ → σ_G² Δt 2 (2m²+1)/(6m), dAV/dσ_G² → 2L (2m²+1)/(6m); all to O(mL).
+    let (rate, s2) = (10.0, 3.0);
+    let beta = 1e-200 * rate;
+    let l = beta / rate;
+    for m in [1u64, 64, 1 << 30] {
+        let p = Process::from(GaussMarkov::new(beta, s2).unwrap());
+        let (av, g) = spectral::allan_variance_with_gradient(&p, m, rate).unwrap();
+        let k = (2.0 * (m as f64).powi(2) + 1.0) / (6.0 * m as f64);
+        assert!(rel(av, s2 * 2.0 * l * k) <= SUM_REL, "m={m}: {av:e}");
+        assert!(
+            rel(g[0], s2 * 2.0 * k / rate) <= SUM_REL,
+            "m={m}: dbeta {:e}",
+            g[0]
+        );
+        assert!(rel(g[1], 2.0 * l * k) <= SUM_REL, "m={m}: ds2 {:e}", g[1]);
+    }
+}
