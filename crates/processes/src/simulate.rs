@@ -31,10 +31,13 @@
 //! - The time axis is cut into chunks of [`CHUNK_LEN`] = 2^16 samples; chunk k of component
 //!   c uses the component's state advanced by k `jump`s (2^128 steps each). These states are
 //!   computed sequentially (≈ 1 µs per chunk), then chunks are simulated in parallel.
-//! - QN and MA1 need the previous innovation: chunk k draws U_{s−1}, …, U_{e−2} for its
-//!   samples s..e from its own stream, and its last innovation U_{e−1} is the first draw of
-//!   chunk k + 1's stream, which chunk k + 1 uses as its own U_{s−1}. Every innovation is
-//!   drawn exactly once, and no fix-up is needed.
+//! - QN and MA1 need the previous innovation: a full chunk k draws U_{s−1}, …, U_{e−2} for
+//!   its samples s..e from its own stream, and its last innovation U_{e−1} is the first
+//!   draw of chunk k + 1's stream, which chunk k + 1 uses as its own U_{s−1}. Every
+//!   innovation is drawn exactly once, and no fix-up is needed. The final chunk of a path,
+//!   if partial, draws all its innovations itself.
+//! - Hence simulating fewer samples gives a prefix of a longer simulation (same model, seed
+//!   and stream), for every process.
 //! - RW and AR1/GM are recurrences. Chunks are processed in groups (a few per thread so the
 //!   data stays in cache): (1) in parallel, each chunk runs the recurrence from 0 (for
 //!   chunk 0 of an AR1, from its stationary draw), giving a local path y and its last value
@@ -418,7 +421,14 @@ impl<'a> Cursor<'a> {
         };
         let mut rng = plan.states[k].clone();
         let prev = draw(&mut rng);
-        let ahead = draw(&mut plan.states[k + 1].clone());
+        // A full chunk takes its last innovation from the next chunk's stream; the final,
+        // partial chunk of a path draws all of its own, so a shorter path is a prefix of a
+        // longer one.
+        let (own, ahead) = if len == CHUNK_LEN {
+            (len - 1, draw(&mut plan.states[k + 1].clone()))
+        } else {
+            (len, 0.0)
+        };
         Cursor::Lagged {
             rng,
             quant,
@@ -426,7 +436,7 @@ impl<'a> Cursor<'a> {
             theta,
             prev,
             ahead,
-            own: len - 1,
+            own,
             pos: 0,
         }
     }

@@ -157,6 +157,44 @@ fn different_seeds_streams_and_components_are_independent() {
 }
 
 #[test]
+fn shorter_paths_are_prefixes_of_longer_ones() {
+    let model: Model = ALL_KINDS.parse().unwrap();
+    let long = model
+        .simulate_components(3 * CHUNK_LEN + 7, RATE_HZ, 8)
+        .unwrap();
+    for n in [
+        1,
+        2,
+        1000,
+        CHUNK_LEN - 1,
+        CHUNK_LEN,
+        CHUNK_LEN + 1,
+        2 * CHUNK_LEN + 3,
+    ] {
+        let short = model.simulate_components(n, RATE_HZ, 8).unwrap();
+        for (s, l) in short.components.iter().zip(&long.components) {
+            assert_eq!(
+                bits(s.values()),
+                bits(&l.values()[..n]),
+                "{} with n = {n}",
+                s.name()
+            );
+        }
+        assert_eq!(bits(short.total.values()), bits(&long.total.values()[..n]));
+    }
+}
+
+#[test]
+fn gm_is_simulated_as_its_ar1() {
+    let gm = processes::GaussMarkov::new(3.0, 2e-4).unwrap();
+    let ar = gm.to_ar1(RATE_HZ).unwrap();
+    let n = CHUNK_LEN + 100;
+    let x = Model::from(gm).simulate(n, RATE_HZ, 6).unwrap();
+    let y = Model::from(ar).simulate(n, RATE_HZ, 6).unwrap();
+    assert_eq!(bits(x.values()), bits(y.values()));
+}
+
+#[test]
 fn value_stability() {
     // Pins the generator (xoshiro256++ stream derivation, long_jump/jump layout,
     // rand_distr's ziggurat normal, the 52-bit uniform). Changing any of them changes every
@@ -174,7 +212,7 @@ fn value_stability() {
         // QN(1), seed 42, stream 7: X_1, X_2, X_3
         -1.0696600513653967,
         1.9699311124401622,
-        1.0257642824613031,
+        -1.3627318019723824,
     ];
     assert_eq!(got, expected);
 }
