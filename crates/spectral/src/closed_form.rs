@@ -81,7 +81,7 @@ impl Phi {
 }
 
 /// G(L) = N(L)/L³ and G'(L) by their Taylor series (valid for (2m+1)L ≤ [`SERIES_MAX_Y`]).
-fn numerator_series(m: f64, l: f64) -> (f64, f64) {
+fn numerator_series(m: f64, l: f64, grad: bool) -> (f64, f64) {
     // c_k L^(k-3) = 4(m+1)^3 u1^(k-3) − (2m+1)^3 u2^(k-3) − 8m u3^(k-3) − 3 L^(k-3)
     // c_k L^(k-4) = 4(m+1)^4 u1^(k-4) − (2m+1)^4 u2^(k-4) − 16m u3^(k-4) − 3 L^(k-4)
     let (m1, m2) = (m + 1.0, 2.0 * m + 1.0);
@@ -101,7 +101,7 @@ fn numerator_series(m: f64, l: f64) -> (f64, f64) {
         let tg = sign * ck / fact;
         g += tg;
         let mut tgp = 0.0;
-        if k >= 4 {
+        if grad && k >= 4 {
             let ck4 = a4 * q1 - b4 * q2 - 16.0 * m * q3 - 3.0 * q0;
             tgp = sign * ck4 * (k as f64 - 3.0) / fact;
             gp += tgp;
@@ -180,14 +180,17 @@ fn phi_pow(p: &Phi, m: u64) -> (f64, f64) {
 }
 
 /// The AR1 factor F(φ, m) = AV / v² and its derivative dF/dφ.
-fn ar1_factor(p: &Phi, m: u64) -> (f64, f64) {
+fn ar1_factor(p: &Phi, m: u64, grad: bool) -> (f64, f64) {
     let mf = m as f64;
     if let Some(l) = p.l
         && (2.0 * mf + 1.0) * l <= SERIES_MAX_Y
     {
-        let (g, gp) = numerator_series(mf, l);
+        let (g, gp) = numerator_series(mf, l, grad);
         let r = l / p.a;
         let f = g * r * r * r / (mf * mf * p.b);
+        if !grad {
+            return (f, f64::NAN);
+        }
         let f_l = f * (gp / g + 3.0 * q_term(p, l) + p.phi / p.b);
         return (f, -f_l / p.phi);
     }
@@ -202,18 +205,21 @@ fn ar1_factor(p: &Phi, m: u64) -> (f64, f64) {
 }
 
 /// The GM factor H(L, m) = AV / σ_G² and dH/dL, L = βΔt.
-fn gm_factor(l: f64, m: u64) -> (f64, f64) {
+fn gm_factor(l: f64, m: u64, grad: bool) -> (f64, f64) {
     let p = Phi::from_l(l);
     let mf = m as f64;
     if (2.0 * mf + 1.0) * l <= SERIES_MAX_Y {
-        let (g, gp) = numerator_series(mf, l);
+        let (g, gp) = numerator_series(mf, l, grad);
         let r = l / p.a;
         // H = (1 − φ²) F = N / (m² a²) = G L³ / (m² a²)
         let h = g * r * r * l / (mf * mf);
+        if !grad {
+            return (h, f64::NAN);
+        }
         let h_l = h * (gp / g + 3.0 * q_term(&p, l) + p.phi / p.a);
         return (h, h_l);
     }
-    let (f, fp) = ar1_factor(&p, m);
+    let (f, fp) = ar1_factor(&p, m, grad);
     let one_m_phi2 = p.a * p.b;
     // d/dL = −φ d/dφ; d(1 − φ²)/dL = 2φ².
     let h = one_m_phi2 * f;
@@ -221,8 +227,9 @@ fn gm_factor(l: f64, m: u64) -> (f64, f64) {
     (h, h_l)
 }
 
-/// AV and its gradient (in the order of [`Process::params`]) after validation.
-fn av_and_gradient(process: &Process, m: u64, rate_hz: f64) -> Result<(f64, Vec<f64>)> {
+/// AV and its gradient (in the order of [`Process::params`]) after validation; with
+/// `grad = false` only the AV is meaningful (the AR1/GM gradient entries are NaN).
+fn av_and_gradient(process: &Process, m: u64, rate_hz: f64, grad: bool) -> Result<(f64, Vec<f64>)> {
     let rate = check_rate(rate_hz)?;
     let mf = check_m(m)? as f64;
     Ok(match *process {
@@ -246,12 +253,12 @@ fn av_and_gradient(process: &Process, m: u64, rate_hz: f64) -> Result<(f64, Vec<
             (s2 * k, vec![s2 * dk, k])
         }
         Process::Ar1(p) => {
-            let (f, fp) = ar1_factor(&Phi::from_phi(p.phi()), m);
+            let (f, fp) = ar1_factor(&Phi::from_phi(p.phi()), m, grad);
             (p.sigma2() * f, vec![p.sigma2() * fp, f])
         }
         Process::GaussMarkov(g) => {
             let dt = 1.0 / rate;
-            let (h, h_l) = gm_factor(g.beta() * dt, m);
+            let (h, h_l) = gm_factor(g.beta() * dt, m, grad);
             (g.sigma2() * h, vec![g.sigma2() * h_l * dt, h])
         }
     })
@@ -274,7 +281,7 @@ fn av_and_gradient(process: &Process, m: u64, rate_hz: f64) -> Result<(f64, Vec<
 /// # Ok::<(), spectral::SpectralError>(())
 /// ```
 pub fn allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result<f64> {
-    Ok(av_and_gradient(process, m, rate_hz)?.0)
+    Ok(av_and_gradient(process, m, rate_hz, false)?.0)
 }
 
 /// Gradient ∂AV/∂θ of [`allan_variance`] with respect to each parameter, in the order of
@@ -289,7 +296,7 @@ pub fn allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result<f64> {
 /// # Ok::<(), spectral::SpectralError>(())
 /// ```
 pub fn allan_variance_gradient(process: &Process, m: u64, rate_hz: f64) -> Result<Vec<f64>> {
-    Ok(av_and_gradient(process, m, rate_hz)?.1)
+    Ok(av_and_gradient(process, m, rate_hz, true)?.1)
 }
 
 /// Allan variance and its gradient together (one evaluation of the shared terms).
@@ -308,7 +315,7 @@ pub fn allan_variance_with_gradient(
     m: u64,
     rate_hz: f64,
 ) -> Result<(f64, Vec<f64>)> {
-    av_and_gradient(process, m, rate_hz)
+    av_and_gradient(process, m, rate_hz, true)
 }
 
 /// Theoretical AV of a fully specified model: the sum of its components' AVs (book
@@ -346,6 +353,32 @@ pub fn model_allan_variance_gradient(model: &Model, m: u64, rate_hz: f64) -> Res
         g.extend(allan_variance_gradient(&p, m, rate_hz)?);
     }
     Ok(g)
+}
+
+/// [`model_allan_variance`] and [`model_allan_variance_gradient`] in one pass.
+///
+/// ```
+/// use processes::{WhiteNoise, RandomWalk};
+/// use spectral::{model_allan_variance, model_allan_variance_with_gradient};
+/// let model = (WhiteNoise::new(1e-4)? + RandomWalk::new(1e-9)?)?;
+/// let (av, grad) = model_allan_variance_with_gradient(&model, 32, 100.0)?;
+/// assert_eq!(av, model_allan_variance(&model, 32, 100.0)?);
+/// assert_eq!(grad, vec![1.0 / 32.0, (2.0 * 1024.0 + 1.0) / (6.0 * 32.0)]);
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
+pub fn model_allan_variance_with_gradient(
+    model: &Model,
+    m: u64,
+    rate_hz: f64,
+) -> Result<(f64, Vec<f64>)> {
+    let mut s = 0.0;
+    let mut g = Vec::with_capacity(model.n_params());
+    for p in model.processes()? {
+        let (v, d) = av_and_gradient(&p, m, rate_hz, true)?;
+        s += v;
+        g.extend(d);
+    }
+    Ok((s, g))
 }
 
 /// Theoretical Haar wavelet variance ν²(τ_j) of one process at the level scale `tau_j`

@@ -67,7 +67,8 @@ pub mod tolerances;
 pub use closed_form::{
     allan_variance, allan_variance_gradient, allan_variance_with_gradient, haar_wavelet_variance,
     haar_wavelet_variance_gradient, model_allan_variance, model_allan_variance_gradient,
-    model_haar_wavelet_variance, model_haar_wavelet_variance_gradient,
+    model_allan_variance_with_gradient, model_haar_wavelet_variance,
+    model_haar_wavelet_variance_gradient,
 };
 pub use error::{Result, SpectralError};
 pub use lemma42::{
