@@ -28,9 +28,14 @@ fn sample_stats(x: &[f64]) -> (f64, f64, f64) {
 
 fn report(label: &str, series: &TimeSeries, theory: &Model) -> Result<(), ProcessError> {
     let (mean, var, rho1) = sample_stats(series.values());
+    // The total is named by the whole model (printed above); show "sum" instead.
+    let name = if series.name() == theory.to_string() && theory.len() > 1 {
+        "sum"
+    } else {
+        series.name()
+    };
     println!(
-        "{label:<6} {:<34} mean {mean:>9.4} (0)   var {var:>8.4} ({:>7.4})   rho(1) {rho1:>7.4} ({:>7.4})",
-        series.name(),
+        "{label:<4} {name:<28} mean {mean:>8.4} (0)   var {var:>7.4} ({:>7.4})   rho(1) {rho1:>7.4} ({:>7.4})",
         theory.autocovariance(0, RATE_HZ)?,
         theory.autocorrelation(1, RATE_HZ)?,
     );
