@@ -664,7 +664,10 @@ fn run(
                     }
                 }
                 if bad.is_none() {
-                    bad = ob.iter().position(|v| !v.is_finite()).map(|i| b0 + i);
+                    // A branch-free test first (vectorizes); locate only on failure.
+                    if ob.iter().fold(false, |acc, v| acc | !v.is_finite()) {
+                        bad = ob.iter().position(|v| !v.is_finite()).map(|i| b0 + i);
+                    }
                 }
             }
             bad.map(|i| lo + ci * CHUNK_LEN + i)
