@@ -7,7 +7,9 @@
 //!    S_y(f) ∝ f^α. At each scale the noise exponent α is identified by the lag-1
 //!    autocorrelation method of Riley & Greenhall (2004) on the non-overlapping cluster means
 //!    (detrended by a least-squares line, at most 2 differencing steps, α clamped to −2..=2,
-//!    the range where the AV converges), and the EDF is computed with Greenhall & Riley's
+//!    the range where the AV converges; for the EDF the estimate is shifted conservatively by
+//!    [`CONSERVATIVE_SE`] standard errors and interpolated between integer exponents, see
+//!    [`NoiseId::alpha_edf`]), and the EDF is computed with Greenhall & Riley's
 //!    general algorithm (Greenhall 2004, "Uncertainty of stability variances based on finite
 //!    differences": exact basic sum for J <= 100, the published asymptotic tables beyond).
 //!    Identification needs at least [`MIN_ID_CLUSTERS`] cluster means; at larger m the α of the
@@ -40,19 +42,22 @@ pub const MIN_ID_CLUSTERS: usize = 30;
 /// Greenhall's limit for evaluating the basic sum directly.
 const J_MAX: f64 = 100.0;
 
-/// Width, in standard errors of ρ, of the conservative shift applied before rounding 2ρ
-/// (see [`NoiseId::alpha`]).
-pub const CONSERVATIVE_SE: f64 = 2.0;
+/// Width, in standard errors of ρ, of the conservative shift of the exponent used for the EDF
+/// (see [`NoiseId::alpha_edf`]).
+pub const CONSERVATIVE_SE: f64 = 1.5;
 
 /// Result of the lag-1 ACF noise identification.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NoiseId {
-    /// The exponent used for the EDF: like `alpha_rg` but with ρ shifted up by
-    /// [`CONSERVATIVE_SE`] standard errors (se(r1) ≈ 1/√n for n cluster means) before rounding.
-    /// A lower α gives a smaller EDF (wider interval), so an uncertain identification — few
-    /// clusters at large m — errs toward the wider interval instead of mistaking white FM for
-    /// flicker PM (whose EDF is ten times larger). With many clusters it equals `alpha_rg`.
-    pub alpha: i32,
+    /// The real exponent used for the EDF: −2(ρ + k·se_ρ + d) with k = [`CONSERVATIVE_SE`] and
+    /// se_ρ = (1/√n)/(1 + r1)² for n cluster means, clamped to −2..=2 and never above
+    /// `alpha_rg`. A lower α gives a smaller EDF (wider interval), so an uncertain identification
+    /// (few clusters at large m) errs toward the wider interval instead of mistaking white FM
+    /// for flicker PM, whose EDF is up to ten times larger. The EDF is interpolated between
+    /// the neighbouring integer exponents ([`edf_greenhall_real`]), which also softens the
+    /// power-law assumption for spectra between two power laws (e.g. an AR(1) near its
+    /// correlation time).
+    pub alpha_edf: f64,
     /// Plain Riley-Greenhall integer exponent α = −round(2ρ) − 2d of the rate PSD S_y ∝ f^α
     /// (clamped to −2..=2).
     pub alpha_rg: i32,
@@ -71,12 +76,11 @@ impl NoiseId {
         let alpha_raw = -2.0 * (rho + d as f64);
         let di = 2 * d as i32;
         let alpha_rg = (-(2.0 * rho).round() as i32 - di).clamp(-2, 2);
-        let shifted = (rho + CONSERVATIVE_SE * se_rho).min(0.25);
-        let alpha = (-(2.0 * shifted).round() as i32 - di)
-            .clamp(-2, 2)
-            .min(alpha_rg);
+        let alpha_edf = (-2.0 * (rho + CONSERVATIVE_SE * se_rho + d as f64))
+            .clamp(-2.0, 2.0)
+            .min(alpha_rg as f64);
         NoiseId {
-            alpha,
+            alpha_edf,
             alpha_rg,
             alpha_raw,
             d,
@@ -126,9 +130,9 @@ fn detrend_linear(x: &mut [f64]) {
 /// let mut s = 1u64; let mut acc = 0.0;
 /// let rw: Vec<f64> = (0..2000).map(|_| { s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
 ///     acc += (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5; acc }).collect();
-/// assert_eq!(identify_noise(&rw).unwrap().alpha, -2);
+/// assert_eq!(identify_noise(&rw).unwrap().alpha_rg, -2);
 /// let white: Vec<f64> = rw.windows(2).map(|w| w[1] - w[0]).collect();
-/// assert_eq!(identify_noise(&white).unwrap().alpha, 0);
+/// assert_eq!(identify_noise(&white).unwrap().alpha_rg, 0);
 /// ```
 pub fn identify_noise(means: &[f64]) -> Option<NoiseId> {
     if means.len() < MIN_ID_CLUSTERS {
@@ -286,6 +290,32 @@ pub fn edf_greenhall(alpha: i32, m: u64, n_phase: u64, overlapping: bool) -> f64
     1.0 / inv
 }
 
+/// [`edf_greenhall`] at a real exponent: log-linear interpolation between the neighbouring
+/// integer exponents (α clamped to −2..=2).
+///
+/// ```
+/// use avar::ci::{edf_greenhall, edf_greenhall_real};
+/// assert_eq!(edf_greenhall_real(-1.0, 64, 10_001, true), edf_greenhall(-1, 64, 10_001, true));
+/// let mid = edf_greenhall_real(-0.5, 64, 10_001, true);
+/// let geo = (edf_greenhall(-1, 64, 10_001, true) * edf_greenhall(0, 64, 10_001, true)).sqrt();
+/// assert!((mid / geo - 1.0).abs() < 1e-12);
+/// ```
+pub fn edf_greenhall_real(alpha: f64, m: u64, n_phase: u64, overlapping: bool) -> f64 {
+    let a = if alpha.is_nan() {
+        0.0
+    } else {
+        alpha.clamp(-2.0, 2.0)
+    };
+    let lo = a.floor();
+    let w = a - lo;
+    let e_lo = edf_greenhall(lo as i32, m, n_phase, overlapping);
+    if w == 0.0 {
+        return e_lo;
+    }
+    let e_hi = edf_greenhall(lo as i32 + 1, m, n_phase, overlapping);
+    (e_lo.ln() * (1.0 - w) + e_hi.ln() * w).exp()
+}
+
 /// Fills the CI fields of `points` according to `config.ci`.
 pub(crate) fn apply(
     cum: &Cumulative<'_>,
@@ -391,17 +421,21 @@ fn chi_square(cum: &Cumulative<'_>, config: &AvarConfig, points: &mut [AvarPoint
         .par_iter()
         .map(|p| identify_noise_streaming(cum, p.m as usize))
         .collect();
-    let mut last: Option<(i32, i32)> = None;
-    let first_known = ids.iter().flatten().next().map(|i| (i.alpha, i.alpha_rg));
+    let mut last: Option<(f64, i32)> = None;
+    let first_known = ids
+        .iter()
+        .flatten()
+        .next()
+        .map(|i| (i.alpha_edf, i.alpha_rg));
     let n_phase = cum.t() as u64 + 1;
     for (p, id) in points.iter_mut().zip(ids) {
         let (alpha, alpha_rg) = match id {
-            Some(id) => (id.alpha, id.alpha_rg),
+            Some(id) => (id.alpha_edf, id.alpha_rg),
             // too few clusters: reuse the nearest smaller identified scale (white FM if none)
-            None => last.or(first_known).unwrap_or((0, 0)),
+            None => last.or(first_known).unwrap_or((0.0, 0)),
         };
         last = Some((alpha, alpha_rg));
-        let edf = edf_greenhall(
+        let edf = edf_greenhall_real(
             alpha,
             p.m,
             n_phase,
@@ -503,7 +537,7 @@ mod tests {
                     .collect();
                 let a = identify_noise(&means).unwrap();
                 let b = identify_noise_streaming(&cum, m).unwrap();
-                assert_eq!((a.alpha, a.d), (b.alpha, b.d), "m={m}");
+                assert_eq!((a.alpha_rg, a.d), (b.alpha_rg, b.d), "m={m}");
                 assert!(
                     (a.rho - b.rho).abs() < 1e-9,
                     "m={m}: {} vs {}",
