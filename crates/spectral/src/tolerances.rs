@@ -45,3 +45,7 @@ pub const GAUSS_LEGENDRE_REL: f64 = 1e-14;
 /// m = 2..64): the relative SE of each AV estimate is ≤ ≈ 0.013 (m = 64, N/m = 16384), so
 /// log AD errors ≤ ≈ 0.007 and the fitted slope/intercept errors ≤ ≈ 0.005; 0.05 is ≈ 10 SE.
 pub const MC_LOG_AD_ABS: f64 = 0.05;
+
+/// Number of standard errors allowed in Monte Carlo checks whose SE is computed in the
+/// test (false-alarm probability < 1e-6 for a Gaussian statistic).
+pub const MC_Z: f64 = 5.0;

@@ -69,3 +69,29 @@ fn welch_psd_of_simulated_ar1_covers_the_theoretical_psd() {
     );
     assert!(coverage >= WELCH_MIN_COVERAGE, "coverage {coverage}");
 }
+
+#[test]
+fn periodogram_of_white_noise_is_flat_at_sigma2_dt() {
+    use processes::WhiteNoise;
+    use spectral::empirical::periodogram;
+    use spectral::tolerances::MC_Z;
+    let (sigma2, rate, n) = (2.0, 50.0, 1usize << 16);
+    let x = Model::from(Process::from(WhiteNoise::new(sigma2).unwrap()))
+        .simulate(n, rate, 99)
+        .unwrap()
+        .into_values();
+    let p = periodogram(&x, rate).unwrap();
+    assert_eq!(p.frequencies_hz.len(), n / 2 + 1);
+    assert_eq!(p.frequencies_hz[n / 2], rate / 2.0);
+    // interior bins: independent S·χ²₂/2 with S = σ²Δt (mean removal does not touch k ≠ 0)
+    let interior = &p.psd[1..n / 2];
+    let k = interior.len() as f64;
+    let mean = interior.iter().sum::<f64>() / k;
+    let s = sigma2 / rate;
+    let se = s / k.sqrt();
+    assert!(
+        (mean - s).abs() <= MC_Z * se,
+        "mean {mean} vs {s} (SE {se})"
+    );
+    assert_eq!(p.edf, 2.0);
+}
