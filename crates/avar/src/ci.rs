@@ -370,40 +370,51 @@ fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
     let sxx = nf * (nf * nf - 1.0) / 12.0;
     let slope = if sxx > 0.0 { sty / sxx } else { 0.0 };
     let r = |i: usize| y(i) - (ym + slope * (i as f64 - tm));
-    // x^(d)_i = Δ^d r_i, i = 0..n−d
-    let xd = |d: u32, i: usize| match d {
-        0 => r(i),
-        1 => r(i + 1) - r(i),
-        _ => r(i + 2) - 2.0 * r(i + 1) + r(i),
-    };
-    for d in 0..=2u32 {
-        let len = n - d as usize;
-        // mean of the differenced residuals (the residuals themselves have mean 0)
-        let mu = match d {
-            0 => 0.0,
-            1 => (r(n - 1) - r(0)) / (len as f64),
-            _ => ((r(n - 1) - r(n - 2)) - (r(1) - r(0))) / (len as f64),
-        };
-        let lb = len.div_ceil(B);
-        let parts: Vec<(f64, f64)> = (0..lb)
-            .into_par_iter()
-            .map(|b| {
-                let (mut num, mut den) = (0.0, 0.0);
-                let end = ((b + 1) * B).min(len);
-                let mut prev = xd(d, b * B) - mu;
-                for i in b * B..end {
-                    den += prev * prev;
+    // one pass for all three differencing levels: per block, the lag-1 products and squares of
+    // x^(d) − μ_d for d = 0, 1, 2 (μ_d from the end points: the residuals have mean 0)
+    let mu = [
+        0.0,
+        (r(n - 1) - r(0)) / (n - 1) as f64,
+        ((r(n - 1) - r(n - 2)) - (r(1) - r(0))) / (n - 2) as f64,
+    ];
+    let parts: Vec<[f64; 6]> = (0..blocks)
+        .into_par_iter()
+        .map(|b| {
+            let mut acc = [0.0f64; 6];
+            let lo = b * B;
+            let end = ((b + 1) * B).min(n);
+            // residuals r_lo .. r_{end+2} (clipped at n), each computed once
+            let rb: Vec<f64> = (lo..(end + 3).min(n)).map(r).collect();
+            for (d, &mu_d) in mu.iter().enumerate() {
+                let len = n - d;
+                let end_d = end.min(len);
+                if lo >= end_d {
+                    continue;
+                }
+                let x = |i: usize| {
+                    let j = i - lo;
+                    match d {
+                        0 => rb[j],
+                        1 => rb[j + 1] - rb[j],
+                        _ => rb[j + 2] - 2.0 * rb[j + 1] + rb[j],
+                    }
+                };
+                let mut prev = x(lo) - mu_d;
+                for i in lo..end_d {
+                    acc[2 * d + 1] += prev * prev;
                     if i + 1 < len {
-                        let next = xd(d, i + 1) - mu;
-                        num += prev * next;
+                        let next = x(i + 1) - mu_d;
+                        acc[2 * d] += prev * next;
                         prev = next;
                     }
                 }
-                (num, den)
-            })
-            .collect();
-        let num: f64 = parts.iter().map(|p| p.0).sum();
-        let den: f64 = parts.iter().map(|p| p.1).sum();
+            }
+            acc
+        })
+        .collect();
+    for d in 0..=2u32 {
+        let num: f64 = parts.iter().map(|p| p[2 * d as usize]).sum();
+        let den: f64 = parts.iter().map(|p| p[2 * d as usize + 1]).sum();
         let r1 = num / den;
         if !r1.is_finite() {
             return None;
