@@ -754,7 +754,11 @@ impl Problem {
                 kd => Some(shape(kd, 0.0, &self.m, self.rate, self.factor)),
             })
             .collect();
+        let is_diag = (0..j).all(|a| (0..j).all(|b| a == b || self.w[(a, b)] == 0.0));
         let whiten = |g: &[f64]| -> Vec<f64> {
+            if is_diag {
+                return (0..j).map(|a| self.w[(a, a)] * g[a]).collect();
+            }
             let v = Mat::from_fn(j, 1, |a, _| g[a]);
             let w = &self.w * &v;
             (0..j).map(|a| w[(a, 0)]).collect()
@@ -965,8 +969,9 @@ pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<Gmwm
             .map(|a| f * comps.iter().map(|c| c[a]).sum::<f64>())
             .collect();
         let prob2 = build_problem(curve, kinds.clone(), opts, Some(&reference))?;
+        // start from the first-step solution, then from the grid's other candidates
         let mut starts2 = vec![th1];
-        starts2.extend(prob2.starts(opts.n_starts));
+        starts2.extend(starts.into_iter().skip(1));
         let (eta2, mut conv2) = prob2.run(&starts2, opts.max_iter)?;
         conv2.iterations += conv.iterations;
         eta = eta2;

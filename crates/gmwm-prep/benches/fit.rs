@@ -1,0 +1,33 @@
+//! Speed of one GMWM fit (acceptance: a 6-component model on 20 scales in ≤ 20 ms).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use gmwm_prep::gmwm::{GmwmOptions, fit};
+use gmwm_prep::{AvCurve, theory::model_avar};
+use processes::Model;
+use std::hint::black_box;
+
+fn bench_fit(c: &mut Criterion) {
+    let truth: Model = "QN(q2=1e-6) + WN(sigma2=1e-4) + RW(gamma2=1e-12) + DR(omega=1e-9) \
+                        + AR1(phi=0.99, sigma2=1e-8) + AR1(phi=0.9995, sigma2=1e-10)"
+        .parse()
+        .unwrap();
+    let m: Vec<u64> = (1..=20).map(|j| 1u64 << j).collect();
+    // the exact curve with a deterministic ±5 % ripple, so the minimum is not at zero
+    let av: Vec<f64> = model_avar(&truth, &m, 100.0)
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(j, v)| v * (1.0 + 0.05 * (j as f64 * 1.7).sin()))
+        .collect();
+    let curve = AvCurve::from_m(&m, &av, 100.0).unwrap().with_n(1 << 22);
+    let template = truth.template();
+    let opts = GmwmOptions::default();
+    let f = fit(&curve, &template, &opts).unwrap();
+    eprintln!("fit: {} — {:?}", f.model, f.convergence);
+    c.bench_function("gmwm fit QN+WN+RW+DR+2*AR1 on 20 scales", |b| {
+        b.iter(|| fit(black_box(&curve), black_box(&template), black_box(&opts)).unwrap())
+    });
+}
+
+criterion_group!(benches, bench_fit);
+criterion_main!(benches);
