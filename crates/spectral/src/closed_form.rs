@@ -182,6 +182,19 @@ fn phi_pow(p: &Phi, m: u64) -> (f64, f64) {
 /// The AR1 factor F(φ, m) = AV / v² and its derivative dF/dφ.
 fn ar1_factor(p: &Phi, m: u64, grad: bool) -> (f64, f64) {
     let mf = m as f64;
+    if p.phi <= -0.5 && m.is_multiple_of(2) && mf * p.b < 1.0 {
+        // Even m, φ = −ψ near −1 (m(1+φ) < 1): N(−ψ) = 2m(1−ψ²) − N(ψ) gives
+        // F(−ψ) = (2/m − (1−ψ)² F(ψ)) / (1+ψ)², with F(ψ) from the stable φ > 0 branches;
+        // the direct formula would lose ≈ log10(1/(m(1+φ))) digits in dF/dφ there (and
+        // this reflection ≈ log10(m(1+φ)) digits beyond it).
+        let psi = Phi::from_phi(-p.phi);
+        let (fp_, dfp) = ar1_factor(&psi, m, grad);
+        let (a, b) = (psi.a, psi.b);
+        let f = (2.0 / mf - a * a * fp_) / (b * b);
+        // dF(−ψ)/dψ = (2aF(ψ) − a²F'(ψ))/(1+ψ)² − 2F(−ψ)/(1+ψ); d/dφ = −d/dψ
+        let dpsi = (2.0 * a * fp_ - a * a * dfp) / (b * b) - 2.0 * f / b;
+        return (f, -dpsi);
+    }
     if let Some(l) = p.l
         && (2.0 * mf + 1.0) * l <= SERIES_MAX_Y
     {
@@ -199,8 +212,11 @@ fn ar1_factor(p: &Phi, m: u64, grad: bool) -> (f64, f64) {
     let n = mf * p.a * p.b - phi * e * (2.0 + e);
     let d = mf * mf * p.a * p.a * p.a * p.b;
     let f = n / d;
-    let np = -2.0 * mf * phi - 3.0 + 4.0 * (mf + 1.0) * pm - (2.0 * mf + 1.0) * pm * pm;
-    let fp = np / d - f * (1.0 / p.b - 3.0 / p.a);
+    // F' = (N' − N/b + 3N/a)/D with N' = −2mφ − 3 + 4(m+1)φ^m − (2m+1)φ^2m; the parts
+    // −2mφ − ma of N' − N/b are combined exactly into −mb (they cancel for φ → −1).
+    let t1 = -mf * p.b - 3.0 + 4.0 * (mf + 1.0) * pm - (2.0 * mf + 1.0) * pm * pm
+        + phi * e * (2.0 + e) / p.b;
+    let fp = (t1 + 3.0 * n / p.a) / d;
     (f, fp)
 }
 

@@ -16,7 +16,7 @@
 //!   AV = 4∫_0^∞ sin⁴(πfτ)/(πfτ)² S(f) df, holds as printed — exactly, for the periodic S
 //!   of a sampled process (see [`quadrature`] for why) — and the IEEE reading N²/τ of a
 //!   white noise of PSD N² follows. RW has the generalized spectrum γ²Δt/(4 sin²(πfΔt))
-//!   (∝ 1/f² near 0); DR's spectrum is a distribution ∝ δ''(f) (see [`psd`]).
+//!   (∝ 1/f² near 0); DR's spectrum is a distribution ∝ δ''(f) (see [`mod@psd`]).
 //!
 //! ## The three routes (and the crate's acceptance table, `tests/three_ways.rs`)
 //! | route | function | cost | notes |
@@ -48,7 +48,7 @@
 //! ## Modules
 //! - [`closed_form`]: AV, Haar WV and gradients, per process and per model (Corollary 4.1).
 //! - [`lemma42`]: Lemma 4.2 on an ACF, a semivariogram or a sampled ACV.
-//! - [`psd`]: the PSD of every process and model.
+//! - [`mod@psd`]: the PSD of every process and model.
 //! - [`quadrature`]: Lemma 4.1 in continuous and discrete time.
 //! - [`ambiguity`]: §4.1, Φ(f) = 2Φ(2f) (example `examples/spectral_ambiguity.rs`).
 //! - [`empirical`]: ACV/ACF by FFT (realfft), periodogram, Welch with chi-square CIs.

@@ -1,5 +1,5 @@
 //! The book's Lemma 4.1 by numerical quadrature: AV(τ) = 4∫_0^∞ sin⁴(πfτ)/(πfτ)² S(f) df,
-//! with S the two-sided PSD in unit²/Hz (see [`crate::psd`]).
+//! with S the two-sided PSD in unit²/Hz (see [`mod@crate::psd`]).
 //!
 //! # Continuous time ([`lemma41_allan_variance`])
 //! With u = πfτ the integral is (4/(πτ)) ∫_0^∞ h(u) sin⁴u du, h(u) = S(u/(πτ))/u². It is
@@ -293,7 +293,7 @@ fn finish_discrete(integral: f64, m: u64, rate: f64) -> Result<f64> {
     }
 }
 
-/// Theoretical AV of a process by the Lemma 4.1 quadrature of its PSD ([`crate::psd`]):
+/// Theoretical AV of a process by the Lemma 4.1 quadrature of its PSD ([`crate::psd()`]):
 /// the book's third route, independent of the closed forms and of Lemma 4.2 (except for DR,
 /// whose distributional spectrum is applied analytically — see the module docs). Unit².
 ///
