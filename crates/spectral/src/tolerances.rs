@@ -50,3 +50,6 @@ pub const MC_LOG_AD_ABS: f64 = 0.05;
 /// Number of standard errors allowed in Monte Carlo checks whose SE is computed in the
 /// test (false-alarm probability < 1e-6 for a Gaussian statistic).
 pub const MC_Z: f64 = 5.0;
+
+/// Double-double arithmetic: unit roundoff 2^-104 ≈ 5e-32, a few operations.
+pub const DOUBLE_DOUBLE_REL: f64 = 1e-31;
