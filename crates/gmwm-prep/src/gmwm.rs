@@ -250,6 +250,8 @@ impl GmwmFit {
 
 /// Largest number of AR1/GM grid combinations tried for starting values.
 const MAX_GRID_COMBOS: usize = 4000;
+/// Bound on the unconstrained coordinates: e^{±690} stays a normal f64.
+const ETA_BOUND: f64 = 690.0;
 /// Smallest λ = −ln φ accepted (φ closer to 1 than this is a random walk in disguise).
 const MIN_LAMBDA: f64 = 1e-13;
 
@@ -288,8 +290,16 @@ impl Problem {
     }
 
     /// θ(η) and T = ∂θ/∂η (p×p); None when θ is not admissible.
-    fn theta(&self, eta: &[f64]) -> Option<(Vec<f64>, Mat<f64>)> {
+    fn theta(&self, eta_in: &[f64]) -> Option<(Vec<f64>, Mat<f64>)> {
         let p = self.p;
+        // keep every exp(η) a normal positive number (a vanishing component stays valid)
+        let eta: Vec<f64> = eta_in
+            .iter()
+            .map(|x| x.clamp(-ETA_BOUND, ETA_BOUND))
+            .collect();
+        if eta.iter().any(|x| x.is_nan()) {
+            return None;
+        }
         let mut th = vec![0.0; p];
         let mut t = Mat::<f64>::zeros(p, p);
         let mut chain_lam = 0.0;
