@@ -223,21 +223,25 @@ pub fn lemma42_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result
 
 /// Lemma 4.2 (ACF form) for an AR1 with φ < 0 in double-double arithmetic. With φ near −1
 /// the ACF alternates in sign and the sum's terms exceed its value by a factor up to
-/// ~m²/(1+φ) for even m; ~32 digits keep the result accurate to f64 precision for
-/// m ≤ 2^30 · (1+φ)^(1/2). φ is a double, so φ^h is formed exactly up to dd rounding.
+/// ~m²/(1+φ) for even m; ~32 digits keep the result at f64 precision. φ is a double, so
+/// φ^h is formed exactly up to dd rounding. O(m) time, O(1) memory.
 fn ar1_negative_phi_dd(phi: f64, v2: f64, m: u64) -> f64 {
-    let n = 2 * m as usize;
-    let mut pow = Vec::with_capacity(n + 1);
+    // B = m(1 − ρ_m) + Σ_{i<m} i[2ρ_{m−i} − ρ_i − ρ_{2m−i}], regrouped by lag k so that one
+    // ascending pass with a running power φ^k suffices (O(1) memory):
+    // B = m(1 − ρ_m) + Σ_{k=1}^{m−1} (2m − 3k) ρ_k − Σ_{k=m+1}^{2m−1} (2m − k) ρ_k.
+    let f = Dd::from(phi);
     let mut p = Dd::from(1.0);
-    for _ in 0..=n {
-        pow.push(p);
-        p = p * Dd::from(phi);
-    }
-    let mu = m as usize;
-    let mut b = Dd::from(m as f64) * (Dd::from(1.0) - pow[mu]);
-    for i in 1..mu {
-        let t = Dd::from(2.0) * pow[mu - i] - pow[i] - pow[n - i];
-        b = b + Dd::from(i as f64) * t;
+    let mut b = Dd::from(m as f64);
+    for k in 1..2 * m {
+        p = p * f;
+        let w = if k < m {
+            2.0 * m as f64 - 3.0 * k as f64
+        } else if k == m {
+            -(m as f64)
+        } else {
+            -(2.0 * m as f64 - k as f64)
+        };
+        b = b + Dd::from(w) * p;
     }
     // σ_X² = v² / ((1 − φ)(1 + φ)), with 1 ± φ formed exactly in dd.
     let den = (Dd::from(1.0) - Dd::from(phi)) * (Dd::from(1.0) + Dd::from(phi));
