@@ -1,0 +1,364 @@
+//! The `imunoise` binary on good and bad inputs: one test per error class (exit code 2
+//! and a message naming file, line and column), the JSON shapes, and round trips
+//! (simulate → avar, binary ↔ text).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn imunoise(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_imunoise"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn write(dir: &Path, name: &str, content: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, content).expect("write");
+    p
+}
+
+/// Runs `avar` on a file, expects exit code 2 and returns stderr.
+fn avar_fails(path: &Path, extra: &[&str]) -> String {
+    let mut args = vec!["avar", path.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    if !extra.contains(&"--rate") {
+        args.extend_from_slice(&["--rate", "100"]);
+    }
+    let out = imunoise(&args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert!(out.stdout.is_empty(), "no output on error");
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+/// A valid CSV of `n` rows of two columns (exact values).
+fn good_csv(n: usize) -> String {
+    let mut s = String::from("gyro_x_dps,acc_z_g\n");
+    for i in 0..n {
+        s.push_str(&format!(
+            "{},{}\n",
+            (i % 7) as f64 * 0.25,
+            -1.0 + (i % 3) as f64 * 0.5
+        ));
+    }
+    s
+}
+
+#[test]
+fn non_numeric_cell_names_file_line_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = good_csv(100);
+    s.push_str("0.5,abc\n");
+    let p = write(dir.path(), "bad.csv", s.as_bytes());
+    let err = avar_fails(&p, &[]);
+    // header + 100 rows → the bad row is line 102; "abc" starts at column 5.
+    assert!(err.contains(&format!("{}:102:5:", p.display())), "{err}");
+    assert!(err.contains("abc"), "{err}");
+}
+
+#[test]
+fn ragged_row_names_file_line_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = good_csv(50);
+    s.push_str("1.0\n");
+    s.push_str(&good_csv(10)[19..]);
+    let p = write(dir.path(), "ragged.csv", s.as_bytes());
+    let err = avar_fails(&p, &[]);
+    assert!(err.contains(&format!("{}:52:4:", p.display())), "{err}");
+    assert!(err.contains("ragged row: 1 cells"), "{err}");
+}
+
+#[test]
+fn nan_and_infinity_name_file_line_column() {
+    let dir = tempfile::tempdir().unwrap();
+    for (bad, col) in [("nan", 6), ("inf", 6), ("1e999", 6)] {
+        let mut s = good_csv(20);
+        s.push_str(&format!("0.25,{bad}\n"));
+        let p = write(dir.path(), "nan.csv", s.as_bytes());
+        let err = avar_fails(&p, &[]);
+        assert!(err.contains(&format!("{}:22:{col}:", p.display())), "{err}");
+        assert!(err.contains("not a finite number"), "{err}");
+    }
+    // Binary input: row and channel.
+    let mut bytes: Vec<u8> = (0..40).flat_map(|i| (i as f64).to_le_bytes()).collect();
+    bytes[8 * 13..8 * 14].copy_from_slice(&f64::NAN.to_le_bytes());
+    let p = write(dir.path(), "nan.f64", &bytes);
+    let err = avar_fails(&p, &["--binary", "f64", "--channels", "2"]);
+    // value 13 is row 7, channel 2
+    assert!(err.contains(&format!("{}:7:2:", p.display())), "{err}");
+}
+
+#[test]
+fn empty_files_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, content) in [
+        ("empty.csv", &b""[..]),
+        ("header_only.csv", &b"a,b\n"[..]),
+        ("blank.csv", &b"\n\n  \n"[..]),
+    ] {
+        let p = write(dir.path(), name, content);
+        let err = avar_fails(&p, &[]);
+        assert!(err.contains(&p.display().to_string()), "{err}");
+        assert!(err.contains("empty"), "{err}");
+    }
+}
+
+#[test]
+fn missing_or_nonpositive_rate_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "ok.csv", good_csv(100).as_bytes());
+    let out = imunoise(&["avar", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--rate"));
+    for rate in ["0", "-5", "nan", "inf", "fast"] {
+        let err = avar_fails(&p, &["--rate", rate]);
+        assert!(err.contains("--rate"), "{rate}: {err}");
+    }
+}
+
+#[test]
+fn too_few_samples_for_any_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "short.csv", b"x\n1\n2\n3\n");
+    let err = avar_fails(&p, &[]);
+    assert!(err.contains(&p.display().to_string()), "{err}");
+    assert!(err.contains("too few samples"), "{err}");
+    // Enough for the estimator, but no dyadic scale fits (2^(j+1) < T fails for j = 1).
+    let p = write(dir.path(), "four.csv", b"x\n1\n2\n3\n5\n");
+    let err = avar_fails(&p, &[]);
+    assert!(err.contains(&p.display().to_string()), "{err}");
+}
+
+#[test]
+fn avar_json_shape_and_ci_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "ok.csv", good_csv(1000).as_bytes());
+    let run = |ci: &str| {
+        let out = imunoise(&[
+            "avar",
+            p.to_str().unwrap(),
+            "--rate",
+            "50",
+            "--format",
+            "json",
+            "--ci",
+            ci,
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let doc = run("chi2");
+    let obj = doc.as_object().unwrap();
+    assert_eq!(obj.keys().collect::<Vec<_>>(), ["channels"]);
+    let ch = &doc["channels"][0];
+    let mut keys: Vec<&String> = ch.as_object().unwrap().keys().collect();
+    keys.sort();
+    assert_eq!(keys, ["estimator", "n", "name", "points", "rate_hz"]);
+    assert_eq!(ch["name"], "gyro_x_dps");
+    assert_eq!(ch["n"], 1000);
+    assert_eq!(ch["rate_hz"], 50.0);
+    let pts = ch["points"].as_array().unwrap();
+    // T = 1000: m = 2^j while 2^(j+1) < 1000, j = 1..=8.
+    assert_eq!(pts.len(), 8);
+    let p0 = pts[0].as_object().unwrap();
+    let mut pk: Vec<&String> = p0.keys().collect();
+    pk.sort();
+    assert_eq!(
+        pk,
+        [
+            "adev", "avar", "avar_hi", "avar_lo", "edf", "m", "n_terms", "tau"
+        ]
+    );
+    assert_eq!(pts[0]["m"], 2);
+    assert_eq!(pts[0]["tau"], 0.04);
+    assert_eq!(pts[0]["n_terms"], 997);
+    assert!(pts[0]["avar_lo"].as_f64().unwrap() < pts[0]["avar"].as_f64().unwrap());
+    let doc = run("none");
+    for p in doc["channels"][1]["points"].as_array().unwrap() {
+        assert!(p["avar_lo"].is_null() && p["avar_hi"].is_null() && p["edf"].is_null());
+        assert!(p["avar"].as_f64().unwrap() > 0.0);
+    }
+}
+
+/// The AV of a period-7 sawtooth has a closed value at m = 7: every cluster mean is the
+/// same (the mean over a whole period), so AV(7) = 0 exactly up to rounding, while m = 1 on
+/// a sequence 0, .25, …, 1.5 gives Σ(Δ²)/(2(T−1)) computed here independently.
+#[test]
+fn avar_values_from_text_and_binary_agree_with_hand_computation() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 700;
+    let x: Vec<f64> = (0..n).map(|i| (i % 7) as f64 * 0.25).collect();
+    let text: String = std::iter::once("x\n".to_string())
+        .chain(x.iter().map(|v| format!("{v}\n")))
+        .collect();
+    let pt = write(dir.path(), "x.txt", text.as_bytes());
+    let bytes: Vec<u8> = x.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let pb = write(dir.path(), "x.f64", &bytes);
+    let get = |args: &[&str]| {
+        let out = imunoise(args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let a = get(&[
+        "avar",
+        pt.to_str().unwrap(),
+        "-r",
+        "1",
+        "--scales",
+        "1,7",
+        "-f",
+        "json",
+        "--ci",
+        "none",
+    ]);
+    let b = get(&[
+        "avar",
+        pb.to_str().unwrap(),
+        "-r",
+        "1",
+        "--scales",
+        "1,7",
+        "-f",
+        "json",
+        "--ci",
+        "none",
+        "--binary",
+        "f64",
+    ]);
+    let expect1: f64 =
+        x.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (n - 1) as f64);
+    for doc in [&a, &b] {
+        let p = &doc["channels"][0]["points"];
+        assert!((p[0]["avar"].as_f64().unwrap() - expect1).abs() < 1e-12 * expect1);
+        assert!(p[1]["avar"].as_f64().unwrap().abs() < 1e-20);
+    }
+    assert_eq!(b["channels"][0]["name"], "ch1");
+    assert_eq!(a["channels"][0]["name"], "x");
+}
+
+#[test]
+fn simulate_csv_and_f64_round_trip_through_avar() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("sim.csv");
+    let f64p = dir.path().join("sim.f64");
+    let model = "WN(sigma2=1e-4)+RW(gamma2=1e-10)";
+    for p in [&csv, &f64p] {
+        let out = imunoise(&[
+            "simulate",
+            "--model",
+            model,
+            "-n",
+            "20000",
+            "--rate",
+            "100",
+            "--seed",
+            "3",
+            "--channels",
+            "2",
+            "-o",
+            p.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let header = std::fs::read_to_string(&csv).unwrap();
+    assert!(header.starts_with("ch1,ch2\n"));
+    assert_eq!(header.lines().count(), 20_001);
+    assert_eq!(std::fs::metadata(&f64p).unwrap().len(), 20_000 * 2 * 8);
+    let get = |args: &[&str]| {
+        let out = imunoise(args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let a = get(&["avar", csv.to_str().unwrap(), "-r", "100", "-f", "json"]);
+    let b = get(&[
+        "avar",
+        f64p.to_str().unwrap(),
+        "-r",
+        "100",
+        "-f",
+        "json",
+        "--binary",
+        "f64",
+        "--channels",
+        "2",
+    ]);
+    // CSV holds shortest round-trip decimals, so both inputs are the same numbers.
+    assert_eq!(a["channels"][1]["points"], b["channels"][1]["points"]);
+    // Independent channels differ.
+    assert_ne!(
+        a["channels"][0]["points"][0]["avar"],
+        a["channels"][1]["points"][0]["avar"]
+    );
+}
+
+#[test]
+fn theory_json_shape_and_closed_forms() {
+    let out = imunoise(&[
+        "theory",
+        "--model",
+        "WN(sigma2=1e-4)+RW(gamma2=1e-10)",
+        "--rate",
+        "100",
+        "--scales",
+        "1,10",
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(doc["rate_hz"], 100.0);
+    let pts = doc["points"].as_array().unwrap();
+    assert_eq!(pts.len(), 2);
+    // REFERENCES §2: WN σ²/m, RW γ²(2m²+1)/(6m); at m = 10: 1e-5 + 1e-10·201/60.
+    let m10 = 1e-5 + 1e-10 * 201.0 / 60.0;
+    assert!((pts[1]["avar"].as_f64().unwrap() - m10).abs() < 1e-15 * m10 * 10.0);
+    assert_eq!(pts[1]["tau"], 0.1);
+    let comps = doc["components"].as_array().unwrap();
+    assert_eq!(comps.len(), 2);
+    assert!(comps[0]["name"].as_str().unwrap().starts_with("WN"));
+    assert_eq!(comps[0]["points"][1]["avar"], 1e-5);
+}
+
+#[test]
+fn help_of_every_subcommand_has_an_example() {
+    for sub in ["avar", "simulate", "theory", "demo"] {
+        let out = imunoise(&[sub, "--help"]);
+        assert!(out.status.success());
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains("Examples:"), "{sub}: {text}");
+        assert!(text.contains(&format!("imunoise {sub}")), "{sub}");
+    }
+}
+
+#[test]
+fn bad_model_and_unknown_column_are_user_errors() {
+    let out = imunoise(&["theory", "--model", "WN(sigma2=-1)", "--rate", "1"]);
+    assert_eq!(out.status.code(), Some(2));
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "ok.csv", good_csv(100).as_bytes());
+    let err = avar_fails(&p, &["--columns", "nope"]);
+    assert!(err.contains("nope") && err.contains("gyro_x_dps"), "{err}");
+}
