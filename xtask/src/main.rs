@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 mod avar_coverage;
 mod gmwm_report;
+mod spectral_report;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -16,6 +17,7 @@ fn main() -> ExitCode {
         // tasks: one arm each (keep this list sorted)
         "avar-coverage" => avar_coverage::run(rest),
         "gmwm-mc" => gmwm_report::run(rest),
+        "spectral-table" => spectral_report::run(rest),
         "help" | "--help" | "-h" => {
             println!("usage: cargo xtask <task> [args]\n\ntasks:");
             for (name, what) in TASKS {
@@ -40,4 +42,5 @@ const TASKS: &[(&str, &str)] = &[
     // ("name", "description"),
     ("avar-coverage", "Monte Carlo coverage of the avar CIs (WN, RW, AR1; all three families)"),
     ("gmwm-mc", "Monte Carlo bias/RMSE/coverage of the GMWM vs AVLR (issue 5) and bootstrap speed"),
+    ("spectral-table", "spectral: closed form vs Lemma 4.2 vs Lemma 4.1 quadrature table (README)"),
 ];
