@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use crate::error::AvarError;
 
 /// Width of the fixed grid of k-chunks (terms) that partial sums are formed on.
-pub(crate) const CHUNK: usize = 1 << 16;
+pub(crate) const CHUNK: usize = 1 << 14;
 /// Width of the chunks used when building the cumulative sum.
 const PCHUNK: usize = 1 << 16;
 /// Number of independent accumulator lanes in the inner loops.
