@@ -6,6 +6,7 @@
 use std::process::ExitCode;
 
 mod avar_coverage;
+mod avar_speed;
 mod gmwm_report;
 mod spectral_report;
 
@@ -16,6 +17,7 @@ fn main() -> ExitCode {
     let result: Result<(), String> = match task {
         // tasks: one arm each (keep this list sorted)
         "avar-coverage" => avar_coverage::run(rest),
+        "avar-speed" => avar_speed::run(rest),
         "gmwm-mc" => gmwm_report::run(rest),
         "spectral-table" => spectral_report::run(rest),
         "help" | "--help" | "-h" => {
@@ -41,6 +43,7 @@ fn main() -> ExitCode {
 const TASKS: &[(&str, &str)] = &[
     // ("name", "description"),
     ("avar-coverage", "Monte Carlo coverage of the avar CIs (WN, RW, AR1; all three families)"),
+    ("avar-speed", "MOAV speed: avar vs one pass vs allantools oadev (venv in target/venv)"),
     ("gmwm-mc", "Monte Carlo bias/RMSE/coverage of the GMWM vs AVLR (issue 5) and bootstrap speed"),
     ("spectral-table", "spectral: closed form vs Lemma 4.2 vs Lemma 4.1 quadrature table (README)"),
 ];

@@ -1,0 +1,264 @@
+//! `cargo xtask avar-speed [--sizes 1e6,1e7,1e8] [--python PATH] [--all-n 1e6]`: the MOAV speed
+//! report of issue 4, run in one go on this machine.
+//!
+//! For each size T the same synthetic rate series (white noise around an offset, written to
+//! `target/avar-speed/`) is processed by
+//! * `avar` at the book's dyadic scales (no CI; and with the default chi-square CI), with the
+//!   default thread pool and with one thread;
+//! * one vectorised streaming pass summing the array (the memory-bandwidth baseline);
+//! * allantools `oadev(..., data_type="freq", taus="octave")` in a Python venv (created with
+//!   `python3 -m venv target/venv && target/venv/bin/pip install allantools`), whose OADEV values
+//!   are also compared with ours (an independent implementation);
+//! * "all m" (m = 1..T/2) on `--all-n` samples by `avar`.
+//!
+//! Times are the best of three runs (allantools: one run at 1e8). Peak memory is the process
+//! high-water mark (VmHWM), which includes the input array.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use avar::{AvarConfig, CiMethod, Scales, allan_variance};
+
+fn arg(args: &[String], name: &str) -> Option<String> {
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|i| args.get(i + 1).cloned())
+}
+
+fn data(n: usize) -> Vec<f64> {
+    let mut s = 0x9E37_79B9_7F4A_7C15u64;
+    (0..n)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            1e-3 + ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 1e-6
+        })
+        .collect()
+}
+
+fn best_of<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut best = f64::INFINITY;
+    let mut out = None;
+    for _ in 0..reps {
+        let t = Instant::now();
+        let r = f();
+        best = best.min(t.elapsed().as_secs_f64());
+        out = Some(r);
+    }
+    (best, out.expect("reps >= 1"))
+}
+
+fn vm_hwm_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines().find(|l| l.starts_with("VmHWM")).and_then(|l| {
+                l.split_whitespace()
+                    .nth(1)
+                    .and_then(|v| v.parse::<f64>().ok())
+            })
+        })
+        .map(|kb| kb / 1024.0)
+        .unwrap_or(f64::NAN)
+}
+
+fn one_pass(x: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 16];
+    let mut it = x.chunks_exact(16);
+    for c in &mut it {
+        for l in 0..16 {
+            acc[l] += c[l];
+        }
+    }
+    acc.iter().sum::<f64>() + it.remainder().iter().sum::<f64>()
+}
+
+const PY: &str = r#"
+import sys, time, json, resource
+import numpy as np, allantools
+x = np.fromfile(sys.argv[1], dtype='<f8')
+t = time.perf_counter()
+taus, devs, errs, ns = allantools.oadev(x, rate=1.0, data_type='freq', taus=sys.argv[2])
+dt = time.perf_counter() - t
+print(json.dumps({"seconds": dt, "taus": list(map(float, taus)), "devs": list(map(float, devs)),
+                  "ns": list(map(int, ns)), "maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+"#;
+
+struct Py {
+    seconds: f64,
+    taus: Vec<f64>,
+    devs: Vec<f64>,
+    maxrss_mb: f64,
+}
+
+fn run_allantools(python: &Path, file: &Path, taus: &str) -> Result<Py, String> {
+    let out = Command::new(python)
+        .arg("-c")
+        .arg(PY)
+        .arg(file)
+        .arg(taus)
+        .output()
+        .map_err(|e| format!("running {python:?}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "allantools failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).map_err(|e| format!("allantools output: {e}"))?;
+    let list = |k: &str| -> Vec<f64> {
+        v[k].as_array()
+            .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
+            .unwrap_or_default()
+    };
+    Ok(Py {
+        seconds: v["seconds"].as_f64().unwrap_or(f64::NAN),
+        taus: list("taus"),
+        devs: list("devs"),
+        maxrss_mb: v["maxrss_mb"].as_f64().unwrap_or(f64::NAN),
+    })
+}
+
+/// Runs the report.
+pub fn run(args: &[String]) -> Result<(), String> {
+    let sizes: Vec<usize> = arg(args, "--sizes")
+        .unwrap_or_else(|| "1e6,1e7,1e8".into())
+        .split(',')
+        .map(|s| {
+            s.trim()
+                .parse::<f64>()
+                .map(|v| v as usize)
+                .map_err(|_| format!("bad size {s}"))
+        })
+        .collect::<Result<_, _>>()?;
+    let all_n = arg(args, "--all-n")
+        .map(|s| s.parse::<f64>().map(|v| v as usize))
+        .transpose()
+        .map_err(|_| "bad --all-n")?
+        .unwrap_or(1_000_000);
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let python = arg(args, "--python")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("target/venv/bin/python"));
+    let have_py = python.exists();
+    let dir = root.join("target/avar-speed");
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let threads = rayon::current_num_threads();
+    println!("# avar speed report ({threads} threads available; best of 3)\n");
+    if !have_py {
+        println!(
+            "allantools: no Python venv at {python:?} (python3 -m venv target/venv && target/venv/bin/pip install allantools); skipped\n"
+        );
+    }
+    println!(
+        "| T | one pass (sum) | avar dyadic, no CI | avar dyadic, 1 thread | avar dyadic + chi² CI | avar octave, no CI | allantools oadev octave | speed-up vs allantools | dyadic / one pass | max rel. diff vs allantools | peak RSS avar / allantools |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let no_ci = AvarConfig {
+        ci: CiMethod::None,
+        ..AvarConfig::default()
+    };
+    let octave = AvarConfig {
+        scales: Scales::Octave,
+        ci: CiMethod::None,
+        ..AvarConfig::default()
+    };
+    for &n in &sizes {
+        let x = data(n);
+        let file = dir.join(format!("white_{n}.f64"));
+        if have_py {
+            let mut f = std::fs::File::create(&file).map_err(|e| e.to_string())?;
+            let bytes: Vec<u8> = x.iter().flat_map(|v| v.to_le_bytes()).collect();
+            f.write_all(&bytes).map_err(|e| e.to_string())?;
+        }
+        let (t_pass, _) = best_of(3, || {
+            std::hint::black_box(one_pass(std::hint::black_box(&x)))
+        });
+        let (t_dy, _) = best_of(3, || {
+            allan_variance(&x, 1.0, &no_ci).map(|a| a.points.len())
+        });
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .map_err(|e| e.to_string())?;
+        let (t_dy1, _) = best_of(3, || {
+            pool.install(|| allan_variance(&x, 1.0, &no_ci).map(|a| a.points.len()))
+        });
+        let (t_ci, _) = best_of(3, || {
+            allan_variance(&x, 1.0, &AvarConfig::default()).map(|a| a.points.len())
+        });
+        let (t_oct, ours) = best_of(3, || allan_variance(&x, 1.0, &octave));
+        let ours = ours.map_err(|e| e.to_string())?;
+        let hwm = vm_hwm_mb();
+        let (py_s, diff, py_mem) = if have_py {
+            let py = run_allantools(&python, &file, "octave")?;
+            let mut worst = 0.0f64;
+            let mut matched = 0;
+            for (tau, dev) in py.taus.iter().zip(&py.devs) {
+                if let Some(p) = ours.points.iter().find(|p| (p.tau - tau).abs() < 1e-9) {
+                    worst = worst.max(((p.adev - dev) / dev).abs());
+                    matched += 1;
+                }
+            }
+            (
+                format!("{:.3} s", py.seconds),
+                format!("{worst:.1e} ({matched} τ)"),
+                format!("{:.0} MB", py.maxrss_mb),
+            )
+        } else {
+            ("—".into(), "—".into(), "—".into())
+        };
+        let speedup = py_s
+            .trim_end_matches(" s")
+            .parse::<f64>()
+            .map(|s| format!("{:.1}×", s / t_dy))
+            .unwrap_or("—".into());
+        println!(
+            "| {n:.0e} | {:.1} ms | {:.1} ms | {:.1} ms | {:.1} ms | {:.1} ms | {py_s} | {speedup} | {:.1}× | {diff} | {hwm:.0} MB / {py_mem} |",
+            1e3 * t_pass,
+            1e3 * t_dy,
+            1e3 * t_dy1,
+            1e3 * t_ci,
+            1e3 * t_oct,
+            t_dy / t_pass,
+        );
+        drop(x);
+        let _ = std::fs::remove_file(&file);
+    }
+    let x = data(all_n);
+    let all = AvarConfig {
+        scales: Scales::All,
+        ci: CiMethod::None,
+        ..AvarConfig::default()
+    };
+    let t = Instant::now();
+    let av = allan_variance(&x, 1.0, &all).map_err(|e| e.to_string())?;
+    println!(
+        "\n\"all m\" on T = {all_n:.0e}: {} scales in {:.1} s (avar, no CI)",
+        av.points.len(),
+        t.elapsed().as_secs_f64()
+    );
+    if have_py {
+        let small = 100_000usize;
+        let file = dir.join(format!("white_{small}.f64"));
+        let bytes: Vec<u8> = data(small).iter().flat_map(|v| v.to_le_bytes()).collect();
+        std::fs::write(&file, bytes).map_err(|e| e.to_string())?;
+        let py = run_allantools(&python, &file, "all")?;
+        let xs = data(small);
+        let t = Instant::now();
+        let av = allan_variance(&xs, 1.0, &all).map_err(|e| e.to_string())?;
+        println!(
+            "\"all m\" on T = 1e5: avar {} scales in {:.2} s; allantools oadev taus=\"all\" {} τ in {:.2} s",
+            av.points.len(),
+            t.elapsed().as_secs_f64(),
+            py.taus.len(),
+            py.seconds
+        );
+        let _ = std::fs::remove_file(&file);
+    }
+    Ok(())
+}
