@@ -7,6 +7,7 @@ use super::Ui;
 use crate::error::{Error, Result};
 use avar::{AllanVariance, AvarConfig};
 use gmwm_prep::units::{IeeeTerm, process_ieee};
+
 use processes::{Model, Unit};
 use std::io::Write;
 
@@ -23,7 +24,7 @@ pub struct DemoChannel {
 
 /// The demo IMU: a mid-grade MEMS unit at 100 Hz. Gyros: angle random walk
 /// N = 0.3 °/√h (σ² = 2.5e-3 (°/s)²), rate random walk K ≈ 6 °/h/√h (γ² = 7.7e-12),
-/// a Gauss-Markov bias of correlation time ≈ 20 s and σ ≈ 1.5 °/h (AR1 φ = 0.9995).
+/// a Gauss-Markov bias of correlation time ≈ 10 s and σ ≈ 7 °/h (AR1 φ = 0.999).
 /// Accelerometers: velocity random walk N = 0.03 m/s/√h (σ² = 2.5e-5 (m/s²)²), K ≈
 /// 4.3 m/s/h/√h (γ² = 4e-12), a bias of correlation time ≈ 10 s and σ ≈ 20 µg (φ = 0.999).
 /// The axes differ slightly, as real ones do.
@@ -31,17 +32,17 @@ pub const DEMO_IMU: [DemoChannel; 6] = [
     DemoChannel {
         name: "gyro_x",
         unit: "deg/s",
-        model: "WN(sigma2=2.5e-3) + RW(gamma2=7.7e-12) + AR1(phi=0.9995, sigma2=1.7e-10)",
+        model: "WN(sigma2=2.5e-3) + RW(gamma2=7.7e-12) + AR1(phi=0.999, sigma2=8e-9)",
     },
     DemoChannel {
         name: "gyro_y",
         unit: "deg/s",
-        model: "WN(sigma2=2.2e-3) + RW(gamma2=9e-12) + AR1(phi=0.9995, sigma2=1.5e-10)",
+        model: "WN(sigma2=2.2e-3) + RW(gamma2=9e-12) + AR1(phi=0.999, sigma2=6e-9)",
     },
     DemoChannel {
         name: "gyro_z",
         unit: "deg/s",
-        model: "WN(sigma2=3e-3) + RW(gamma2=6e-12) + AR1(phi=0.999, sigma2=3e-10)",
+        model: "WN(sigma2=3e-3) + RW(gamma2=6e-12) + AR1(phi=0.998, sigma2=1.2e-8)",
     },
     DemoChannel {
         name: "acc_x",
@@ -69,24 +70,27 @@ pub const EXAMPLES: &str = "Examples:
   imunoise demo --samples 4000000 --seed 7
 
 The simulated IMU (100 Hz, parameters per sample):
-  gyro_x [deg/s]  WN(sigma2=2.5e-3) + RW(gamma2=7.7e-12) + AR1(phi=0.9995, sigma2=1.7e-10)
-  gyro_y [deg/s]  WN(sigma2=2.2e-3) + RW(gamma2=9e-12)   + AR1(phi=0.9995, sigma2=1.5e-10)
-  gyro_z [deg/s]  WN(sigma2=3e-3)   + RW(gamma2=6e-12)   + AR1(phi=0.999,  sigma2=3e-10)
+  gyro_x [deg/s]  WN(sigma2=2.5e-3) + RW(gamma2=7.7e-12) + AR1(phi=0.999,  sigma2=8e-9)
+  gyro_y [deg/s]  WN(sigma2=2.2e-3) + RW(gamma2=9e-12)   + AR1(phi=0.999,  sigma2=6e-9)
+  gyro_z [deg/s]  WN(sigma2=3e-3)   + RW(gamma2=6e-12)   + AR1(phi=0.998,  sigma2=1.2e-8)
   acc_x [m/s^2]   WN(sigma2=2.5e-5) + RW(gamma2=4e-12)   + AR1(phi=0.999,  sigma2=8e-11)
   acc_y [m/s^2]   WN(sigma2=2.8e-5) + RW(gamma2=3e-12)   + AR1(phi=0.999,  sigma2=8e-11)
   acc_z [m/s^2]   WN(sigma2=3.2e-5) + RW(gamma2=5e-12)   + AR1(phi=0.999,  sigma2=1e-10)
-i.e. gyros N ≈ 0.3 °/√h, K ≈ 6 °/h/√h, a 10–20 s Gauss-Markov bias of ≈ 1.5 °/h;
+i.e. gyros N ≈ 0.3 °/√h, K ≈ 6 °/h/√h, a 5–10 s Gauss-Markov bias of ≈ 6–7 °/h;
 accelerometers N ≈ 0.03 m/s/√h, K ≈ 4 m/s/h/√h, a 10 s bias of ≈ 20 µg.";
 
 /// Arguments of `imunoise demo`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DemoArgs {
-    /// Samples per channel (at 100 Hz; the default is 2^21 ≈ 5.8 h).
-    #[arg(short = 'n', long = "samples", default_value_t = 1 << 21)]
+    /// Samples per channel (at 100 Hz; the default is 2^20 ≈ 2.9 h).
+    #[arg(short = 'n', long = "samples", default_value_t = 1 << 20)]
     pub n: usize,
     /// Random seed of the simulation.
     #[arg(long, short, default_value_t = 2024)]
     pub seed: u64,
+    /// Parametric bootstrap replications for the CIs.
+    #[arg(long, default_value_t = 40, value_name = "B")]
+    pub bootstrap: usize,
 }
 
 /// The demo's simulated record: names, units, true models and samples.
@@ -137,6 +141,47 @@ pub fn true_ieee(model: &Model, term: IeeeTerm, unit: &Unit) -> Option<(f64, Str
     })
 }
 
+/// True against estimated value of one parameter.
+#[derive(Debug, Clone)]
+pub struct Comparison {
+    /// Channel name.
+    pub channel: String,
+    /// Process code and parameter name, e.g. `"RW gamma2"`.
+    pub parameter: String,
+    /// True value.
+    pub truth: f64,
+    /// Estimate.
+    pub estimate: f64,
+    /// CI bounds, if any.
+    pub ci: Option<(f64, f64)>,
+}
+
+impl Comparison {
+    /// Whether the CI covers the truth.
+    pub fn covered(&self) -> Option<bool> {
+        self.ci.map(|(a, b)| a <= self.truth && self.truth <= b)
+    }
+}
+
+/// Compares the fitted parameters (model order) with the true model's.
+pub fn compare(name: &str, truth: &Model, fit: &super::fit::ChannelFit) -> Vec<Comparison> {
+    let true_params: Vec<f64> = truth
+        .processes()
+        .map(|ps| ps.iter().flat_map(|p| p.params()).collect())
+        .unwrap_or_default();
+    fit.parameters
+        .iter()
+        .zip(true_params)
+        .map(|(p, t)| Comparison {
+            channel: name.to_string(),
+            parameter: format!("{} {}", p.process, p.name),
+            truth: t,
+            estimate: p.value,
+            ci: p.ci_lo.zip(p.ci_hi),
+        })
+        .collect()
+}
+
 /// Runs `imunoise demo`.
 pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     if args.n < 1 << 14 {
@@ -155,57 +200,82 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     };
     let curves: Vec<(String, AllanVariance)> =
         super::avar_cmd::compute(&table, DEMO_RATE_HZ, &AvarConfig::default(), ui)?;
+    // The true template (the structure is known; its values are estimated).
+    let settings = super::fit::FitSettings {
+        model: data.models[0].template().to_string(),
+        method: super::fit::Method::Gmwm,
+        select: false,
+        bootstrap: args.bootstrap,
+        seed: args.seed.wrapping_add(1),
+        alpha: 0.05,
+    };
+    let fits = super::fit::fit_all(&curves, &data.units, &settings, ui)?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
-    let w = |out: &mut std::io::BufWriter<_>, s: String| {
-        writeln!(out, "{s}").map_err(|e| Error::io("<stdout>", e))
-    };
-    w(
-        &mut out,
-        format!(
-            "imunoise demo: simulated 6-axis MEMS IMU, {} samples per channel at {} Hz ({:.1} h), seed {}",
-            args.n,
-            DEMO_RATE_HZ,
-            args.n as f64 / DEMO_RATE_HZ / 3600.0,
-            args.seed
-        ),
-    )?;
-    w(
-        &mut out,
-        "IEEE 952 read-off of the Allan deviation (slope regions found automatically) against the truth:".into(),
-    )?;
-    w(
-        &mut out,
-        format!(
-            "{:<8} {:<4} {:>12} {:>12} {:>8}  {}",
-            "channel", "term", "true", "read-off", "ratio", "unit"
-        ),
-    )?;
-    for (k, (name, av)) in curves.iter().enumerate() {
-        let unit = &data.units[k];
-        let tau = av.taus();
-        let adev = av.adevs();
-        let ro = gmwm_prep::ieee::read_off_adev(&tau, &adev, unit)
-            .map_err(|e| Error::Usage(format!("{name}: IEEE read-off: {e}")))?;
-        for term in [IeeeTerm::N, IeeeTerm::K] {
-            let Some((truth, u)) = true_ieee(&data.models[k], term, unit) else {
-                continue;
-            };
-            let est = ro.get(term).and_then(|e| e.ieee.first().map(|q| q.value));
-            w(
-                &mut out,
-                format!(
-                    "{:<8} {:<4} {:>12.4e} {:>12} {:>8}  {}",
-                    name,
-                    term.symbol(),
-                    truth,
-                    est.map_or("not found".into(), |v| format!("{v:.4e}")),
-                    est.map_or("-".into(), |v| format!("{:.3}", v / truth)),
-                    u
-                ),
-            )?;
+    let mut w = |s: String| writeln!(out, "{s}").map_err(|e| Error::io("<stdout>", e));
+    w(format!(
+        "imunoise demo: simulated 6-axis MEMS IMU, {} samples per channel at {} Hz ({:.1} h), seed {}",
+        args.n,
+        DEMO_RATE_HZ,
+        args.n as f64 / DEMO_RATE_HZ / 3600.0,
+        args.seed
+    ))?;
+    w(format!(
+        "GMWM fit of {} on the Allan variance, 95% CIs from a {}-replicate parametric bootstrap covariance:",
+        settings.model, args.bootstrap
+    ))?;
+    w(format!(
+        "{:<8} {:<11} {:>11} {:>11} {:>25}  {}",
+        "channel", "parameter", "true", "estimate", "95% CI", "covered"
+    ))?;
+    let (mut n_cov, mut n_all) = (0, 0);
+    for (k, f) in fits.iter().enumerate() {
+        for c in compare(&data.names[k], &data.models[k], f) {
+            let cov = c.covered();
+            n_all += 1;
+            n_cov += usize::from(cov == Some(true));
+            w(format!(
+                "{:<8} {:<11} {:>11.4e} {:>11.4e} {:>25}  {}",
+                c.channel,
+                c.parameter,
+                c.truth,
+                c.estimate,
+                c.ci.map_or("-".into(), |(a, b)| format!("[{a:.3e}, {b:.3e}]")),
+                match cov {
+                    Some(true) => "yes",
+                    Some(false) => "NO",
+                    None => "-",
+                }
+            ))?;
         }
     }
+    w(format!(
+        "{n_cov} of {n_all} true parameters lie within their 95% CIs (about 95% are expected to)."
+    ))?;
+    w("IEEE 952 units (true vs GMWM estimate):".into())?;
+    for (k, f) in fits.iter().enumerate() {
+        let unit = &data.units[k];
+        for term in [IeeeTerm::N, IeeeTerm::K] {
+            let (Some((truth, u)), Some(est)) = (
+                true_ieee(&data.models[k], term, unit),
+                f.ieee.get(term.symbol()),
+            ) else {
+                continue;
+            };
+            w(format!(
+                "{:<8} {:<2} true {:>10.4} estimate {:>10.4} {:>25} {u}",
+                data.names[k],
+                term.symbol(),
+                truth,
+                est.value,
+                match (est.ci_lo, est.ci_hi) {
+                    (Some(a), Some(b)) => format!("[{a:.4}, {b:.4}]"),
+                    _ => "-".into(),
+                }
+            ))?;
+        }
+    }
+    drop(w);
     out.flush().map_err(|e| Error::io("<stdout>", e))?;
     ui.note(format!("done in {:.2} s", t0.elapsed().as_secs_f64()));
     Ok(())

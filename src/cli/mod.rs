@@ -12,6 +12,7 @@ use std::path::PathBuf;
 
 pub mod avar_cmd;
 pub mod demo;
+pub mod fit;
 pub mod simulate;
 pub mod theory;
 
@@ -37,6 +38,9 @@ pub enum Command {
     /// Allan variance (with confidence intervals) of every channel of a log file.
     #[command(after_help = avar_cmd::EXAMPLES)]
     Avar(avar_cmd::AvarArgs),
+    /// Fit a noise model per channel (GMWM, AVLR or IEEE 952 read-off) with CIs.
+    #[command(after_help = fit::EXAMPLES)]
+    Fit(fit::FitArgs),
     /// Simulate K independent channels of a noise model to CSV or raw f64.
     #[command(after_help = simulate::EXAMPLES)]
     Simulate(simulate::SimulateArgs),
@@ -54,6 +58,7 @@ pub fn run(cli: Cli) -> Result<()> {
     let ui = Ui::new(cli.quiet);
     match cli.command {
         Command::Avar(a) => avar_cmd::run(&a, &ui),
+        Command::Fit(a) => fit::run(&a, &ui),
         Command::Simulate(a) => simulate::run(&a, &ui),
         Command::Theory(a) => theory::run(&a, &ui),
         Command::Demo(a) => demo::run(&a, &ui),

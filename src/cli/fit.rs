@@ -1,0 +1,451 @@
+//! `imunoise fit`: a noise model per channel (GMWM, AVLR or the IEEE 952 read-off) with
+//! CIs, per-sample and IEEE units, J-test, and WIC when selecting.
+
+use super::{InputArgs, Ui};
+use crate::error::{Error, Result};
+use avar::{AllanVariance, AvarConfig};
+use gmwm_prep::bootstrap::{BootstrapOptions, parametric_bootstrap};
+use gmwm_prep::gmwm::{self, GmwmOptions};
+use gmwm_prep::inference::{delta_method, diagonal_covariance, select_by_wic};
+use gmwm_prep::report::{FitReport, IeeeValue};
+use gmwm_prep::{AvCurve, FitError};
+use processes::{Model, Process, ProcessKind, Unit};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::io::Write;
+
+/// Examples shown by `imunoise fit --help`.
+pub const EXAMPLES: &str = "Examples:
+  imunoise fit imu.csv.gz --rate 100
+  imunoise fit imu.csv.gz --rate 100 --columns gyro_x_dps --model \"WN+RW+AR1\" --bootstrap 50 --format json
+  imunoise fit imu.csv.gz --rate 100 --select          # best sub-model of QN+WN+RW+AR1 by WIC
+  imunoise fit imu.csv.gz --rate 100 --method avlr
+
+JSON shape: {\"channels\":[{\"name\",\"method\",\"model\",\"converged\",\"parameters\":[{\"process\",
+\"name\",\"value\",\"ci_lo\",\"ci_hi\"}],\"ieee\":{\"N\":{\"value\",\"unit\",\"ci_lo\",\"ci_hi\"},…},
+\"j_test\":{\"statistic\",\"p_value\"},\"fitted\":[{\"m\",\"avar\"}]}]} (plus \"wic\" with --select);
+`value` is per sample, in the parameterization of the model string.";
+
+/// Fitting methods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// Generalized method of wavelet moments on the Allan variance (consistent).
+    Gmwm,
+    /// Allan-variance linear regression on automatic slope windows (R avar's avlr).
+    Avlr,
+    /// IEEE Std 952 read-off of N, K, Q, R (and B) on the Allan deviation.
+    Ieee952,
+}
+
+/// Fit settings shared by `fit`, `analyze` and `demo`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct FitSettings {
+    /// Model template (slots to estimate), e.g. "WN+RW+AR1" or "QN+WN+RW+2*AR1".
+    #[arg(long, short, default_value = "QN+WN+RW+AR1")]
+    pub model: String,
+    /// Fitting method.
+    #[arg(long, value_enum, default_value = "gmwm")]
+    pub method: Method,
+    /// Select the best sub-model of --model by WIC (GMWM only).
+    #[arg(long)]
+    pub select: bool,
+    /// Parametric bootstrap replications for the moments' covariance and the CIs
+    /// (0: delta method with the AV's diagonal variances, optimistic).
+    #[arg(long, default_value_t = 0, value_name = "B")]
+    pub bootstrap: usize,
+    /// Seed of the bootstrap simulations.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// CI level: intervals cover 1 − alpha.
+    #[arg(long, default_value_t = 0.05)]
+    pub alpha: f64,
+}
+
+/// Arguments of `imunoise fit`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct FitArgs {
+    /// The input file and how to read it.
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// Fit settings.
+    #[command(flatten)]
+    pub fit: FitSettings,
+    /// Output format (table or json).
+    #[arg(long, short, value_enum, default_value = "table")]
+    pub format: super::Format,
+}
+
+/// One parameter in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct ParamJson {
+    /// Process code.
+    pub process: String,
+    /// Parameter name.
+    pub name: String,
+    /// Per-sample value.
+    pub value: f64,
+    /// Lower CI bound.
+    pub ci_lo: Option<f64>,
+    /// Upper CI bound.
+    pub ci_hi: Option<f64>,
+}
+
+/// The J test in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct JTestJson {
+    /// J statistic.
+    pub statistic: f64,
+    /// P-value.
+    pub p_value: f64,
+}
+
+/// One fitted scale in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct FittedJson {
+    /// Cluster size.
+    pub m: u64,
+    /// Fitted (model) Allan variance.
+    pub avar: f64,
+}
+
+/// One channel's fit in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelFit {
+    /// Channel name.
+    pub name: String,
+    /// `gmwm`, `avlr` or `ieee952`.
+    pub method: String,
+    /// Fitted model, per-sample values.
+    pub model: String,
+    /// Whether the optimizer converged.
+    pub converged: bool,
+    /// Parameters with CIs.
+    pub parameters: Vec<ParamJson>,
+    /// IEEE equivalents (N, Q, K, R, B) with CIs where available.
+    pub ieee: BTreeMap<String, IeeeValue>,
+    /// J test (GMWM).
+    pub j_test: Option<JTestJson>,
+    /// WIC of the selected model (with --select).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wic: Option<f64>,
+    /// The fitted curve.
+    pub fitted: Vec<FittedJson>,
+    /// Each component's fitted curve (for plots; not in the JSON).
+    #[serde(skip)]
+    pub components: Vec<(String, Vec<f64>)>,
+    /// The channel unit (not in the JSON).
+    #[serde(skip)]
+    pub unit: Unit,
+}
+
+/// The JSON document of `imunoise fit`.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitJson {
+    /// One entry per channel.
+    pub channels: Vec<ChannelFit>,
+}
+
+fn fit_err(name: &str, e: FitError) -> Error {
+    Error::Usage(format!("channel {name:?}: fit: {e}"))
+}
+
+fn from_report(name: &str, r: &FitReport, wic: Option<f64>, comps: &[ProcessKind]) -> ChannelFit {
+    let components = comps
+        .iter()
+        .enumerate()
+        .map(|(c, k)| {
+            (
+                k.code().to_string(),
+                r.fitted
+                    .iter()
+                    .map(|p| p.components.get(c).copied().unwrap_or(f64::NAN))
+                    .collect(),
+            )
+        })
+        .collect();
+    ChannelFit {
+        name: name.to_string(),
+        method: r.method.clone(),
+        model: r.model.clone(),
+        converged: r.converged,
+        parameters: r
+            .parameters
+            .iter()
+            .map(|p| ParamJson {
+                process: p.process.clone(),
+                name: p.name.clone(),
+                value: p.value,
+                ci_lo: p.ci_lo,
+                ci_hi: p.ci_hi,
+            })
+            .collect(),
+        ieee: r.ieee.clone(),
+        j_test: r.j_test.map(|j| JTestJson {
+            statistic: j.statistic,
+            p_value: j.p_value,
+        }),
+        wic,
+        fitted: r
+            .fitted
+            .iter()
+            .map(|p| FittedJson {
+                m: p.m,
+                avar: p.avar,
+            })
+            .collect(),
+        components,
+        unit: r.unit.clone(),
+    }
+}
+
+/// Fits one channel's Allan variance curve as `settings` say.
+pub fn fit_channel(
+    name: &str,
+    av: &AllanVariance,
+    unit: &Unit,
+    settings: &FitSettings,
+) -> Result<ChannelFit> {
+    let e = |x| fit_err(name, x);
+    let curve = AvCurve::from_avar(av).map_err(e)?;
+    let template: Model = settings.model.parse()?;
+    match settings.method {
+        Method::Gmwm => {
+            let opts = GmwmOptions::default();
+            let v0 = diagonal_covariance(&curve);
+            let (template, wic) = if settings.select {
+                let cands = select_by_wic(&curve, &template, &opts, &v0).map_err(e)?;
+                let best = cands.first().ok_or_else(|| {
+                    Error::Usage(format!("channel {name:?}: no sub-model could be fitted"))
+                })?;
+                (best.template.parse::<Model>()?, Some(best.wic))
+            } else {
+                (template, None)
+            };
+            let f = gmwm::fit(&curve, &template, &opts).map_err(e)?;
+            let v = if settings.bootstrap > 0 {
+                let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
+                b.alpha = settings.alpha;
+                parametric_bootstrap(&f, &template, &opts, &b)
+                    .map_err(e)?
+                    .av_cov
+            } else {
+                v0
+            };
+            let inf = delta_method(&f, &v, settings.alpha).map_err(e)?;
+            let r = FitReport::from_gmwm(&f, Some(&inf), unit);
+            Ok(from_report(name, &r, wic, &f.kinds))
+        }
+        Method::Avlr => {
+            let w = gmwm_prep::avlr::AvlrWindows::auto(&curve).map_err(e)?;
+            let mut f = gmwm_prep::avlr::avlr(&curve, &w).map_err(e)?;
+            if settings.bootstrap > 0 {
+                let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
+                b.alpha = settings.alpha;
+                f = gmwm_prep::bootstrap::avlr_bootstrap(&f, &curve.m(), &b).map_err(e)?;
+            }
+            let r = FitReport::from_avlr(&f, &curve.m(), unit);
+            let kinds = f.model.kinds();
+            Ok(from_report(name, &r, None, &kinds))
+        }
+        Method::Ieee952 => ieee952(name, av, unit),
+    }
+}
+
+/// The IEEE 952 read-off as a fit: N, K, Q, R mapped to per-sample WN, RW, QN, DR
+/// parameters (REFERENCES §5: σ² = N²/Δt, γ² = K²Δt, Q² = (Q/Δt)², ω = RΔt); B is reported
+/// in `ieee` only (it has no per-sample counterpart). No CIs.
+pub fn ieee952(name: &str, av: &AllanVariance, unit: &Unit) -> Result<ChannelFit> {
+    use gmwm_prep::units::IeeeTerm;
+    let e = |x| fit_err(name, x);
+    let ro = gmwm_prep::ieee::read_off_adev(&av.taus(), &av.adevs(), unit).map_err(e)?;
+    let dt = 1.0 / av.rate_hz;
+    let mut procs: Vec<Process> = Vec::new();
+    let mut ieee = BTreeMap::new();
+    for est in &ro.terms {
+        let v = est.value;
+        let p: Option<Process> = match est.term {
+            IeeeTerm::Q => Some(processes::QuantizationNoise::new((v / dt).powi(2))?.into()),
+            IeeeTerm::N => Some(processes::WhiteNoise::new(v * v / dt)?.into()),
+            IeeeTerm::K => Some(processes::RandomWalk::new(v * v * dt)?.into()),
+            IeeeTerm::R => Some(processes::Drift::new(v * dt)?.into()),
+            IeeeTerm::B => None,
+        };
+        procs.extend(p);
+        let (val, u) = est
+            .ieee
+            .first()
+            .map_or((est.value, est.unit.clone()), |q| (q.value, q.unit.clone()));
+        ieee.insert(
+            est.term.symbol().to_string(),
+            IeeeValue {
+                value: val,
+                unit: u,
+                ci_lo: None,
+                ci_hi: None,
+            },
+        );
+    }
+    if procs.is_empty() {
+        return Err(Error::Usage(format!(
+            "channel {name:?}: no IEEE 952 slope region found on the Allan deviation"
+        )));
+    }
+    let model = Model::from_processes(procs.clone())?;
+    let m: Vec<u64> = av.points.iter().map(|p| p.m).collect();
+    let fitted = gmwm_prep::theory::model_avar(&model, &m, av.rate_hz).map_err(e)?;
+    let mut components = Vec::new();
+    for p in &procs {
+        let c = gmwm_prep::theory::model_avar(&Model::from(*p), &m, av.rate_hz).map_err(e)?;
+        components.push((p.kind().code().to_string(), c));
+    }
+    Ok(ChannelFit {
+        name: name.to_string(),
+        method: "ieee952".into(),
+        model: model.to_string(),
+        converged: true,
+        parameters: procs
+            .iter()
+            .flat_map(|p| {
+                let k = p.kind();
+                k.param_names()
+                    .iter()
+                    .zip(p.params())
+                    .map(move |(n, v)| ParamJson {
+                        process: k.code().to_string(),
+                        name: n.to_string(),
+                        value: v,
+                        ci_lo: None,
+                        ci_hi: None,
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect(),
+        ieee,
+        j_test: None,
+        wic: None,
+        fitted: m
+            .iter()
+            .zip(&fitted)
+            .map(|(&m, &a)| FittedJson { m, avar: a })
+            .collect(),
+        components,
+        unit: unit.clone(),
+    })
+}
+
+/// Fits every channel (in parallel).
+pub fn fit_all(
+    curves: &[(String, AllanVariance)],
+    units: &[Unit],
+    settings: &FitSettings,
+    ui: &Ui,
+) -> Result<Vec<ChannelFit>> {
+    use rayon::prelude::*;
+    if !(settings.alpha > 0.0 && settings.alpha < 1.0) {
+        return Err(Error::Usage(format!(
+            "--alpha must lie in (0, 1), got {}",
+            settings.alpha
+        )));
+    }
+    let pb = ui.bar(curves.len() as u64, "fitting");
+    let out: Vec<Result<ChannelFit>> = curves
+        .par_iter()
+        .zip(units)
+        .map(|((name, av), unit)| {
+            let r = fit_channel(name, av, unit, settings);
+            pb.inc(1);
+            r
+        })
+        .collect();
+    pb.finish_and_clear();
+    out.into_iter().collect()
+}
+
+fn ci(lo: Option<f64>, hi: Option<f64>) -> String {
+    match (lo, hi) {
+        (Some(a), Some(b)) => format!("[{a:.4e}, {b:.4e}]"),
+        _ => "-".into(),
+    }
+}
+
+/// Writes fits as text tables.
+pub fn write_table(out: &mut impl Write, fits: &[ChannelFit], alpha: f64) -> std::io::Result<()> {
+    for (i, f) in fits.iter().enumerate() {
+        if i > 0 {
+            writeln!(out)?;
+        }
+        writeln!(
+            out,
+            "{} [{}]: {} fit{}: {}",
+            f.name,
+            if f.unit.symbol().is_empty() {
+                "unitless"
+            } else {
+                f.unit.symbol()
+            },
+            f.method,
+            if f.converged { "" } else { " (NOT converged)" },
+            f.model
+        )?;
+        writeln!(
+            out,
+            "  {:<5} {:<7} {:>12}  {:.0}% CI (per sample)",
+            "proc",
+            "param",
+            "value",
+            100.0 * (1.0 - alpha)
+        )?;
+        for p in &f.parameters {
+            writeln!(
+                out,
+                "  {:<5} {:<7} {:>12.4e}  {}",
+                p.process,
+                p.name,
+                p.value,
+                ci(p.ci_lo, p.ci_hi)
+            )?;
+        }
+        for (k, v) in &f.ieee {
+            writeln!(
+                out,
+                "  IEEE {k} = {:.4e} {}  {}",
+                v.value,
+                v.unit,
+                ci(v.ci_lo, v.ci_hi)
+            )?;
+        }
+        if let Some(j) = &f.j_test {
+            writeln!(
+                out,
+                "  J-test: J = {:.3}, p = {:.3}",
+                j.statistic, j.p_value
+            )?;
+        }
+        if let Some(w) = f.wic {
+            writeln!(out, "  WIC of the selected model: {w:.4}")?;
+        }
+    }
+    Ok(())
+}
+
+/// Runs `imunoise fit`.
+pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
+    let table = args.input.read(ui)?;
+    let units = crate::units::channel_units(&table.names, args.input.unit.as_deref())?;
+    let cfg = AvarConfig {
+        alpha: args.fit.alpha,
+        ..AvarConfig::default()
+    };
+    let curves = super::avar_cmd::compute(&table, args.input.rate, &cfg, ui)?;
+    let fits = fit_all(&curves, &units, &args.fit, ui)?;
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let r = match args.format {
+        super::Format::Json => serde_json::to_writer(&mut out, &FitJson { channels: fits })
+            .map_err(std::io::Error::other)
+            .and_then(|_| writeln!(out)),
+        _ => write_table(&mut out, &fits, args.fit.alpha),
+    };
+    r.and_then(|_| out.flush())
+        .map_err(|e| Error::io("<stdout>", e))
+}
