@@ -8,7 +8,7 @@
 //! - **Weighting Ω.** [`Weighting::Diagonal`] (default): Ω = diag(1 / Var̂(ν̂_j)) with
 //!   Var̂(ν̂_j) = r_j ν_j², r_j the relative variance of scale j carried by the curve
 //!   ([`AvCurve::relative_variances`]: EDF, CI or variance), and ν_j = ν̂_j in a first step,
-//!   then ν_j = ν_j(θ̂₁) of that first fit (two-step: the weights no longer correlate with the
+//!   then ν_j = ν_j(θ̂) of the fitted curve, iterated to a fixed point (the weights no longer correlate with the
 //!   residuals, which removes the downward bias of plain 1/ν̂² weighting; both steps are
 //!   consistent). [`Weighting::Full`]: Ω = V⁻¹ from a covariance matrix V of ν̂ (e.g. the
 //!   parametric bootstrap one of [`crate::bootstrap`]), used as given.
@@ -156,6 +156,9 @@ pub struct GmwmOptions {
     pub max_iter: usize,
     /// Sign of the drift slope ω (the AV only determines |ω|): +1 or −1.
     pub drift_sign: f64,
+    /// Diagonal weighting: number of reweighting steps after the first fit (weights from the
+    /// fitted curve; 0 keeps Ω = diag(1/(r_j ν̂_j²))). Stops early at a 1e-8 fixed point.
+    pub reweight_iterations: usize,
 }
 
 impl Default for GmwmOptions {
@@ -167,6 +170,7 @@ impl Default for GmwmOptions {
             n_starts: 4,
             max_iter: 300,
             drift_sign: 1.0,
+            reweight_iterations: 8,
         }
     }
 }
@@ -250,6 +254,12 @@ impl GmwmFit {
 
 /// Largest number of AR1/GM grid combinations tried for starting values.
 const MAX_GRID_COMBOS: usize = 4000;
+/// Largest change of any unconstrained coordinate in one optimizer step.
+const MAX_STEP: f64 = 5.0;
+/// Floor of the Marquardt scaling relative to the largest curvature.
+const DAMPING_FLOOR: f64 = 1e-10;
+/// Relative change of θ below which the reweighting has reached its fixed point.
+const REWEIGHT_REL_TOL: f64 = 1e-8;
 /// Bound on the unconstrained coordinates: e^{±690} stays a normal f64.
 const ETA_BOUND: f64 = 690.0;
 /// Smallest λ = −ln φ accepted (φ closer to 1 than this is a random walk in disguise).
@@ -359,6 +369,14 @@ impl Problem {
                     }
                     th[at + 1] = eta[at + 1].exp();
                     t[(at + 1, at + 1)] = th[at + 1];
+                }
+            }
+        }
+        // the clamp has zero derivative: a coordinate held at its bound does not move θ
+        for (i, x) in eta_in.iter().enumerate() {
+            if x.abs() > ETA_BOUND {
+                for r in 0..p {
+                    t[(r, i)] = 0.0;
                 }
             }
         }
@@ -479,17 +497,27 @@ impl Problem {
                 mu = 1e-3 * (0..p).map(|i| h[(i, i)]).fold(0.0, f64::max);
             }
             let mut accepted = false;
+            let hmax = (0..p).map(|i| h[(i, i)]).fold(0.0, f64::max);
             for _ in 0..60 {
                 let mut a = h.clone();
                 for i in 0..p {
-                    a[(i, i)] += mu * h[(i, i)].max(1e-300) + 1e-300;
+                    // Marquardt scaling, floored so that near-flat directions stay damped
+                    a[(i, i)] += mu * h[(i, i)].max(DAMPING_FLOOR * hmax) + 1e-300;
                 }
                 let Ok(llt) = a.llt(Side::Lower) else {
                     mu *= nu;
                     nu *= 2.0;
                     continue;
                 };
-                let step = llt.solve(-&g);
+                let mut step = llt.solve(-&g);
+                // trust region in η: at most MAX_STEP per coordinate (a factor e^MAX_STEP)
+                let smax = (0..p).map(|i| step[(i, 0)].abs()).fold(0.0, f64::max);
+                if smax > MAX_STEP {
+                    let c = MAX_STEP / smax;
+                    for i in 0..p {
+                        step[(i, 0)] *= c;
+                    }
+                }
                 let cand: Vec<f64> = (0..p).map(|i| eta[i] + step[(i, 0)]).collect();
                 let f_new = self.objective(&cand);
                 // predicted reduction of the Gauss–Newton model
@@ -968,25 +996,42 @@ pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<Gmwm
     let (mut eta, mut conv) = prob.run(&starts, opts.max_iter)?;
     let mut prob_final = prob;
     if opts.weighting == Weighting::Diagonal {
-        // second step: weights from the first-step fitted curve
-        let (th1, _) = prob_final.theta(&eta).ok_or_else(|| {
-            FitError::OptimizationFailed("first step ended outside the parameter space".into())
-        })?;
+        // Weights from the fitted curve, iterated to the fixed point θ̂ = argmin with
+        // Ω = diag(1/(r_j ν_j(θ̂)²)) (iteratively reweighted, quasi-likelihood-like: the
+        // estimating equations Σ (ν̂_j − ν_j(θ)) ∂ν_j/∂θ / (r_j ν_j(θ)²) have mean zero at
+        // the truth, so the weights no longer pull the estimate towards low ν̂).
         let m: Vec<f64> = curve.points.iter().map(|q| q.m as f64).collect();
-        let comps = component_avars(&kinds, &th1, &m, curve.rate_hz);
         let f = opts.moments.factor();
-        let reference: Vec<f64> = (0..m.len())
-            .map(|a| f * comps.iter().map(|c| c[a]).sum::<f64>())
-            .collect();
-        let prob2 = build_problem(curve, kinds.clone(), opts, Some(&reference))?;
-        // start from the first-step solution, then from the grid's other candidates
-        let mut starts2 = vec![th1];
-        starts2.extend(starts.into_iter().skip(1));
-        let (eta2, mut conv2) = prob2.run(&starts2, opts.max_iter)?;
-        conv2.iterations += conv.iterations;
-        eta = eta2;
-        conv = conv2;
-        prob_final = prob2;
+        let mut others = starts.into_iter().skip(1).collect::<Vec<_>>();
+        for step in 0..opts.reweight_iterations {
+            let (th_prev, _) = prob_final.theta(&eta).ok_or_else(|| {
+                FitError::OptimizationFailed("a step ended outside the parameter space".into())
+            })?;
+            let comps = component_avars(&kinds, &th_prev, &m, curve.rate_hz);
+            let reference: Vec<f64> = (0..m.len())
+                .map(|a| f * comps.iter().map(|c| c[a]).sum::<f64>())
+                .collect();
+            let prob2 = build_problem(curve, kinds.clone(), opts, Some(&reference))?;
+            // start from the previous solution (and, once, from the grid's other candidates)
+            let mut starts2 = vec![th_prev.clone()];
+            starts2.append(&mut others);
+            let (eta2, mut conv2) = prob2.run(&starts2, opts.max_iter)?;
+            conv2.iterations += conv.iterations;
+            eta = eta2;
+            conv = conv2;
+            prob_final = prob2;
+            let (th_new, _) = prob_final.theta(&eta).ok_or_else(|| {
+                FitError::OptimizationFailed("a step ended outside the parameter space".into())
+            })?;
+            let change = th_new
+                .iter()
+                .zip(&th_prev)
+                .map(|(a, b)| ((a - b) / b.abs().max(1e-300)).abs())
+                .fold(0.0, f64::max);
+            if step > 0 && change < REWEIGHT_REL_TOL {
+                break;
+            }
+        }
     }
     let (theta, _) = prob_final.theta(&eta).ok_or_else(|| {
         FitError::OptimizationFailed("solution outside the parameter space".into())

@@ -3,7 +3,7 @@
 //! the J test (V from a parametric bootstrap at θ̂) and the WIC are reported.
 //!
 //! Finding: with avar's chi-square 95 % CIs that model puts its fitted AV inside the CIs at
-//! only 12 of 18 scales: the curve has both a short correlation (AV(2)/AV(4) = 1.78 < 2, which
+//! only 13 of 18 scales: the curve has both a short correlation (AV(2)/AV(4) = 1.78 < 2, which
 //! only a positively correlated component reproduces — the AR1 goes there, φ ≈ 0.17) and a
 //! bump at τ ≈ 80–330 s that RW cannot produce. One more AR1 (QN + WN + RW + 2*AR1) puts it
 //! inside at 17 of 18 scales; the ≥ 90 % criterion is asserted for that model, and the J test

@@ -1,0 +1,118 @@
+//! Inference checked against closed forms.
+
+use gmwm_prep::AvCurve;
+use gmwm_prep::bootstrap::{BootstrapOptions, avlr_bootstrap, parametric_bootstrap};
+use gmwm_prep::gmwm::{CovMatrix, GmwmOptions, Weighting, fit};
+use gmwm_prep::inference::{delta_method, diagonal_covariance, select_by_wic};
+use gmwm_prep::stats::z_two_sided;
+use gmwm_prep::theory::model_avar;
+use processes::Model;
+
+/// Linear algebra on well-conditioned small systems: agreement to 1e-9 relative.
+const LINALG_REL_TOL: f64 = 1e-9;
+
+fn noisy_wn_curve() -> AvCurve {
+    // σ² = 1e-4 at m = 2..2^10 with a deterministic ±3 % ripple, EDF 100 at every scale
+    let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+    let av: Vec<f64> = m
+        .iter()
+        .enumerate()
+        .map(|(j, &mj)| 1e-4 / mj as f64 * (1.0 + 0.03 * (j as f64).sin()))
+        .collect();
+    let mut c = AvCurve::from_m(&m, &av, 100.0).unwrap();
+    for p in &mut c.points {
+        p.edf = Some(100.0);
+    }
+    c
+}
+
+#[test]
+fn white_noise_delta_method_is_the_weighted_mean_formula() {
+    // WN only, Ω = V⁻¹ with V diagonal: ν_j = σ²/m_j is linear, A_j = 1/m_j, and
+    // Var(σ̂²) = 1 / Σ_j 1/(m_j² V_jj); J = Q with J − 1 dof; WIC = Q + 2.
+    let c = noisy_wn_curve();
+    let v = diagonal_covariance(&c);
+    let opts = GmwmOptions {
+        weighting: Weighting::Full(v.clone()),
+        ..Default::default()
+    };
+    let f = fit(&c, &"WN".parse().unwrap(), &opts).unwrap();
+    // the estimate itself: Σ (ν̂_j/m_j)/V_jj / Σ 1/(m_j² V_jj)
+    let (mut num, mut den) = (0.0, 0.0);
+    for (j, p) in c.points.iter().enumerate() {
+        let a = 1.0 / p.m as f64;
+        num += a * p.avar / v.get(j, j);
+        den += a * a / v.get(j, j);
+    }
+    assert!(
+        (f.theta[0] / (num / den) - 1.0).abs() < 1e-8,
+        "{} vs {}",
+        f.theta[0],
+        num / den
+    );
+    let inf = delta_method(&f, &v, 0.05).unwrap();
+    let se = (1.0 / den).sqrt();
+    assert!((inf.se[0] / se - 1.0).abs() < LINALG_REL_TOL);
+    let j = inf.j_test.unwrap();
+    assert_eq!(j.dof, c.len() - 1);
+    assert!(
+        (j.statistic / inf.objective - 1.0).abs() < 1e-7,
+        "{j:?} vs Q {}",
+        inf.objective
+    );
+    assert!((inf.wic - (inf.objective + 2.0)).abs() < 1e-7 * inf.wic);
+    // the CI is log-symmetric with the two-sided quantile
+    let z = z_two_sided(0.05);
+    let r = z * se / f.theta[0];
+    assert!((inf.ci[0].1 / f.theta[0] - r.exp()).abs() < LINALG_REL_TOL);
+    assert!((inf.ci[0].0 / f.theta[0] - (-r).exp()).abs() < LINALG_REL_TOL);
+}
+
+#[test]
+fn wic_selects_the_generating_sub_model_on_an_exact_curve() {
+    let truth: Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse().unwrap();
+    let m: Vec<u64> = (1..=16).map(|j| 1u64 << j).collect();
+    let av = model_avar(&truth, &m, 100.0).unwrap();
+    let c = AvCurve::from_m(&m, &av, 100.0).unwrap().with_n(1 << 18);
+    let v = diagonal_covariance(&c);
+    let ranked = select_by_wic(
+        &c,
+        &"QN + WN + RW".parse().unwrap(),
+        &GmwmOptions::default(),
+        &v,
+    )
+    .unwrap();
+    assert_eq!(ranked.len(), 7);
+    // QN + WN + RW also reaches Q = 0 but pays 2 more in WIC
+    assert_eq!(ranked[0].template, "WN + RW", "{ranked:#?}");
+}
+
+#[test]
+fn bootstrap_is_reproducible_and_uses_the_two_sided_quantile() {
+    let truth: Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse().unwrap();
+    let x = truth.simulate(1 << 14, 100.0, 3).unwrap();
+    let av = avar::allan_variance(x.values(), 100.0, &avar::AvarConfig::default()).unwrap();
+    let c = AvCurve::from_avar(&av).unwrap();
+    let tpl: Model = "WN + RW".parse().unwrap();
+    let opts = GmwmOptions::default();
+    let f = fit(&c, &tpl, &opts).unwrap();
+    let bo = BootstrapOptions::new(8, 11, 1 << 14);
+    let a = parametric_bootstrap(&f, &tpl, &opts, &bo).unwrap();
+    let b = parametric_bootstrap(&f, &tpl, &opts, &bo).unwrap();
+    assert_eq!(a, b);
+    assert_eq!(a.av_cov.n, c.len());
+    // AVLR bootstrap: CI = θ̂ ± z_{1−α/2} sd exactly
+    let w = gmwm_prep::avlr::AvlrWindows {
+        wn: Some((0, 3)),
+        ..Default::default()
+    };
+    let fit_avlr = gmwm_prep::avlr::avlr(&c, &w).unwrap();
+    let bb = avlr_bootstrap(&fit_avlr, &c.m(), &bo).unwrap();
+    let e = &bb.estimates[0];
+    let z = z_two_sided(0.05);
+    assert!((e.ci_hi.unwrap() - e.per_sample - z * e.sd.unwrap()).abs() < 1e-12 * e.per_sample);
+    assert!(BootstrapOptions::new(1, 1, 10).replications == 1);
+    assert!(parametric_bootstrap(&f, &tpl, &opts, &BootstrapOptions::new(1, 1, 1 << 14)).is_err());
+    let bad = CovMatrix::new(2, vec![1.0, 0.0, 0.0, f64::NAN]);
+    assert!(bad.is_err());
+}
