@@ -45,6 +45,27 @@ fn same_seed_same_bits_on_any_number_of_threads() {
 }
 
 #[test]
+fn channels_simulated_in_parallel_equal_sequential_ones() {
+    // As the CLI does for K channels: streams 0..K inside a parallel iterator (nested
+    // parallelism), each long enough to be split into chunks itself.
+    use rayon::prelude::*;
+    let model: Model = "WN(sigma2=1) + RW(gamma2=1e-4) + AR1(phi=0.9, sigma2=0.1)"
+        .parse()
+        .unwrap();
+    let n = 2 * CHUNK_LEN + 99;
+    let parallel: Vec<_> = pool(2).install(|| {
+        (0..6u64)
+            .into_par_iter()
+            .map(|s| model.simulate_stream(n, RATE_HZ, 13, s).unwrap())
+            .collect()
+    });
+    for (s, x) in parallel.iter().enumerate() {
+        let seq = pool(1).install(|| model.simulate_stream(n, RATE_HZ, 13, s as u64).unwrap());
+        assert_eq!(bits(x.values()), bits(seq.values()), "stream {s}");
+    }
+}
+
+#[test]
 fn components_sum_to_the_total_bit_for_bit() {
     let model: Model = ALL_KINDS.parse().unwrap();
     let n = 3 * CHUNK_LEN + 5;
