@@ -197,10 +197,8 @@ pub(crate) fn check_finite(x: &[f64]) -> Result<(), AvarError> {
         }
         reduce_lanes(&acc).is_nan()
     });
-    if bad {
-        if let Some((index, value)) = first_non_finite(x) {
-            return Err(AvarError::NonFinite { index, value });
-        }
+    if bad && let Some((index, value)) = first_non_finite(x) {
+        return Err(AvarError::NonFinite { index, value });
     }
     Ok(())
 }
