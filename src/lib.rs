@@ -17,6 +17,7 @@ pub use spectral;
 pub mod cli;
 pub mod error;
 pub mod io;
+pub mod plot;
 pub mod units;
 
 pub use error::{Error, Result};

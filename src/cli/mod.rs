@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
+pub mod analyze;
 pub mod avar_cmd;
 pub mod demo;
 pub mod fit;
@@ -41,6 +42,10 @@ pub enum Command {
     /// Fit a noise model per channel (GMWM, AVLR or IEEE 952 read-off) with CIs.
     #[command(after_help = fit::EXAMPLES)]
     Fit(fit::FitArgs),
+    /// Everything for a log: AV, model selection and fit, IEEE table, plots, report.html,
+    /// results.json, avar.csv and a Kalibr imu.yaml.
+    #[command(after_help = analyze::EXAMPLES)]
+    Analyze(analyze::AnalyzeArgs),
     /// Simulate K independent channels of a noise model to CSV or raw f64.
     #[command(after_help = simulate::EXAMPLES)]
     Simulate(simulate::SimulateArgs),
@@ -59,6 +64,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Avar(a) => avar_cmd::run(&a, &ui),
         Command::Fit(a) => fit::run(&a, &ui),
+        Command::Analyze(a) => analyze::run(&a, &ui),
         Command::Simulate(a) => simulate::run(&a, &ui),
         Command::Theory(a) => theory::run(&a, &ui),
         Command::Demo(a) => demo::run(&a, &ui),

@@ -1,0 +1,407 @@
+//! `imunoise analyze`: everything for a log — AV with CIs, model selection and fit, IEEE
+//! noise table, plots (SVG and PNG), `report.html`, `results.json`, `avar.csv` and a
+//! Kalibr-style `imu.yaml`.
+
+use super::fit::{ChannelFit, FitSettings, fit_all};
+use super::{InputArgs, Ui};
+use crate::error::{Error, Result};
+use crate::plot::{AdevPlot, Series, acf_svg, adev_svg, timeseries_svg};
+use avar::{AllanVariance, AvarConfig};
+use processes::{Sensor, Unit};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Examples shown by `imunoise analyze --help`.
+pub const EXAMPLES: &str = "Examples:
+  imunoise analyze imu.csv.gz --rate 100 --out report/
+  imunoise analyze log.f64 --binary f64 --channels 6 --rate 200 --unit deg/s,deg/s,deg/s,g,g,g --bootstrap 40
+
+Writes into DIR: report.html (self-contained), results.json, avar.csv, imu.yaml (Kalibr:
+continuous-time noise density and random walk, SI units), adev_<channel>.svg/.png,
+series_<channel>.svg/.png and acf_<channel>.svg/.png.";
+
+/// Arguments of `imunoise analyze`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct AnalyzeArgs {
+    /// The input file and how to read it.
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// Fit settings (by default: the best sub-model of QN+WN+RW+AR1 by WIC).
+    #[command(flatten)]
+    pub fit: FitSettings,
+    /// Fit exactly --model instead of selecting its best sub-model by WIC.
+    #[arg(long)]
+    pub no_select: bool,
+    /// Output directory (created if needed).
+    #[arg(long, short, default_value = "imunoise-report")]
+    pub out: PathBuf,
+}
+
+/// One channel in `results.json`.
+#[derive(Debug, Serialize)]
+pub struct ChannelResult<'a> {
+    /// Channel name.
+    pub name: &'a str,
+    /// Unit.
+    pub unit: &'a Unit,
+    /// Sensor kind.
+    pub sensor: Sensor,
+    /// Number of samples.
+    pub n: usize,
+    /// Allan variance curve (same point shape as `imunoise avar`).
+    pub avar: Vec<super::avar_cmd::PointJson>,
+    /// The fit (same shape as one channel of `imunoise fit --format json`).
+    pub fit: &'a ChannelFit,
+}
+
+/// `results.json`.
+#[derive(Debug, Serialize)]
+pub struct Results<'a> {
+    /// Source of the data.
+    pub source: &'a str,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Channels.
+    pub channels: Vec<ChannelResult<'a>>,
+}
+
+/// Everything the report is made of.
+pub struct ReportInput<'a> {
+    /// Title / source of the data.
+    pub source: &'a str,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Channel names.
+    pub names: &'a [String],
+    /// Channel samples.
+    pub columns: &'a [Vec<f64>],
+    /// Units.
+    pub units: &'a [Unit],
+    /// AV curves.
+    pub curves: &'a [(String, AllanVariance)],
+    /// Fits.
+    pub fits: &'a [ChannelFit],
+    /// Extra HTML inserted after the summary (e.g. the demo's truth table).
+    pub extra_html: String,
+}
+
+fn file_safe(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+fn html_esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// The Kalibr `imu.yaml` text: noise density N (from WN) and random walk K (from RW) of
+/// gyroscopes (rad/s/√Hz, rad/s²/√Hz) and accelerometers (m/s²/√Hz, m/s³/√Hz), the
+/// largest over the axes of each sensor (conservative, as Kalibr takes one value per sensor).
+pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
+    let mut vals: [Vec<f64>; 4] = Default::default(); // gN, gK, aN, aK
+    for (k, f) in inp.fits.iter().enumerate() {
+        let unit = &inp.units[k];
+        let to_si = match unit {
+            Unit::DegPerSec => std::f64::consts::PI / 180.0,
+            Unit::G => gmwm_prep::units::STANDARD_GRAVITY,
+            Unit::RadPerSec | Unit::MetrePerSec2 => 1.0,
+            _ => continue,
+        };
+        let base = if unit.is_angular_rate() { 0 } else { 2 };
+        for p in &f.parameters {
+            match (p.process.as_str(), p.name.as_str()) {
+                ("WN", "sigma2") => vals[base].push((p.value / inp.rate_hz).sqrt() * to_si),
+                ("RW", "gamma2") => vals[base + 1].push((p.value * inp.rate_hz).sqrt() * to_si),
+                _ => {}
+            }
+        }
+    }
+    let line = |key: &str, v: &[f64], unit: &str, what: &str| match v
+        .iter()
+        .copied()
+        .fold(None, |m: Option<f64>, x| Some(m.map_or(x, |m| m.max(x))))
+    {
+        Some(x) => format!("{key}: {x:.6e}   # [{unit}] {what}\n"),
+        None => {
+            format!("# {key}: not estimated (no such channel or component in the fitted models)\n")
+        }
+    };
+    let mut s = String::new();
+    s.push_str("# Kalibr-style IMU noise model estimated by imunoise from the Allan variance\n");
+    let _ = writeln!(s, "# source: {}", inp.source);
+    s.push_str("# continuous-time values, largest over the axes of each sensor\n");
+    s.push_str("rostopic: /imu0\n");
+    let _ = writeln!(s, "update_rate: {:.6}   # [Hz]", inp.rate_hz);
+    s.push_str(&line(
+        "accelerometer_noise_density",
+        &vals[2],
+        "m/s^2/sqrt(Hz)",
+        "white noise N",
+    ));
+    s.push_str(&line(
+        "accelerometer_random_walk",
+        &vals[3],
+        "m/s^3/sqrt(Hz)",
+        "bias random walk K",
+    ));
+    s.push_str(&line(
+        "gyroscope_noise_density",
+        &vals[0],
+        "rad/s/sqrt(Hz)",
+        "white noise N",
+    ));
+    s.push_str(&line(
+        "gyroscope_random_walk",
+        &vals[1],
+        "rad/s^2/sqrt(Hz)",
+        "bias random walk K",
+    ));
+    s
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    std::fs::write(path, bytes).map_err(|e| Error::io(path.display().to_string(), e))
+}
+
+/// Writes an SVG and (with the `png` feature) its PNG rendering.
+fn write_plot(dir: &Path, stem: &str, svg: &str) -> Result<()> {
+    write_file(&dir.join(format!("{stem}.svg")), svg.as_bytes())?;
+    #[cfg(feature = "png")]
+    {
+        let png =
+            crate::plot::svg_to_png(svg, 1.5).map_err(|e| Error::Usage(format!("{stem}: {e}")))?;
+        write_file(&dir.join(format!("{stem}.png")), &png)?;
+    }
+    Ok(())
+}
+
+/// Writes the whole report into `dir`.
+pub fn write_report(dir: &Path, inp: &ReportInput<'_>, ui: &Ui) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display().to_string(), e))?;
+    let pb = ui.bar(inp.names.len() as u64, "plots");
+    // avar.csv
+    let mut csv = Vec::new();
+    super::avar_cmd::write_csv(&mut csv, inp.curves).map_err(|e| Error::io("avar.csv", e))?;
+    write_file(&dir.join("avar.csv"), &csv)?;
+    // results.json
+    let json = super::avar_cmd::to_json(inp.curves);
+    let results = Results {
+        source: inp.source,
+        rate_hz: inp.rate_hz,
+        channels: json
+            .channels
+            .into_iter()
+            .enumerate()
+            .map(|(k, c)| ChannelResult {
+                name: &inp.names[k],
+                unit: &inp.units[k],
+                sensor: crate::units::sensor_of(&inp.names[k], &inp.units[k]),
+                n: c.n,
+                avar: c.points,
+                fit: &inp.fits[k],
+            })
+            .collect(),
+    };
+    write_file(
+        &dir.join("results.json"),
+        serde_json::to_string_pretty(&results)?.as_bytes(),
+    )?;
+    write_file(&dir.join("imu.yaml"), kalibr_yaml(inp).as_bytes())?;
+    // Plots and HTML.
+    let mut html = String::new();
+    let _ = write!(
+        html,
+        r#"<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>imunoise report: {src}</title>
+<style>body{{font-family:"DejaVu Sans",Verdana,Arial,sans-serif;margin:24px;max-width:1600px;color:#222}}
+table{{border-collapse:collapse;margin:8px 0 18px}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right;font-size:13px}}
+th{{background:#f0f0f0}}td.l,th.l{{text-align:left}}.plots{{display:flex;flex-wrap:wrap;gap:8px}}.plots svg{{border:1px solid #ddd;max-width:100%;height:auto}}
+h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{color:#C00000;font-weight:bold}}</style></head><body>
+<h1>imunoise report</h1><p>Source: <code>{src}</code>, {rate} Hz, {n} samples per channel ({h:.2} h). Allan variance: book eq. 4.2 (maximum overlap), dyadic scales, 95% chi-square CIs. Fit: {method}.</p>
+"#,
+        src = html_esc(inp.source),
+        rate = inp.rate_hz,
+        n = inp.columns.first().map_or(0, Vec::len),
+        h = inp.columns.first().map_or(0, Vec::len) as f64 / inp.rate_hz / 3600.0,
+        method = inp
+            .fits
+            .first()
+            .map_or("-".to_string(), |f| f.method.clone())
+    );
+    // IEEE noise table.
+    html.push_str("<h2>Noise terms (IEEE Std 952 units)</h2><table><tr><th class=l>channel</th><th class=l>unit</th><th class=l>fitted model (per sample)</th><th>N (ARW/VRW)</th><th>K (RRW)</th><th>Q</th><th>R</th><th class=l>J-test p</th></tr>\n");
+    for (k, f) in inp.fits.iter().enumerate() {
+        let cell = |key: &str| {
+            f.ieee.get(key).map_or("-".to_string(), |v| {
+                let ci = match (v.ci_lo, v.ci_hi) {
+                    (Some(a), Some(b)) => format!("<br><small>[{a:.4}, {b:.4}]</small>"),
+                    _ => String::new(),
+                };
+                format!("{:.4} {}{ci}", v.value, html_esc(&v.unit))
+            })
+        };
+        let _ = writeln!(
+            html,
+            "<tr><td class=l>{}</td><td class=l>{}</td><td class=l><small>{}</small></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
+            html_esc(&inp.names[k]),
+            html_esc(inp.units[k].symbol()),
+            html_esc(&f.model),
+            cell("N"),
+            cell("K"),
+            cell("Q"),
+            cell("R"),
+            f.j_test
+                .as_ref()
+                .map_or("-".into(), |j| format!("{:.3}", j.p_value))
+        );
+    }
+    html.push_str("</table>\n");
+    html.push_str(&inp.extra_html);
+    // Parameter table.
+    html.push_str("<h2>Parameters (per sample, 95% CI)</h2><table><tr><th class=l>channel</th><th class=l>process</th><th class=l>parameter</th><th>value</th><th>CI low</th><th>CI high</th></tr>\n");
+    for (k, f) in inp.fits.iter().enumerate() {
+        for p in &f.parameters {
+            let o = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4e}"));
+            let _ = writeln!(
+                html,
+                "<tr><td class=l>{}</td><td class=l>{}</td><td class=l>{}</td><td>{:.4e}</td><td>{}</td><td>{}</td></tr>",
+                html_esc(&inp.names[k]),
+                p.process,
+                p.name,
+                p.value,
+                o(p.ci_lo),
+                o(p.ci_hi)
+            );
+        }
+    }
+    html.push_str("</table>\n<h2>Allan deviation</h2><div class=plots>\n");
+    let mut series_html = String::from("<h2>Time series</h2><div class=plots>\n");
+    let mut acf_html = String::from("<h2>Autocorrelation</h2><div class=plots>\n");
+    for (k, name) in inp.names.iter().enumerate() {
+        let stem = file_safe(name);
+        let (_, av) = &inp.curves[k];
+        let f = &inp.fits[k];
+        let nan = f64::NAN;
+        let tau: Vec<f64> = av.points.iter().map(|p| p.tau).collect();
+        let tau_of = |m: u64| m as f64 / inp.rate_hz;
+        let plot = AdevPlot {
+            title: format!("{name}: Allan deviation"),
+            unit: inp.units[k].symbol().to_string(),
+            observed: av
+                .points
+                .iter()
+                .map(|p| {
+                    (
+                        p.tau,
+                        p.adev,
+                        p.adev_lo.unwrap_or(nan),
+                        p.adev_hi.unwrap_or(nan),
+                    )
+                })
+                .collect(),
+            fitted: Some(Series {
+                label: format!("fitted model ({})", f.method),
+                points: f
+                    .fitted
+                    .iter()
+                    .map(|p| (tau_of(p.m), p.avar.max(0.0).sqrt()))
+                    .collect(),
+            }),
+            components: f
+                .components
+                .iter()
+                .map(|(code, v)| Series {
+                    label: code.clone(),
+                    points: tau
+                        .iter()
+                        .zip(v)
+                        .map(|(&t, &a)| (t, a.max(0.0).sqrt()))
+                        .collect(),
+                })
+                .collect(),
+        };
+        let svg = adev_svg(&plot, &format!("ad{k}"));
+        write_plot(dir, &format!("adev_{stem}"), &svg)?;
+        html.push_str(&svg);
+        let x = &inp.columns[k];
+        let ts = timeseries_svg(
+            &format!("{name}: time series"),
+            inp.units[k].symbol(),
+            x,
+            inp.rate_hz,
+            &format!("ts{k}"),
+        );
+        write_plot(dir, &format!("series_{stem}"), &ts)?;
+        series_html.push_str(&ts);
+        let lags = (x.len() / 4)
+            .clamp(2, (inp.rate_hz * 30.0) as usize + 1)
+            .min(4000);
+        let acf = spectral::empirical::autocorrelation(x, lags - 1)
+            .map_err(|e| Error::Usage(format!("{name}: ACF: {e}")))?;
+        let a = acf_svg(
+            &format!("{name}: sample ACF"),
+            &acf,
+            x.len(),
+            inp.rate_hz,
+            &format!("acf{k}"),
+        );
+        write_plot(dir, &format!("acf_{stem}"), &a)?;
+        acf_html.push_str(&a);
+        pb.inc(1);
+    }
+    html.push_str("</div>\n");
+    html.push_str(&series_html);
+    html.push_str("</div>\n");
+    html.push_str(&acf_html);
+    html.push_str("</div>\n<p><small>Made by imunoise. Dotted grey lines: IEEE 952 slope guides (−1 quantization, −1/2 white noise, +1/2 rate random walk, +1 ramp). Shaded band: 95% CI of the estimated Allan deviation.</small></p></body></html>\n");
+    write_file(&dir.join("report.html"), html.as_bytes())?;
+    pb.finish_and_clear();
+    Ok(())
+}
+
+/// Runs `imunoise analyze`.
+pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
+    let table = args.input.read(ui)?;
+    let units = crate::units::channel_units(&table.names, args.input.unit.as_deref())?;
+    let cfg = AvarConfig {
+        alpha: args.fit.alpha,
+        ..AvarConfig::default()
+    };
+    let curves = super::avar_cmd::compute(&table, args.input.rate, &cfg, ui)?;
+    let mut settings = args.fit.clone();
+    settings.select = !args.no_select && settings.method == super::fit::Method::Gmwm;
+    let fits = fit_all(&curves, &units, &settings, ui)?;
+    let inp = ReportInput {
+        source: &table.file,
+        rate_hz: args.input.rate,
+        names: &table.names,
+        columns: &table.columns,
+        units: &units,
+        curves: &curves,
+        fits: &fits,
+        extra_html: String::new(),
+    };
+    write_report(&args.out, &inp, ui)?;
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    super::fit::write_table(&mut out, &fits, settings.alpha)
+        .and_then(|_| {
+            use std::io::Write;
+            writeln!(
+                out,
+                "\nreport written to {}",
+                args.out.join("report.html").display()
+            )?;
+            out.flush()
+        })
+        .map_err(|e| Error::io("<stdout>", e))
+}

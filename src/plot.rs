@@ -1,0 +1,566 @@
+//! Self-contained SVG plots (no system fonts, no external files): the log-log Allan
+//! deviation with its CI band, fitted total, components and slope guides; a time-series
+//! plot (min/max envelope per pixel); an ACF plot. With the default `png` feature the
+//! SVGs are also rendered to PNG (resvg) with the embedded DejaVu Sans font.
+
+use std::fmt::Write;
+
+/// Plot width in pixels.
+pub const WIDTH: f64 = 760.0;
+/// Plot height in pixels.
+pub const HEIGHT: f64 = 500.0;
+const LEFT: f64 = 90.0;
+const RIGHT: f64 = 24.0;
+const TOP: f64 = 44.0;
+const BOTTOM: f64 = 64.0;
+const FONT: &str = "DejaVu Sans, Verdana, Arial, sans-serif";
+/// Line colours of components (colour-blind-friendly Okabe–Ito palette).
+const PALETTE: [&str; 7] = [
+    "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00", "#0072B2", "#999999",
+];
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// A curve on the AD plot.
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Legend text.
+    pub label: String,
+    /// (x, y) points.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Everything drawn on an Allan-deviation plot.
+#[derive(Debug, Clone, Default)]
+pub struct AdevPlot {
+    /// Title.
+    pub title: String,
+    /// Unit of the deviation, e.g. `°/s`.
+    pub unit: String,
+    /// Observed (τ, σ, σ_lo, σ_hi); bounds may be NaN when absent.
+    pub observed: Vec<(f64, f64, f64, f64)>,
+    /// The fitted total, if any.
+    pub fitted: Option<Series>,
+    /// Each fitted component.
+    pub components: Vec<Series>,
+}
+
+struct Frame {
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    logx: bool,
+    logy: bool,
+}
+
+impl Frame {
+    fn px(&self, x: f64) -> f64 {
+        let (a, b, v) = if self.logx {
+            (self.x0.log10(), self.x1.log10(), x.log10())
+        } else {
+            (self.x0, self.x1, x)
+        };
+        LEFT + (v - a) / (b - a) * (WIDTH - LEFT - RIGHT)
+    }
+    fn py(&self, y: f64) -> f64 {
+        let (a, b, v) = if self.logy {
+            (self.y0.log10(), self.y1.log10(), y.log10())
+        } else {
+            (self.y0, self.y1, y)
+        };
+        HEIGHT - BOTTOM - (v - a) / (b - a) * (HEIGHT - TOP - BOTTOM)
+    }
+}
+
+fn header(s: &mut String, title: &str, id: &str) {
+    let _ = write!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" viewBox="0 0 {WIDTH} {HEIGHT}" font-family="{FONT}" font-size="13">
+<rect width="100%" height="100%" fill="white"/>
+<defs><clipPath id="clip-{id}"><rect x="{LEFT}" y="{TOP}" width="{}" height="{}"/></clipPath></defs>
+<text x="{}" y="26" text-anchor="middle" font-size="16" font-weight="bold">{}</text>
+"#,
+        WIDTH - LEFT - RIGHT,
+        HEIGHT - TOP - BOTTOM,
+        (LEFT + WIDTH - RIGHT) / 2.0,
+        esc(title)
+    );
+}
+
+fn fmt_tick(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if (1e-3..1e5).contains(&a) {
+        let s = format!("{v:.6}");
+        let s = s.trim_end_matches('0').trim_end_matches('.').to_string();
+        s
+    } else {
+        let e = a.log10().floor() as i32;
+        let m = v / 10f64.powi(e);
+        if (m.abs() - 1.0).abs() < 1e-9 {
+            format!("{}1e{e}", if v < 0.0 { "-" } else { "" })
+        } else {
+            format!("{m:.1}e{e}")
+        }
+    }
+}
+
+/// "Nice" linear ticks covering [a, b].
+fn nice_ticks(a: f64, b: f64) -> Vec<f64> {
+    let span = (b - a).abs().max(f64::MIN_POSITIVE);
+    let raw = span / 6.0;
+    let p = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 2.5, 5.0, 10.0]
+        .iter()
+        .map(|f| f * p)
+        .find(|s| span / s <= 7.0)
+        .unwrap_or(10.0 * p);
+    let mut t = (a / step).ceil() * step;
+    let mut out = Vec::new();
+    while t <= b + 1e-9 * step {
+        out.push(if t.abs() < 1e-12 * step { 0.0 } else { t });
+        t += step;
+    }
+    out
+}
+
+fn axes(s: &mut String, f: &Frame, xlabel: &str, ylabel: &str) {
+    let (l, r, t, b) = (LEFT, WIDTH - RIGHT, TOP, HEIGHT - BOTTOM);
+    let grid = |s: &mut String, vals: Vec<(f64, bool)>, horizontal: bool| {
+        for (v, major) in vals {
+            let (stroke, w) = if major {
+                ("#d0d0d0", 1.0)
+            } else {
+                ("#eeeeee", 0.7)
+            };
+            if horizontal {
+                let y = f.py(v);
+                let _ = writeln!(
+                    s,
+                    r#"<line x1="{l}" y1="{y:.2}" x2="{r}" y2="{y:.2}" stroke="{stroke}" stroke-width="{w}"/>"#
+                );
+                if major {
+                    let _ = writeln!(
+                        s,
+                        r#"<text x="{}" y="{:.2}" text-anchor="end" dominant-baseline="middle">{}</text>"#,
+                        l - 6.0,
+                        y,
+                        fmt_tick(v)
+                    );
+                }
+            } else {
+                let x = f.px(v);
+                let _ = writeln!(
+                    s,
+                    r#"<line x1="{x:.2}" y1="{t}" x2="{x:.2}" y2="{b}" stroke="{stroke}" stroke-width="{w}"/>"#
+                );
+                if major {
+                    let _ = writeln!(
+                        s,
+                        r#"<text x="{x:.2}" y="{}" text-anchor="middle">{}</text>"#,
+                        b + 18.0,
+                        fmt_tick(v)
+                    );
+                }
+            }
+        }
+    };
+    let ticks = |a: f64, bb: f64, log: bool| -> Vec<(f64, bool)> {
+        if log {
+            let mut v = Vec::new();
+            let (e0, e1) = (a.log10().floor() as i32, bb.log10().ceil() as i32);
+            let every = ((e1 - e0) / 8 + 1).max(1);
+            for e in e0..=e1 {
+                for k in 1..10 {
+                    let x = k as f64 * 10f64.powi(e);
+                    if x >= a * (1.0 - 1e-9) && x <= bb * (1.0 + 1e-9) {
+                        v.push((x, k == 1 && (e - e0) % every == 0));
+                    }
+                }
+            }
+            v
+        } else {
+            nice_ticks(a, bb).into_iter().map(|x| (x, true)).collect()
+        }
+    };
+    grid(s, ticks(f.x0, f.x1, f.logx), false);
+    grid(s, ticks(f.y0, f.y1, f.logy), true);
+    let _ = writeln!(
+        s,
+        r##"<rect x="{l}" y="{t}" width="{}" height="{}" fill="none" stroke="#333" stroke-width="1"/>"##,
+        r - l,
+        b - t
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="{}" text-anchor="middle" font-size="14">{}</text>"#,
+        (l + r) / 2.0,
+        HEIGHT - 16.0,
+        esc(xlabel)
+    );
+    let _ = writeln!(
+        s,
+        r#"<text transform="translate(20 {}) rotate(-90)" text-anchor="middle" font-size="14">{}</text>"#,
+        (t + b) / 2.0,
+        esc(ylabel)
+    );
+}
+
+fn polyline(s: &mut String, f: &Frame, pts: &[(f64, f64)], style: &str, id: &str) {
+    let mut d = String::new();
+    for &(x, y) in pts {
+        if x.is_finite() && y.is_finite() && (!f.logy || y > 0.0) && (!f.logx || x > 0.0) {
+            let _ = write!(d, "{:.2},{:.2} ", f.px(x), f.py(y));
+        }
+    }
+    let _ = writeln!(
+        s,
+        r#"<polyline points="{d}" fill="none" {style} clip-path="url(#clip-{id})"/>"#
+    );
+}
+
+fn legend(s: &mut String, items: &[(String, String)]) {
+    let x = LEFT + 12.0;
+    let mut y = TOP + 14.0;
+    let w = items
+        .iter()
+        .map(|(t, _)| t.chars().count())
+        .max()
+        .unwrap_or(0) as f64
+        * 7.2
+        + 44.0;
+    let _ = writeln!(
+        s,
+        r##"<rect x="{}" y="{}" width="{w:.0}" height="{}" fill="white" fill-opacity="0.85" stroke="#bbb"/>"##,
+        x - 6.0,
+        y - 12.0,
+        items.len() as f64 * 18.0 + 6.0
+    );
+    for (text, style) in items {
+        let _ = writeln!(
+            s,
+            r#"<line x1="{x}" y1="{y}" x2="{}" y2="{y}" {style}/><text x="{}" y="{}" font-size="12">{}</text>"#,
+            x + 26.0,
+            x + 32.0,
+            y + 4.0,
+            esc(text)
+        );
+        y += 18.0;
+    }
+}
+
+/// The log-log Allan deviation plot as an SVG document.
+pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
+    let mut s = String::new();
+    header(&mut s, &p.title, id);
+    let obs: Vec<_> = p
+        .observed
+        .iter()
+        .filter(|q| q.0 > 0.0 && q.1 > 0.0)
+        .copied()
+        .collect();
+    if obs.is_empty() {
+        s.push_str("</svg>\n");
+        return s;
+    }
+    let xs = obs.iter().map(|q| q.0);
+    let (mut x0, mut x1) = (
+        xs.clone().fold(f64::INFINITY, f64::min),
+        xs.fold(0.0, f64::max),
+    );
+    let mut ys: Vec<f64> = obs
+        .iter()
+        .flat_map(|q| [q.1, q.2, q.3])
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    if let Some(fit) = &p.fitted {
+        ys.extend(fit.points.iter().map(|q| q.1).filter(|v| *v > 0.0));
+    }
+    let (ymin, ymax) = (
+        ys.iter().copied().fold(f64::INFINITY, f64::min),
+        ys.iter().copied().fold(0.0, f64::max),
+    );
+    x0 = 10f64.powf(x0.log10().floor());
+    x1 = 10f64.powf(x1.log10().ceil());
+    let y0 = 10f64.powf((ymin.log10() - 0.15).floor());
+    let y1 = 10f64.powf((ymax.log10() + 0.15).ceil());
+    let f = Frame {
+        x0,
+        x1,
+        y0,
+        y1,
+        logx: true,
+        logy: true,
+    };
+    let unit = if p.unit.is_empty() {
+        String::new()
+    } else {
+        format!(" [{}]", p.unit)
+    };
+    axes(
+        &mut s,
+        &f,
+        "averaging time τ [s]",
+        &format!("Allan deviation σ(τ){unit}"),
+    );
+    // Slope guides through the observed curve: −1, −½ from the first point; +½, +1 from the last.
+    let first = obs[0];
+    let last = *obs.last().expect("non-empty");
+    for (slope, anchor, label) in [
+        (-1.0, first, "−1"),
+        (-0.5, first, "−1/2"),
+        (0.5, last, "+1/2"),
+        (1.0, last, "+1"),
+    ] {
+        let line: Vec<(f64, f64)> = [x0, x1]
+            .iter()
+            .map(|&x| (x, anchor.1 * (x / anchor.0).powf(slope)))
+            .collect();
+        polyline(
+            &mut s,
+            &f,
+            &line,
+            r##"stroke="#9a9a9a" stroke-width="1" stroke-dasharray="2 4""##,
+            id,
+        );
+        // Label near the anchor, inside the plot.
+        let tx = if slope < 0.0 {
+            anchor.0 * 3.0
+        } else {
+            anchor.0 / 3.0
+        };
+        let ty = anchor.1 * (tx / anchor.0).powf(slope);
+        if ty > y0 && ty < y1 && tx > x0 && tx < x1 {
+            let _ = writeln!(
+                s,
+                r##"<text x="{:.1}" y="{:.1}" font-size="11" fill="#777">slope {label}</text>"##,
+                f.px(tx) + 4.0,
+                f.py(ty) - 4.0
+            );
+        }
+    }
+    // CI band.
+    let band: Vec<&(f64, f64, f64, f64)> = obs
+        .iter()
+        .filter(|q| q.2.is_finite() && q.3.is_finite())
+        .collect();
+    if band.len() >= 2 {
+        let mut d = String::new();
+        for q in &band {
+            let _ = write!(d, "{:.2},{:.2} ", f.px(q.0), f.py(q.3));
+        }
+        for q in band.iter().rev() {
+            let lo = if q.2 > 0.0 { q.2 } else { y0 };
+            let _ = write!(d, "{:.2},{:.2} ", f.px(q.0), f.py(lo));
+        }
+        let _ = writeln!(
+            s,
+            r##"<polygon points="{d}" fill="#0072B2" fill-opacity="0.18" stroke="none" clip-path="url(#clip-{id})"/>"##
+        );
+    }
+    let mut items = vec![(
+        "estimated AD with 95% CI".to_string(),
+        r##"stroke="#0072B2" stroke-width="2""##.to_string(),
+    )];
+    for (i, c) in p.components.iter().enumerate() {
+        let style = format!(
+            r#"stroke="{}" stroke-width="1.6" stroke-dasharray="7 4""#,
+            PALETTE[i % PALETTE.len()]
+        );
+        polyline(&mut s, &f, &c.points, &style, id);
+        items.push((c.label.clone(), style));
+    }
+    let pts: Vec<(f64, f64)> = obs.iter().map(|q| (q.0, q.1)).collect();
+    polyline(
+        &mut s,
+        &f,
+        &pts,
+        r##"stroke="#0072B2" stroke-width="2""##,
+        id,
+    );
+    for q in &pts {
+        let _ = writeln!(
+            s,
+            r##"<circle cx="{:.2}" cy="{:.2}" r="2.8" fill="#0072B2"/>"##,
+            f.px(q.0),
+            f.py(q.1)
+        );
+    }
+    if let Some(fit) = &p.fitted {
+        let style = r##"stroke="#C00000" stroke-width="2""##.to_string();
+        polyline(&mut s, &f, &fit.points, &style, id);
+        items.insert(1, (fit.label.clone(), style));
+    }
+    legend(&mut s, &items);
+    s.push_str("</svg>\n");
+    s
+}
+
+/// A time-series plot (hours on the x axis when longer than 2 h) as SVG: the min/max
+/// envelope of the samples in each of ~700 columns, so every sample is represented.
+pub fn timeseries_svg(title: &str, unit: &str, x: &[f64], rate_hz: f64, id: &str) -> String {
+    let mut s = String::new();
+    header(&mut s, title, id);
+    let n = x.len();
+    let dur = n as f64 / rate_hz;
+    let (scale, tl) = if dur > 7200.0 {
+        (1.0 / 3600.0, "time [h]")
+    } else if dur > 600.0 {
+        (1.0 / 60.0, "time [min]")
+    } else {
+        (1.0, "time [s]")
+    };
+    let cols = 700.min(n.max(1));
+    let mut env = Vec::with_capacity(cols);
+    for c in 0..cols {
+        let a = c * n / cols;
+        let b = ((c + 1) * n / cols).max(a + 1).min(n);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &v in &x[a..b] {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        env.push((a as f64 / rate_hz * scale, lo, hi));
+    }
+    let ymin = env.iter().map(|e| e.1).fold(f64::INFINITY, f64::min);
+    let ymax = env.iter().map(|e| e.2).fold(f64::NEG_INFINITY, f64::max);
+    let pad = ((ymax - ymin) * 0.05).max(1e-300);
+    let f = Frame {
+        x0: 0.0,
+        x1: (dur * scale).max(1e-12),
+        y0: ymin - pad,
+        y1: ymax + pad,
+        logx: false,
+        logy: false,
+    };
+    let unit = if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" [{unit}]")
+    };
+    axes(&mut s, &f, tl, &format!("value{unit}"));
+    let mut d = String::new();
+    for e in &env {
+        let _ = write!(
+            d,
+            "M{:.2},{:.2}V{:.2}",
+            f.px(e.0),
+            f.py(e.1),
+            f.py(e.2) - 0.5
+        );
+    }
+    let _ = writeln!(
+        s,
+        r##"<path d="{d}" stroke="#0072B2" stroke-width="1.2" fill="none" clip-path="url(#clip-{id})"/>"##
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// An ACF plot (stems) with the ±1.96/√n band of a white noise, as SVG.
+pub fn acf_svg(title: &str, acf: &[f64], n: usize, rate_hz: f64, id: &str) -> String {
+    let mut s = String::new();
+    header(&mut s, title, id);
+    let lags = acf.len().max(2);
+    let f = Frame {
+        x0: 0.0,
+        x1: (lags - 1) as f64 / rate_hz,
+        y0: acf.iter().copied().fold(0.0, f64::min).min(-0.1) - 0.05,
+        y1: 1.05,
+        logx: false,
+        logy: false,
+    };
+    axes(&mut s, &f, "lag [s]", "autocorrelation");
+    let band = 1.96 / (n as f64).sqrt();
+    for b in [band, -band] {
+        let _ = writeln!(
+            s,
+            r##"<line x1="{LEFT}" y1="{y:.2}" x2="{}" y2="{y:.2}" stroke="#C00000" stroke-dasharray="5 4"/>"##,
+            WIDTH - RIGHT,
+            y = f.py(b)
+        );
+    }
+    let mut d = String::new();
+    for (h, &r) in acf.iter().enumerate() {
+        let x = f.px(h as f64 / rate_hz);
+        let _ = write!(d, "M{x:.2},{:.2}V{:.2}", f.py(0.0), f.py(r));
+    }
+    let _ = writeln!(
+        s,
+        r##"<path d="{d}" stroke="#0072B2" stroke-width="1" fill="none" clip-path="url(#clip-{id})"/>"##
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// Renders an SVG document to PNG bytes with the embedded DejaVu Sans font (no system
+/// fonts are consulted), at `zoom` × the SVG's size.
+#[cfg(feature = "png")]
+pub fn svg_to_png(svg: &str, zoom: f32) -> Result<Vec<u8>, String> {
+    use resvg::{tiny_skia, usvg};
+    static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+    let mut opt = usvg::Options::default();
+    opt.font_family = "DejaVu Sans".into();
+    opt.fontdb_mut().load_font_data(FONT.to_vec());
+    let tree = usvg::Tree::from_str(svg, &opt).map_err(|e| format!("SVG: {e}"))?;
+    let size = tree
+        .size()
+        .to_int_size()
+        .scale_by(zoom)
+        .ok_or("empty SVG")?;
+    let mut pixmap = tiny_skia::Pixmap::new(size.width(), size.height()).ok_or("PNG too large")?;
+    resvg::render(
+        &tree,
+        tiny_skia::Transform::from_scale(zoom, zoom),
+        &mut pixmap.as_mut(),
+    );
+    pixmap.encode_png().map_err(|e| format!("PNG: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_and_labels() {
+        assert_eq!(nice_ticks(0.0, 10.0), [0.0, 2.0, 4.0, 6.0, 8.0, 10.0]);
+        assert_eq!(fmt_tick(0.01), "0.01");
+        assert_eq!(fmt_tick(1e-5), "1e-5");
+        assert_eq!(fmt_tick(1000.0), "1000");
+    }
+
+    #[test]
+    fn adev_svg_has_band_curves_and_labels() {
+        let obs: Vec<(f64, f64, f64, f64)> = (0..10)
+            .map(|j| {
+                let t = 0.02 * 2f64.powi(j);
+                let a = 0.01 / t.sqrt();
+                (t, a, 0.9 * a, 1.1 * a)
+            })
+            .collect();
+        let svg = adev_svg(
+            &AdevPlot {
+                title: "gyro_x".into(),
+                unit: "°/s".into(),
+                observed: obs.clone(),
+                fitted: Some(Series {
+                    label: "fit".into(),
+                    points: obs.iter().map(|q| (q.0, q.1)).collect(),
+                }),
+                components: vec![],
+            },
+            "t",
+        );
+        assert!(svg.contains("<polygon"));
+        assert!(svg.contains("Allan deviation σ(τ) [°/s]"));
+        assert!(svg.contains("slope −1/2"));
+        assert_eq!(svg.matches("<circle").count(), 10);
+    }
+}
