@@ -58,14 +58,23 @@ fn reduce_lanes(acc: &[f64; LANES]) -> f64 {
     v[0]
 }
 
-/// Σ_{k=lo}^{hi-1} d_k², d_k = (c[k] − c[k−m]) − (c[k−m] − c[k−2m]). Needs 2m <= lo <= hi <= c.len().
+/// Adds d_k² to `acc[k % LANES]` for k in [lo, hi), d_k = (c[k] − c[k−m]) − (c[k−m] − c[k−2m]).
+/// Needs 2m <= lo <= hi <= c.len(). Lanes are tied to the absolute index k, so splitting a
+/// range at multiples of LANES leaves every lane's order of additions unchanged.
 #[inline(always)]
-fn sumsq_generic(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
-    let n = hi - lo;
+fn sumsq_generic(c: &[f64], m: usize, lo: usize, hi: usize, acc: &mut [f64; LANES]) {
+    let head_end = lo.next_multiple_of(LANES).min(hi);
+    for k in lo..head_end {
+        let x = (c[k] - c[k - m]) - (c[k - m] - c[k - 2 * m]);
+        acc[k % LANES] += x * x;
+    }
+    if head_end >= hi {
+        return;
+    }
+    let lo = head_end;
     let a = &c[lo..hi];
     let b = &c[lo - m..hi - m];
     let d = &c[lo - 2 * m..hi - 2 * m];
-    let mut acc = [0.0f64; LANES];
     let mut ia = a.chunks_exact(LANES);
     let mut ib = b.chunks_exact(LANES);
     let mut id = d.chunks_exact(LANES);
@@ -80,50 +89,68 @@ fn sumsq_generic(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
         let x = (ra[l] - rb[l]) - (rb[l] - rd[l]);
         acc[l] += x * x;
     }
-    let _ = n;
-    reduce_lanes(&acc)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn sumsq_avx512(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
-    sumsq_generic(c, m, lo, hi)
+fn sumsq_avx512(c: &[f64], m: usize, lo: usize, hi: usize, acc: &mut [f64; LANES]) {
+    sumsq_generic(c, m, lo, hi, acc)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn sumsq_avx2(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
-    sumsq_generic(c, m, lo, hi)
+fn sumsq_avx2(c: &[f64], m: usize, lo: usize, hi: usize, acc: &mut [f64; LANES]) {
+    sumsq_generic(c, m, lo, hi, acc)
 }
 
-fn sumsq_portable(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
-    sumsq_generic(c, m, lo, hi)
+fn sumsq_portable(c: &[f64], m: usize, lo: usize, hi: usize, acc: &mut [f64; LANES]) {
+    sumsq_generic(c, m, lo, hi, acc)
 }
 
-type SumFn = fn(&[f64], usize, usize, usize) -> f64;
+type SumFn = fn(&[f64], usize, usize, usize, &mut [f64; LANES]);
 
 fn sumsq_fn() -> SumFn {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU supports AVX-512F (checked above).
-            return |c, m, lo, hi| unsafe { sumsq_avx512(c, m, lo, hi) };
+            return |c, m, lo, hi, acc| unsafe { sumsq_avx512(c, m, lo, hi, acc) };
         }
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2 (checked above).
-            return |c, m, lo, hi| unsafe { sumsq_avx2(c, m, lo, hi) };
+            return |c, m, lo, hi, acc| unsafe { sumsq_avx2(c, m, lo, hi, acc) };
         }
     }
     sumsq_portable
 }
 
-/// Partial sum of squared second differences of `c` at cluster size `m` over chunk `i` of the
-/// fixed k-grid (k ranges over 2m..c.len()). Returns 0 for chunks outside the range.
-#[inline]
-fn chunk_partial(f: SumFn, c: &[f64], m: usize, i: usize) -> f64 {
-    let lo = (i * CHUNK).max(2 * m);
-    let hi = ((i + 1) * CHUNK).min(c.len());
-    if lo >= hi { 0.0 } else { f(c, m, lo, hi) }
+/// Sub-block width (a multiple of LANES dividing CHUNK) for batches of nearby scales.
+const SUB: usize = 1 << 11;
+
+/// Partial sums of squared second differences over chunk `i` of the fixed k-grid (k ranges over
+/// 2m..c.len()) for every m of `batch`; 0 where the chunk lies outside the range. Each partial
+/// is the fixed lane reduction of per-lane sums in increasing k, however the chunk is walked.
+fn chunk_partials(f: SumFn, c: &[f64], batch: &[u64], i: usize) -> Vec<f64> {
+    let c_lo = i * CHUNK;
+    let c_hi = ((i + 1) * CHUNK).min(c.len());
+    let mut accs = vec![[0.0f64; LANES]; batch.len()];
+    let span = batch.last().copied().unwrap_or(0) - batch.first().copied().unwrap_or(0);
+    // nearby scales share their lag windows: walk the chunk in L1-sized sub-blocks, all scales
+    // per sub-block; otherwise each scale streams through the whole chunk
+    let step = if span as usize <= SUB { SUB } else { CHUNK };
+    let mut sb = c_lo;
+    while sb < c_hi {
+        let sb_hi = (sb + step).min(c_hi);
+        for (acc, &m) in accs.iter_mut().zip(batch) {
+            let m = m as usize;
+            let lo = sb.max(2 * m);
+            if lo < sb_hi {
+                f(c, m, lo, sb_hi, acc);
+            }
+        }
+        sb = sb_hi;
+    }
+    accs.iter().map(reduce_lanes).collect()
 }
 
 /// Scales handled together per pass over the k-chunks (bounds the partial-sum table to
@@ -142,12 +169,7 @@ pub(crate) fn overlapping_sums(c: &[f64], ms: &[u64]) -> Vec<f64> {
         // parallel over chunks; each chunk runs every scale of the batch while it is in cache
         let parts: Vec<Vec<f64>> = (0..n_chunks)
             .into_par_iter()
-            .map(|i| {
-                batch
-                    .iter()
-                    .map(|&m| chunk_partial(f, c, m as usize, i))
-                    .collect()
-            })
+            .map(|i| chunk_partials(f, c, batch, i))
             .collect();
         for (s, &m) in batch.iter().enumerate() {
             let mut acc = Neumaier::default();
