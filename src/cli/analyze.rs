@@ -98,6 +98,17 @@ fn file_safe(name: &str) -> String {
         .collect()
 }
 
+/// A number with 4 significant digits: fixed notation between 1e-3 and 1e5, else scientific.
+pub fn num(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || (1e-3..1e5).contains(&a) {
+        let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
+        format!("{x:.digits$}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
 fn html_esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -243,10 +254,12 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         let cell = |key: &str| {
             f.ieee.get(key).map_or("-".to_string(), |v| {
                 let ci = match (v.ci_lo, v.ci_hi) {
-                    (Some(a), Some(b)) => format!("<br><small>[{a:.4}, {b:.4}]</small>"),
+                    (Some(a), Some(b)) => {
+                        format!("<br><small>[{}, {}]</small>", num(a), num(b))
+                    }
                     _ => String::new(),
                 };
-                format!("{:.4} {}{ci}", v.value, html_esc(&v.unit))
+                format!("{} {}{ci}", num(v.value), html_esc(&v.unit))
             })
         };
         let _ = writeln!(

@@ -4,6 +4,7 @@
 //! accelerometers) are in [`DEMO_IMU`] and printed by `imunoise demo --help`.
 
 use super::Ui;
+use super::analyze::num;
 use crate::error::{Error, Result};
 use avar::{AllanVariance, AvarConfig};
 use gmwm_prep::units::{IeeeTerm, process_ieee};
@@ -88,6 +89,9 @@ pub struct DemoArgs {
     /// Random seed of the simulation.
     #[arg(long, short, default_value_t = 2024)]
     pub seed: u64,
+    /// Output directory of the analysis report (report.html, plots, results.json, imu.yaml).
+    #[arg(long, short, default_value = "imunoise-demo")]
+    pub out: std::path::PathBuf,
     /// Parametric bootstrap replications for the CIs.
     #[arg(long, default_value_t = 40, value_name = "B")]
     pub bootstrap: usize,
@@ -229,8 +233,24 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         "channel", "parameter", "true", "estimate", "95% CI", "covered"
     ))?;
     let (mut n_cov, mut n_all) = (0, 0);
+    let mut extra = String::from(
+        "<h2>Demo: true against estimated parameters</h2><table><tr><th class=l>channel</th><th class=l>parameter</th><th>true</th><th>estimate</th><th>95% CI</th><th>covered</th></tr>\n",
+    );
     for (k, f) in fits.iter().enumerate() {
         for c in compare(&data.names[k], &data.models[k], f) {
+            extra.push_str(&format!(
+                "<tr><td class=l>{}</td><td class=l>{}</td><td>{:.4e}</td><td>{:.4e}</td><td>{}</td><td>{}</td></tr>\n",
+                c.channel,
+                c.parameter,
+                c.truth,
+                c.estimate,
+                c.ci.map_or("-".into(), |(a, b)| format!("[{a:.3e}, {b:.3e}]")),
+                match c.covered() {
+                    Some(true) => "yes",
+                    Some(false) => "<span class=no>no</span>",
+                    None => "-",
+                }
+            ));
             let cov = c.covered();
             n_all += 1;
             n_cov += usize::from(cov == Some(true));
@@ -263,18 +283,34 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
                 continue;
             };
             w(format!(
-                "{:<8} {:<2} true {:>10.4} estimate {:>10.4} {:>25} {u}",
+                "{:<8} {:<2} true {:>10} estimate {:>10} {:>25} {u}",
                 data.names[k],
                 term.symbol(),
-                truth,
-                est.value,
+                num(truth),
+                num(est.value),
                 match (est.ci_lo, est.ci_hi) {
-                    (Some(a), Some(b)) => format!("[{a:.4}, {b:.4}]"),
+                    (Some(a), Some(b)) => format!("[{}, {}]", num(a), num(b)),
                     _ => "-".into(),
                 }
             ))?;
         }
     }
+    extra.push_str("</table>\n");
+    let inp = super::analyze::ReportInput {
+        source: "imunoise demo (simulated 6-axis MEMS IMU)",
+        rate_hz: DEMO_RATE_HZ,
+        names: &table.names,
+        columns: &table.columns,
+        units: &data.units,
+        curves: &curves,
+        fits: &fits,
+        extra_html: extra,
+    };
+    super::analyze::write_report(&args.out, &inp, ui)?;
+    w(format!(
+        "report (plots, results.json, avar.csv, imu.yaml) written to {}",
+        args.out.join("report.html").display()
+    ))?;
     drop(w);
     out.flush().map_err(|e| Error::io("<stdout>", e))?;
     ui.note(format!("done in {:.2} s", t0.elapsed().as_secs_f64()));
