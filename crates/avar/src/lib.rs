@@ -38,8 +38,6 @@ pub mod result;
 
 use std::borrow::Cow;
 
-use rayon::prelude::*;
-
 pub use config::{AvarConfig, CiMethod, Estimator, InputKind, Scales};
 pub use error::AvarError;
 pub use haar::{HaarWaveletVariance, WvPoint, haar_wavelet_variance};
@@ -183,7 +181,8 @@ pub(crate) fn n_terms(t: usize, m: u64, est: Estimator) -> u64 {
 }
 
 /// Allan variances of several channels (e.g. the six axes of an IMU) in one call, all at the same
-/// rate and configuration. Channels may differ in length. Errors name the channel.
+/// rate and configuration. Channels may differ in length. Errors name the channel. Channels are
+/// processed one after the other (each in parallel), so at most one series-sized buffer is alive.
 ///
 /// ```
 /// use avar::{allan_variance_channels, AvarConfig};
@@ -199,7 +198,7 @@ pub fn allan_variance_channels(
     config: &AvarConfig,
 ) -> Result<Vec<AllanVariance>, AvarError> {
     channels
-        .par_iter()
+        .iter()
         .enumerate()
         .map(|(i, ch)| {
             allan_variance(ch, rate_hz, config).map_err(|e| AvarError::Channel {
