@@ -344,7 +344,7 @@ fn theory_json_shape_and_closed_forms() {
 
 #[test]
 fn help_of_every_subcommand_has_an_example() {
-    for sub in ["avar", "simulate", "theory", "demo"] {
+    for sub in ["avar", "fit", "analyze", "simulate", "theory", "demo"] {
         let out = imunoise(&[sub, "--help"]);
         assert!(out.status.success());
         let text = String::from_utf8_lossy(&out.stdout);
@@ -361,4 +361,196 @@ fn bad_model_and_unknown_column_are_user_errors() {
     let p = write(dir.path(), "ok.csv", good_csv(100).as_bytes());
     let err = avar_fails(&p, &["--columns", "nope"]);
     assert!(err.contains("nope") && err.contains("gyro_x_dps"), "{err}");
+}
+
+#[test]
+fn theory_psd_is_the_white_noise_level() {
+    // Two-sided PSD of WN(σ²) at rate r is σ²/r at every frequency (spectral's convention).
+    let out = imunoise(&[
+        "theory",
+        "--model",
+        "WN(sigma2=2e-4)",
+        "--rate",
+        "100",
+        "-f",
+        "json",
+    ]);
+    assert!(out.status.success());
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let psd = doc["psd"].as_array().unwrap();
+    assert_eq!(psd.len(), 61);
+    for p in psd {
+        assert!((p["psd"].as_f64().unwrap() - 2e-6).abs() < 1e-18);
+    }
+    assert_eq!(psd.last().unwrap()["f"], 50.0);
+}
+
+fn simulate_to(dir: &Path, model: &str, n: &str, unit_name: &str) -> PathBuf {
+    let p = dir.join("sim.f64");
+    let out = imunoise(&[
+        "simulate",
+        "--model",
+        model,
+        "-n",
+        n,
+        "--rate",
+        "100",
+        "--seed",
+        "11",
+        "-o",
+        p.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let _ = unit_name;
+    p
+}
+
+#[test]
+fn fit_json_shape_and_white_noise_recovered() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "65536", "x");
+    let out = imunoise(&[
+        "fit",
+        p.to_str().unwrap(),
+        "--binary",
+        "f64",
+        "-r",
+        "100",
+        "--unit",
+        "deg/s",
+        "--model",
+        "WN+RW",
+        "-f",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ch = &doc["channels"][0];
+    let mut keys: Vec<&String> = ch.as_object().unwrap().keys().collect();
+    keys.sort();
+    assert_eq!(
+        keys,
+        [
+            "converged",
+            "fitted",
+            "ieee",
+            "j_test",
+            "method",
+            "model",
+            "name",
+            "parameters"
+        ]
+    );
+    assert_eq!(ch["method"], "gmwm");
+    let pars = ch["parameters"].as_array().unwrap();
+    assert_eq!(pars.len(), 2);
+    assert_eq!(
+        (pars[0]["process"].as_str(), pars[0]["name"].as_str()),
+        (Some("WN"), Some("sigma2"))
+    );
+    // With T = 65536 the white-noise level dominates the first scales, whose AV has a
+    // relative standard error of about √(2/T·…) < 1%: 10% is a wide margin.
+    let wn = pars[0]["value"].as_f64().unwrap();
+    assert!((wn / 1e-4 - 1.0).abs() < 0.1, "{wn}");
+    assert!(pars[0]["ci_lo"].as_f64().unwrap() < wn && wn < pars[0]["ci_hi"].as_f64().unwrap());
+    // IEEE N = √(σ²Δt) °/s·√s = 60·that °/√h ≈ 0.06.
+    let n = ch["ieee"]["N"]["value"].as_f64().unwrap();
+    assert!((n - 60.0 * (wn / 100.0).sqrt()).abs() < 1e-12);
+    assert!(ch["j_test"]["p_value"].is_number());
+    assert_eq!(ch["fitted"][0]["m"], 2);
+}
+
+#[test]
+fn analyze_writes_report_plots_json_csv_yaml() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "65536", "x");
+    let out_dir = dir.path().join("rep");
+    let out = imunoise(&[
+        "analyze",
+        p.to_str().unwrap(),
+        "--binary",
+        "f64",
+        "-r",
+        "100",
+        "--unit",
+        "deg/s",
+        "--names",
+        "gyro_x",
+        "--model",
+        "WN+RW",
+        "--no-select",
+        "-q",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let html = std::fs::read_to_string(out_dir.join("report.html")).unwrap();
+    assert_eq!(html.matches("<svg").count(), 3);
+    assert!(html.contains("Noise terms (IEEE Std 952 units)"));
+    let res: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out_dir.join("results.json")).unwrap()).unwrap();
+    assert_eq!(res["channels"][0]["name"], "gyro_x");
+    assert_eq!(res["channels"][0]["fit"]["method"], "gmwm");
+    let csv = std::fs::read_to_string(out_dir.join("avar.csv")).unwrap();
+    // header + 14 dyadic scales (2^(j+1) < 65536 → j ≤ 14)
+    assert_eq!(csv.lines().count(), 15);
+    let yaml = std::fs::read_to_string(out_dir.join("imu.yaml")).unwrap();
+    // Kalibr's gyroscope noise density is N in rad/s/√Hz = √(σ²/rate)·π/180.
+    let wn = res["channels"][0]["fit"]["parameters"][0]["value"]
+        .as_f64()
+        .unwrap();
+    let line = yaml
+        .lines()
+        .find(|l| l.starts_with("gyroscope_noise_density:"))
+        .expect("gyro noise density");
+    let v: f64 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
+    assert!((v / ((wn / 100.0).sqrt() * std::f64::consts::PI / 180.0) - 1.0).abs() < 1e-5);
+    for stem in ["adev_gyro_x", "series_gyro_x", "acf_gyro_x"] {
+        assert!(out_dir.join(format!("{stem}.svg")).exists());
+        #[cfg(feature = "png")]
+        {
+            let png = std::fs::read(out_dir.join(format!("{stem}.png"))).unwrap();
+            assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        }
+    }
+}
+
+#[test]
+fn demo_runs_small() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = imunoise(&[
+        "demo",
+        "--samples",
+        "65536",
+        "--bootstrap",
+        "4",
+        "-q",
+        "--out",
+        dir.path().join("d").to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("true parameters lie within their 95% CIs"),
+        "{text}"
+    );
+    assert_eq!(text.matches("gyro_x ").count(), 4 + 2, "{text}");
+    assert!(dir.path().join("d/report.html").exists());
 }

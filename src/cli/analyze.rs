@@ -101,7 +101,9 @@ fn file_safe(name: &str) -> String {
 /// A number with 4 significant digits: fixed notation between 1e-3 and 1e5, else scientific.
 pub fn num(x: f64) -> String {
     let a = x.abs();
-    if x == 0.0 || (1e-3..1e5).contains(&a) {
+    if x == 0.0 {
+        "0".to_string()
+    } else if (1e-3..1e5).contains(&a) {
         let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
         format!("{x:.digits$}")
     } else {
