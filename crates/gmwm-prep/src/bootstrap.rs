@@ -138,7 +138,8 @@ pub fn parametric_bootstrap(
             "the parametric bootstrap simulates Allan variances only".into(),
         ));
     }
-    let reps: Vec<Result<(Vec<f64>, Option<Vec<f64>>)>> = (0..boot.replications)
+    type Replicate = Result<(Vec<f64>, Option<Vec<f64>>)>;
+    let reps: Vec<Replicate> = (0..boot.replications)
         .into_par_iter()
         .map(|b| {
             let c = simulate_curve(

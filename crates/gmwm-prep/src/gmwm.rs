@@ -690,7 +690,7 @@ fn diag_whitening(reference: &[f64], rel_var: &[f64]) -> Mat<f64> {
 pub(crate) fn full_whitening(v: &CovMatrix) -> Result<Mat<f64>> {
     let j = v.n;
     let d: Vec<f64> = (0..j).map(|i| v.get(i, i)).collect();
-    if let Some(x) = d.iter().find(|x| !(**x > 0.0)) {
+    if let Some(x) = d.iter().find(|x| x.is_nan() || **x <= 0.0) {
         return Err(FitError::InvalidMatrix(format!(
             "covariance has a non-positive variance {x}"
         )));

@@ -6,7 +6,10 @@
 //! - [`avlr`]: AV linear regression (book §4.4, R avar's `avlr`): each process on its own
 //!   scale window by a fixed-slope log-log mean;
 //! - [`gmwm`]: a GMWM-type estimator θ̂ = argmin (ν̂ − ν(θ))ᵀ Ω (ν̂ − ν(θ)) for any model of
-//!   the `processes` crate, with inference (delta method, J-test, WIC).
+//!   the `processes` crate (deterministic grid + NNLS starts, Levenberg–Marquardt on faer with
+//!   the analytic Jacobian), with [`inference`] (delta method B V Bᵀ, J test, WIC, model
+//!   selection), a reproducible parallel parametric [`bootstrap`] and serializable
+//!   [`report`]s.
 //!
 //! The input is a plain [`AvCurve`] (cluster sizes, AV values, optional CIs/variances,
 //! sampling rate), so published curves can be fitted as well as curves from the `avar` crate.

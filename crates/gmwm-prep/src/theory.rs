@@ -302,8 +302,8 @@ mod tests {
     fn ar1_near_unit_root_tends_to_random_walk() {
         // As φ → 1 with m fixed, AR1 AV / v² → the RW shape (2m² + 1)/(6m) (first order in λ:
         // relative deviation ≈ λ·m, so at λ = 1e-9 it must agree to ~1e-8 · m).
-        let lambda = 1e-9;
-        let phi = (-lambda as f64).exp();
+        let lambda: f64 = 1e-9;
+        let phi = (-lambda).exp();
         for &m in &[1u64, 2, 16, 1024] {
             let mf = m as f64;
             let (f, _) = ar1_unit(phi, mf);

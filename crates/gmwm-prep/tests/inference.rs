@@ -116,3 +116,63 @@ fn bootstrap_is_reproducible_and_uses_the_two_sided_quantile() {
     let bad = CovMatrix::new(2, vec![1.0, 0.0, 0.0, f64::NAN]);
     assert!(bad.is_err());
 }
+
+#[test]
+fn haar_wv_moments_fit_back_and_full_weighting_is_used() {
+    // Haar WV at τ_j = 2m is AV(m)/2 (REFERENCES §3): an exact WV curve must give the truth.
+    let truth: Model = "WN(sigma2=1e-4) + AR1(phi=0.99, sigma2=1e-7)"
+        .parse()
+        .unwrap();
+    let m: Vec<u64> = (1..=14).map(|j| 1u64 << j).collect();
+    let wv: Vec<f64> = model_avar(&truth, &m, 100.0)
+        .unwrap()
+        .iter()
+        .map(|v| v / 2.0)
+        .collect();
+    let c = AvCurve::from_m(&m, &wv, 100.0).unwrap().with_n(1 << 16);
+    let opts = GmwmOptions {
+        moments: gmwm_prep::gmwm::Moments::HaarWaveletVariance,
+        ..Default::default()
+    };
+    let f = fit(&c, &truth.template(), &opts).unwrap();
+    for (a, b) in f.theta.iter().zip([1e-4, 0.99, 1e-7]) {
+        assert!((a / b - 1.0).abs() < 1e-6, "{:?}", f.theta);
+    }
+    // A full V with correlations gives a different estimate than its diagonal on a noisy
+    // curve: the off-diagonal terms are used.
+    let noisy = noisy_wn_curve();
+    let d = diagonal_covariance(&noisy);
+    let j = d.n;
+    let mut full = d.data.clone();
+    for a in 0..j {
+        for b in 0..j {
+            if a != b {
+                full[a * j + b] = 0.5 * (d.get(a, a) * d.get(b, b)).sqrt();
+            }
+        }
+    }
+    let fd = fit(
+        &noisy,
+        &"WN".parse().unwrap(),
+        &GmwmOptions {
+            weighting: Weighting::Full(d),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let ff = fit(
+        &noisy,
+        &"WN".parse().unwrap(),
+        &GmwmOptions {
+            weighting: Weighting::Full(CovMatrix::new(j, full).unwrap()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(
+        (fd.theta[0] / ff.theta[0] - 1.0).abs() > 1e-4,
+        "{} vs {}",
+        fd.theta[0],
+        ff.theta[0]
+    );
+}
