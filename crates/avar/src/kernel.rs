@@ -240,12 +240,13 @@ fn lane_sum(x: &[f64], p: f64) -> f64 {
     reduce_lanes(&acc)
 }
 
-/// The centred cumulative sum of rate samples: returns `(c, mean)` with `c[0] = 0` and
+/// The centred cumulative sum of rate samples, written into `c` (its allocation is reused):
+/// returns the mean, with `c[0] = 0` and
 /// `c[k] = Σ_{i<k} (x_i − mean)` (T + 1 entries), accumulated with a pivot and compensated
 /// running offsets so that each stored `c[k]` carries only its own final rounding.
 ///
 /// Errors on non-finite samples (naming the first index) and on overflow.
-pub(crate) fn centred_prefix(x: &[f64]) -> Result<(Vec<f64>, f64), AvarError> {
+pub(crate) fn centred_prefix_into(x: &[f64], c: &mut Vec<f64>) -> Result<f64, AvarError> {
     let t = x.len();
     let head = &x[..t.min(PIVOT_LEN)];
     let pivot = head.iter().sum::<f64>() / head.len() as f64;
@@ -273,7 +274,8 @@ pub(crate) fn centred_prefix(x: &[f64]) -> Result<(Vec<f64>, f64), AvarError> {
         run.add(-(len * delta));
     }
     // pass 2: write c[1..] chunk by chunk
-    let mut c: Vec<f64> = Vec::with_capacity(t + 1);
+    c.clear();
+    c.reserve(t + 1);
     let spare = &mut c.spare_capacity_mut()[..t + 1];
     spare[0].write(0.0);
     spare[1..]
@@ -306,5 +308,5 @@ pub(crate) fn centred_prefix(x: &[f64]) -> Result<(Vec<f64>, f64), AvarError> {
     // SAFETY: the loop above wrote all t + 1 elements (index 0, then every chunk of
     // `spare[1..]` in full: exact blocks of 8 plus the remainder).
     unsafe { c.set_len(t + 1) };
-    Ok((c, mean))
+    Ok(mean)
 }

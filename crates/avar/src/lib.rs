@@ -72,11 +72,12 @@ pub(crate) fn validate_rate_alpha(rate_hz: f64, alpha: f64) -> Result<(), AvarEr
 }
 
 /// Validates the data and builds the cumulative representation.
-pub(crate) fn cumulative(
-    data: &[f64],
+pub(crate) fn cumulative<'a>(
+    data: &'a [f64],
     rate_hz: f64,
     input: InputKind,
-) -> Result<Cumulative<'_>, AvarError> {
+    scratch: &'a mut Vec<f64>,
+) -> Result<Cumulative<'a>, AvarError> {
     if data.is_empty() {
         return Err(AvarError::Empty);
     }
@@ -88,9 +89,9 @@ pub(crate) fn cumulative(
                     need: MIN_SAMPLES,
                 });
             }
-            let (c, mean) = kernel::centred_prefix(data)?;
+            let mean = kernel::centred_prefix_into(data, scratch)?;
             Ok(Cumulative {
-                c: Cow::Owned(c),
+                c: Cow::Borrowed(&scratch[..]),
                 factor: 1.0,
                 mean,
             })
@@ -141,8 +142,18 @@ pub fn allan_variance(
     rate_hz: f64,
     config: &AvarConfig,
 ) -> Result<AllanVariance, AvarError> {
+    allan_variance_with(data, rate_hz, config, &mut Vec::new())
+}
+
+/// [`allan_variance`] with a caller-provided buffer for the cumulative sums (reused across calls).
+fn allan_variance_with(
+    data: &[f64],
+    rate_hz: f64,
+    config: &AvarConfig,
+    scratch: &mut Vec<f64>,
+) -> Result<AllanVariance, AvarError> {
     validate_rate_alpha(rate_hz, config.alpha)?;
-    let cum = cumulative(data, rate_hz, config.input)?;
+    let cum = cumulative(data, rate_hz, config.input, scratch)?;
     let t = cum.t();
     let ms = config.scales.cluster_sizes(t)?;
     let sums = match config.estimator {
@@ -182,7 +193,8 @@ pub(crate) fn n_terms(t: usize, m: u64, est: Estimator) -> u64 {
 
 /// Allan variances of several channels (e.g. the six axes of an IMU) in one call, all at the same
 /// rate and configuration. Channels may differ in length. Errors name the channel. Channels are
-/// processed one after the other (each in parallel), so at most one series-sized buffer is alive.
+/// processed one after the other (each in parallel) and share one buffer for the cumulative sums,
+/// so at most one series-sized buffer is allocated (and its pages are faulted in only once).
 ///
 /// ```
 /// use avar::{allan_variance_channels, AvarConfig};
@@ -197,11 +209,12 @@ pub fn allan_variance_channels(
     rate_hz: f64,
     config: &AvarConfig,
 ) -> Result<Vec<AllanVariance>, AvarError> {
+    let mut scratch = Vec::new();
     channels
         .iter()
         .enumerate()
         .map(|(i, ch)| {
-            allan_variance(ch, rate_hz, config).map_err(|e| AvarError::Channel {
+            allan_variance_with(ch, rate_hz, config, &mut scratch).map_err(|e| AvarError::Channel {
                 channel: i,
                 source: Box::new(e),
             })
