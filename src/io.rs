@@ -314,7 +314,7 @@ pub fn parse_binary(bytes: &[u8], file: &str, kind: BinaryType, channels: usize)
             message: "the file is empty".to_string(),
         });
     }
-    if bytes.len() % row != 0 {
+    if !bytes.len().is_multiple_of(row) {
         return Err(Error::File {
             file: file.to_string(),
             message: format!(

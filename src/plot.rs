@@ -99,8 +99,7 @@ fn fmt_tick(v: f64) -> String {
         "0".into()
     } else if (1e-3..1e5).contains(&a) {
         let s = format!("{v:.6}");
-        let s = s.trim_end_matches('0').trim_end_matches('.').to_string();
-        s
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
         let e = a.log10().floor() as i32;
         let m = v / 10f64.powi(e);
@@ -506,8 +505,10 @@ pub fn acf_svg(title: &str, acf: &[f64], n: usize, rate_hz: f64, id: &str) -> St
 pub fn svg_to_png(svg: &str, zoom: f32) -> Result<Vec<u8>, String> {
     use resvg::{tiny_skia, usvg};
     static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
-    let mut opt = usvg::Options::default();
-    opt.font_family = "DejaVu Sans".into();
+    let mut opt = usvg::Options {
+        font_family: "DejaVu Sans".into(),
+        ..Default::default()
+    };
     opt.fontdb_mut().load_font_data(FONT.to_vec());
     let tree = usvg::Tree::from_str(svg, &opt).map_err(|e| format!("SVG: {e}"))?;
     let size = tree

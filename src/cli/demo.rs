@@ -311,7 +311,6 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         "report (plots, results.json, avar.csv, imu.yaml) written to {}",
         args.out.join("report.html").display()
     ))?;
-    drop(w);
     out.flush().map_err(|e| Error::io("<stdout>", e))?;
     ui.note(format!("done in {:.2} s", t0.elapsed().as_secs_f64()));
     Ok(())
