@@ -554,3 +554,39 @@ fn demo_runs_small() {
     assert_eq!(text.matches("gyro_x ").count(), 4 + 2, "{text}");
     assert!(dir.path().join("d/report.html").exists());
 }
+
+#[test]
+fn scale_accepts_fractions_of_integer_counts() {
+    // i16 counts 131 and -262 scaled by 1/131 are exactly 1 and -2 (°/s): the AV at m = 1
+    // of the alternating series 1, -2, 1, -2, … is 3²/2 = 4.5.
+    let dir = tempfile::tempdir().unwrap();
+    let bytes: Vec<u8> = (0..64)
+        .flat_map(|i| if i % 2 == 0 { 131i16 } else { -262 }.to_le_bytes())
+        .collect();
+    let p = write(dir.path(), "counts.bin", &bytes);
+    let out = imunoise(&[
+        "avar",
+        p.to_str().unwrap(),
+        "--binary",
+        "i16",
+        "--scale",
+        "1/131",
+        "-r",
+        "100",
+        "--scales",
+        "1",
+        "--ci",
+        "none",
+        "-f",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!((doc["channels"][0]["points"][0]["avar"].as_f64().unwrap() - 4.5).abs() < 1e-12);
+    let err = avar_fails(&p, &["--binary", "i16", "--scale", "1/0"]);
+    assert!(err.contains("--scale"), "{err}");
+}

@@ -138,6 +138,24 @@ pub fn parse_rate(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
+/// A finite non-zero factor: a number or a fraction `a/b`.
+pub fn parse_factor(s: &str) -> std::result::Result<f64, String> {
+    let num = |t: &str| {
+        t.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("{s:?} is not a number or a fraction a/b"))
+    };
+    let v = match s.split_once('/') {
+        Some((a, b)) => num(a)? / num(b)?,
+        None => num(s)?,
+    };
+    if v.is_finite() && v != 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("the factor must be finite and non-zero, got {s}"))
+    }
+}
+
 /// The input file and how to read it (shared by the analysis subcommands).
 #[derive(Debug, Clone, Args)]
 pub struct InputArgs {
@@ -156,8 +174,9 @@ pub struct InputArgs {
     /// Channels per row of binary input.
     #[arg(long, value_name = "K")]
     pub channels: Option<usize>,
-    /// Multiply every value by this factor (e.g. 1/131 for MPU-6050 gyro counts → °/s).
-    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true)]
+    /// Multiply every value by this factor, a number or a fraction (e.g. 1/131 for
+    /// MPU-6050 gyro counts → °/s).
+    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true, value_parser = parse_factor)]
     pub scale: Option<f64>,
     /// Channel names (comma list, after --columns), replacing the header's.
     #[arg(long, value_name = "LIST")]
