@@ -6,8 +6,10 @@
 //! - [`avar`]: the maximum-overlapping Allan variance estimator and its confidence intervals.
 //! - [`gmwm_prep`]: fitting composite models to the Allan variance.
 //!
-//! The command's own layers live here too: [`io`] reads IMU logs (text, gzip, binary)
-//! and [`error`] locates every input problem by file, line and column.
+//! The command's own layers live here too: [`io`] reads IMU logs (text, gzip, binary),
+//! [`error`] locates every input problem by file, line and column, [`units`] maps
+//! `--unit` and channel names to units, [`plot`] draws the SVG/PNG figures and [`cli`]
+//! holds the subcommands (`avar`, `fit`, `analyze`, `simulate`, `theory`, `demo`).
 
 pub use avar;
 pub use gmwm_prep;
