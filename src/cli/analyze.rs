@@ -122,6 +122,7 @@ fn html_esc(s: &str) -> String {
 /// largest over the axes of each sensor (conservative, as Kalibr takes one value per sensor).
 pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
     let mut vals: [Vec<f64>; 4] = Default::default(); // gN, gK, aN, aK
+    let mut fallbacks: Vec<String> = Vec::new();
     for (k, f) in inp.fits.iter().enumerate() {
         let unit = &inp.units[k];
         let to_si = match unit {
@@ -131,11 +132,39 @@ pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
             _ => continue,
         };
         let base = if unit.is_angular_rate() { 0 } else { 2 };
+        let (mut has_n, mut has_k) = (false, false);
         for p in &f.parameters {
             match (p.process.as_str(), p.name.as_str()) {
-                ("WN", "sigma2") => vals[base].push((p.value / inp.rate_hz).sqrt() * to_si),
-                ("RW", "gamma2") => vals[base + 1].push((p.value * inp.rate_hz).sqrt() * to_si),
+                ("WN", "sigma2") => {
+                    vals[base].push((p.value / inp.rate_hz).sqrt() * to_si);
+                    has_n = true;
+                }
+                ("RW", "gamma2") => {
+                    vals[base + 1].push((p.value * inp.rate_hz).sqrt() * to_si);
+                    has_k = true;
+                }
                 _ => {}
+            }
+        }
+        // A fitted model without WN (or RW) still has a noise density (random walk) on the
+        // Allan deviation: fall back to the IEEE 952 read-off, and say so.
+        if !(has_n && has_k) {
+            let (_, av) = &inp.curves[k];
+            if let Ok(ro) = gmwm_prep::ieee::read_off_adev(&av.taus(), &av.adevs(), unit) {
+                use gmwm_prep::units::IeeeTerm;
+                for (has, term, slot) in
+                    [(has_n, IeeeTerm::N, base), (has_k, IeeeTerm::K, base + 1)]
+                {
+                    if !has && let Some(e) = ro.get(term) {
+                        vals[slot].push(e.value * to_si);
+                        fallbacks.push(format!(
+                            "{} {} from the IEEE 952 read-off (the fitted model has no {})",
+                            inp.names[k],
+                            term.symbol(),
+                            if term == IeeeTerm::N { "WN" } else { "RW" }
+                        ));
+                    }
+                }
             }
         }
     }
@@ -153,6 +182,9 @@ pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
     s.push_str("# Kalibr-style IMU noise model estimated by imunoise from the Allan variance\n");
     let _ = writeln!(s, "# source: {}", inp.source);
     s.push_str("# continuous-time values, largest over the axes of each sensor\n");
+    for f in &fallbacks {
+        let _ = writeln!(s, "# note: {f}");
+    }
     s.push_str("rostopic: /imu0\n");
     let _ = writeln!(s, "update_rate: {:.6}   # [Hz]", inp.rate_hz);
     s.push_str(&line(
