@@ -174,9 +174,9 @@ fn case(
         out.iter().filter(|r| r.converged).count()
     );
     println!(
-        "| parameter | truth | mean | bias/truth | MC SE/truth | |bias|/SE | RMSE GMWM | RMSE AVLR | cover delta | cover pct |"
+        "| parameter | truth | mean | bias/truth | MC SE/truth | |bias|/SE | RMSE GMWM | RMSE AVLR | cover delta | cover pct | BC bias/truth | BC |bias|/SE | BC RMSE |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut ok = true;
     for k in 0..want.len() {
         let v: Vec<f64> = out.iter().map(|r| r.theta[k]).collect();
