@@ -57,6 +57,9 @@ pub enum FitError {
     /// An error of the empirical AV layer (`avar`), e.g. in a bootstrap replication.
     #[error(transparent)]
     Avar(#[from] avar::AvarError),
+    /// An error of the theoretical AV (e.g. m = 0 or a bad rate).
+    #[error(transparent)]
+    Spectral(#[from] spectral::SpectralError),
 }
 
 /// Shorthand for results of this crate.

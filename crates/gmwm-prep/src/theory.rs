@@ -1,108 +1,23 @@
-//! Closed-form theoretical Allan variance of the latent processes (REFERENCES §2) and its
-//! analytic gradient with respect to each process's parameters (per sample, in the order
-//! of [`processes::ProcessKind::param_names`]).
+//! Theoretical Allan variance of models for the fitter, with the analytic gradient with
+//! respect to each process's parameters (per sample, in the order of
+//! [`processes::ProcessKind::param_names`]).
 //!
-//! The AR1/GM forms are evaluated in a cancellation-free way: with λ = −ln φ (λ = βΔt for
-//! GM) the numerator N = m − 3φ − mφ² + 4φ^{m+1} − φ^{2m+1} has a triple zero at λ = 0; we
-//! write it as N = λ³ m(2m² + 1)/3 + Σ c_i r₃(a_i λ) with r₃(x) = 1 − e^{−x} − x + x²/2 − x³/6
-//! evaluated by its series when (2m + 1)λ < 1, and as Σ c_i (1 − e^{−a_i λ}) via `expm1`
-//! otherwise. This keeps full precision for φ → 1 (e.g. GM with a 1000 s correlation time
-//! at 1 kHz), where the textbook formula loses up to 15 digits.
+//! A thin layer over the closed forms of the `spectral` crate
+//! ([`spectral::allan_variance_with_gradient`]), which evaluates AR1/GM without
+//! cancellation as φ → 1 and is checked there against the book's Lemma 4.2 sum and the
+//! Lemma 4.1 quadrature. This module only adapts it to the flat parameter vectors of the
+//! optimizer.
 
-use crate::error::{FitError, Result};
+use crate::error::Result;
 use processes::{Model, Process, ProcessKind};
 
-/// Switch between the series and the `expm1` evaluation of the AR1 numerator.
-const SERIES_SWITCH: f64 = 1.0;
-/// Switch (in φ) between the λ-form and the polynomial form of the AR1 AV.
-const PHI_POLY_SWITCH: f64 = 0.5;
-
-/// r₃(x) = 1 − e^{−x} − x + x²/2 − x³/6 and r₃'(x) = e^{−x} − 1 + x − x²/2.
-fn r3(x: f64) -> (f64, f64) {
-    if x < SERIES_SWITCH {
-        // r3 = Σ_{k≥4} (−1)^{k+1} x^k / k!,  r3' = Σ_{k≥3} (−1)^k x^k / k!
-        let mut term = x * x * x / 6.0; // x^3/3!
-        let mut d = -term;
-        term *= x / 4.0; // x^4/4!
-        let mut v = -term;
-        let mut sign = 1.0;
-        for k in 5..40 {
-            d += sign * term; // (−1)^{k−1} x^{k−1}/(k−1)!
-            term *= x / k as f64;
-            v += sign * term;
-            sign = -sign;
-            if term < 1e-18 * v.abs().max(1e-300) {
-                break;
-            }
-        }
-        (v, d)
-    } else {
-        let h = -(-x).exp_m1();
-        (
-            h - x + x * x / 2.0 - x * x * x / 6.0,
-            (-x).exp() - 1.0 + x - x * x / 2.0,
-        )
-    }
-}
-
-/// N(λ) and dN/dλ for cluster size m (see module doc).
-fn ar1_numerator(lambda: f64, m: f64) -> (f64, f64) {
-    let a = [2.0, 1.0, m + 1.0, 2.0 * m + 1.0];
-    let c = [m, 3.0, -4.0, 1.0];
-    if (2.0 * m + 1.0) * lambda < SERIES_SWITCH {
-        let l2 = lambda * lambda;
-        let mut n = l2 * lambda * m * (2.0 * m * m + 1.0) / 3.0;
-        let mut dn = l2 * m * (2.0 * m * m + 1.0);
-        for i in 0..4 {
-            let (v, d) = r3(a[i] * lambda);
-            n += c[i] * v;
-            dn += c[i] * a[i] * d;
-        }
-        (n, dn)
-    } else {
-        let mut n = 0.0;
-        let mut dn = 0.0;
-        for i in 0..4 {
-            n += c[i] * -(-a[i] * lambda).exp_m1();
-            dn += c[i] * a[i] * (-a[i] * lambda).exp();
-        }
-        (n, dn)
-    }
-}
-
-/// AV of an AR1 with unit innovation variance, f(φ, m), and ∂f/∂φ.
-pub(crate) fn ar1_unit(phi: f64, m: f64) -> (f64, f64) {
-    if phi <= PHI_POLY_SWITCH {
-        let pm = phi.powf(m);
-        let p2m = pm * pm;
-        let n = m - 3.0 * phi - m * phi * phi + 4.0 * pm * phi - p2m * phi;
-        let dn = -3.0 - 2.0 * m * phi + 4.0 * (m + 1.0) * pm - (2.0 * m + 1.0) * p2m;
-        let om = 1.0 - phi;
-        let d = m * m * om * om * (1.0 - phi * phi);
-        let dd = -2.0 * m * m * om * om * (1.0 + 2.0 * phi);
-        (n / d, dn / d - n * dd / (d * d))
-    } else {
-        let lambda = -phi.ln();
-        let (n, dn) = ar1_numerator(lambda, m);
-        let eps = -(-lambda).exp_m1();
-        let d = m * m * eps * eps * eps * (2.0 - eps);
-        let dd = phi * m * m * eps * eps * (6.0 - 4.0 * eps);
-        let df_dlambda = dn / d - n * dd / (d * d);
-        (n / d, -df_dlambda / phi)
-    }
-}
-
-/// AV of a GM with unit stationary variance as a function of λ = βΔt, and its λ-derivative.
-fn gm_unit(lambda: f64, m: f64) -> (f64, f64) {
-    let (n, dn) = ar1_numerator(lambda, m);
-    let eps = -(-lambda).exp_m1();
-    let phi = (-lambda).exp();
-    let d = m * m * eps * eps;
-    (n / d, dn / d - 2.0 * n * phi / (d * eps))
-}
-
-/// AV at cluster size `m` of a process of `kind` with per-sample parameters `params`,
-/// writing ∂AV/∂params into `grad` (same length as `params`). `rate_hz` is used by GM only.
+/// AV at cluster size `m` (a whole number of samples ≥ 1, held as f64 by the optimizer) of
+/// a process of `kind` with per-sample parameters `params`, writing ∂AV/∂params into
+/// the first `params.len()` entries of `grad`. `rate_hz` is used by GM only.
+///
+/// Parameters outside the process's domain (which the optimizer's transforms only reach
+/// through overflow, e.g. φ rounded to 1) give NaN value and gradient, which the optimizer
+/// treats as a rejected step.
 pub(crate) fn kind_avar_grad(
     kind: ProcessKind,
     params: &[f64],
@@ -110,43 +25,27 @@ pub(crate) fn kind_avar_grad(
     rate_hz: f64,
     grad: &mut [f64],
 ) -> f64 {
-    match kind {
-        ProcessKind::WhiteNoise => {
-            grad[0] = 1.0 / m;
-            params[0] / m
+    let evaluated = Process::from_params(kind, params)
+        .ok()
+        .and_then(|p| spectral::allan_variance_with_gradient(&p, m as u64, rate_hz).ok());
+    match evaluated {
+        Some((v, g)) => {
+            // Callers may pass a longer scratch buffer: fill its first n_params entries.
+            grad.iter_mut().zip(&g).for_each(|(o, x)| *o = *x);
+            v
         }
-        ProcessKind::QuantizationNoise => {
-            grad[0] = 3.0 / (m * m);
-            params[0] * grad[0]
-        }
-        ProcessKind::RandomWalk => {
-            grad[0] = (2.0 * m * m + 1.0) / (6.0 * m);
-            params[0] * grad[0]
-        }
-        ProcessKind::Drift => {
-            grad[0] = params[0] * m * m;
-            params[0] * params[0] * m * m / 2.0
-        }
-        ProcessKind::Ar1 => {
-            let (f, df) = ar1_unit(params[0], m);
-            grad[0] = params[1] * df;
-            grad[1] = f;
-            params[1] * f
-        }
-        ProcessKind::GaussMarkov => {
-            let (g, dg) = gm_unit(params[0] / rate_hz, m);
-            grad[0] = params[1] * dg / rate_hz;
-            grad[1] = g;
-            params[1] * g
-        }
-        ProcessKind::Ma1 => {
-            let (th, s2) = (params[0], params[1]);
-            let core = (1.0 + th * th) * m + (2.0 * m - 3.0) * th;
-            grad[0] = s2 * (2.0 * th * m + 2.0 * m - 3.0) / (m * m);
-            grad[1] = core / (m * m);
-            s2 * core / (m * m)
+        None => {
+            grad.fill(f64::NAN);
+            f64::NAN
         }
     }
+}
+
+/// AV of an AR1 with unit innovation variance, f(φ, m), and ∂f/∂φ.
+pub(crate) fn ar1_unit(phi: f64, m: f64) -> (f64, f64) {
+    let mut g = [0.0; 2];
+    let f = kind_avar_grad(ProcessKind::Ar1, &[phi, 1.0], m, 1.0, &mut g);
+    (f, g[0])
 }
 
 /// Theoretical AV of one process at cluster size `m` (samples), REFERENCES §2.
@@ -159,16 +58,7 @@ pub(crate) fn kind_avar_grad(
 /// # Ok::<(), gmwm_prep::FitError>(())
 /// ```
 pub fn process_avar(process: &Process, m: u64, rate_hz: f64) -> Result<f64> {
-    let params = process.params();
-    let mut g = vec![0.0; params.len()];
-    check_m_rate(m, rate_hz)?;
-    Ok(kind_avar_grad(
-        process.kind(),
-        &params,
-        m as f64,
-        rate_hz,
-        &mut g,
-    ))
+    Ok(spectral::allan_variance(process, m, rate_hz)?)
 }
 
 /// Gradient ∂AV(m)/∂θ of one process, θ in the order of `Process::params()`.
@@ -181,11 +71,7 @@ pub fn process_avar(process: &Process, m: u64, rate_hz: f64) -> Result<f64> {
 /// # Ok::<(), gmwm_prep::FitError>(())
 /// ```
 pub fn process_avar_gradient(process: &Process, m: u64, rate_hz: f64) -> Result<Vec<f64>> {
-    let params = process.params();
-    let mut g = vec![0.0; params.len()];
-    check_m_rate(m, rate_hz)?;
-    kind_avar_grad(process.kind(), &params, m as f64, rate_hz, &mut g);
-    Ok(g)
+    Ok(spectral::allan_variance_gradient(process, m, rate_hz)?)
 }
 
 /// Theoretical AV of a fully specified model at each cluster size (the sum of its
@@ -207,15 +93,6 @@ pub fn model_avar(model: &Model, m: &[u64], rate_hz: f64) -> Result<Vec<f64>> {
         }
     }
     Ok(out)
-}
-
-fn check_m_rate(m: u64, rate_hz: f64) -> Result<()> {
-    if m == 0 {
-        return Err(FitError::InvalidArgument(
-            "cluster size m must be ≥ 1".into(),
-        ));
-    }
-    crate::curve::check_rate(rate_hz)
 }
 
 /// Model AV at scales `m` and its Jacobian (row-major J × p) for kinds and flat parameters.
@@ -268,67 +145,12 @@ pub(crate) fn component_avars(
 mod tests {
     use super::*;
 
-    /// Agreement of two evaluations of the same closed form in well-conditioned regions.
+    /// Agreement of two routes through the same closed form (rounding only).
     const CLOSED_FORM_REL_TOL: f64 = 1e-12;
-
-    /// Book Lemma 4.2 with ρ(h) = φ^|h| (AR1, unit innovation variance), summed directly.
-    fn lemma_4_2(phi: f64, m: u64) -> f64 {
-        let s2 = 1.0 / (1.0 - phi * phi);
-        let rho = |h: u64| phi.powi(h as i32);
-        let mut acc = m as f64 * (1.0 - rho(m));
-        for i in 1..m {
-            acc += i as f64 * (2.0 * rho(m - i) - rho(i) - rho(2 * m - i));
-        }
-        s2 * acc / (m * m) as f64
-    }
-
-    #[test]
-    fn ar1_matches_lemma_4_2_and_the_textbook_formula() {
-        for &phi in &[-0.8, -0.2, 0.1, 0.45, 0.55, 0.7, 0.9] {
-            for &m in &[1u64, 2, 3, 8, 32] {
-                let (f, _) = ar1_unit(phi, m as f64);
-                let l = lemma_4_2(phi, m);
-                let mf = m as f64;
-                let text = (mf - 3.0 * phi - mf * phi * phi + 4.0 * phi.powi(m as i32 + 1)
-                    - phi.powi(2 * m as i32 + 1))
-                    / (mf * mf * (1.0 - phi).powi(2) * (1.0 - phi * phi));
-                assert!((f - l).abs() <= 1e-10 * l, "phi={phi} m={m}: {f} vs {l}");
-                assert!((f - text).abs() <= 1e-10 * text, "phi={phi} m={m}");
-            }
-        }
-    }
-
-    #[test]
-    fn ar1_near_unit_root_tends_to_random_walk() {
-        // As φ → 1 with m fixed, AR1 AV / v² → the RW shape (2m² + 1)/(6m) (first order in λ:
-        // relative deviation ≈ λ·m, so at λ = 1e-9 it must agree to ~1e-8 · m).
-        let lambda: f64 = 1e-9;
-        let phi = (-lambda).exp();
-        for &m in &[1u64, 2, 16, 1024] {
-            let mf = m as f64;
-            let (f, _) = ar1_unit(phi, mf);
-            let rw = (2.0 * mf * mf + 1.0) / (6.0 * mf);
-            assert!(
-                (f / rw - 1.0).abs() < 4.0 * lambda * mf + 1e-12,
-                "m={m}: {f} vs {rw}"
-            );
-        }
-    }
-
-    #[test]
-    fn branches_agree_at_the_switch() {
-        // Series and expm1 evaluations of N agree on both sides of (2m+1)λ = 1.
-        for &m in &[1.0f64, 4.0, 100.0] {
-            let l = SERIES_SWITCH / (2.0 * m + 1.0);
-            let (a, da) = ar1_numerator(l * (1.0 - 1e-9), m);
-            let (b, db) = ar1_numerator(l * (1.0 + 1e-9), m);
-            assert!((a / b - 1.0).abs() < 1e-8, "m={m}: {a} vs {b}");
-            assert!((da / db - 1.0).abs() < 1e-8, "m={m}: {da} vs {db}");
-        }
-    }
 
     #[test]
     fn gradients_match_central_differences() {
+        // Checks the adapter's parameter order and the Jacobian the optimizer sees.
         // Five-point differences: truncation O(h⁴), rounding O(ε f/(h f')) ≲ 1e-10 here.
         const FD_REL_TOL: f64 = 1e-6;
         let cases: Vec<(ProcessKind, Vec<f64>)> = vec![
@@ -360,7 +182,6 @@ mod tests {
                         a[i] += d;
                         kind_avar_grad(k, &a, m, 100.0, &mut t)
                     };
-                    // five-point stencil: truncation O(h⁴)
                     let fd = (8.0 * (at(h) - at(-h)) - (at(2.0 * h) - at(-2.0 * h))) / (12.0 * h);
                     let scale = g[i].abs().max(1e-300);
                     assert!(
@@ -374,35 +195,18 @@ mod tests {
     }
 
     #[test]
-    fn gm_is_the_ar1_of_the_book_map() {
-        let (beta, s2, rate) = (0.2, 3e-6, 50.0);
-        let gm = Process::from(processes::GaussMarkov::new(beta, s2).unwrap());
-        let ar = Process::from(
-            processes::GaussMarkov::new(beta, s2)
-                .unwrap()
-                .to_ar1(rate)
-                .unwrap(),
-        );
-        for m in [1u64, 2, 64, 1 << 16] {
-            let a = process_avar(&gm, m, rate).unwrap();
-            let b = process_avar(&ar, m, rate).unwrap();
-            assert!(
-                (a - b).abs() <= CLOSED_FORM_REL_TOL * 1e3 * a,
-                "m={m}: {a} vs {b}"
-            );
-        }
-    }
-
-    #[test]
-    fn simple_closed_forms() {
+    fn simple_closed_forms_and_errors() {
         let q = Process::from(processes::QuantizationNoise::new(2.0).unwrap());
-        assert_eq!(process_avar(&q, 2, 1.0).unwrap(), 1.5);
+        assert_eq!(process_avar(&q, 2, 1.0).unwrap(), 1.5); // 3Q²/m²
         let d = Process::from(processes::Drift::new(-3.0).unwrap());
-        assert_eq!(process_avar(&d, 2, 1.0).unwrap(), 18.0);
+        assert_eq!(process_avar(&d, 2, 1.0).unwrap(), 18.0); // ω²m²/2
         // MA1 at m = 1: γ(0) − γ(1) = σ²(1 + θ² − θ).
         let ma = Process::from(processes::Ma1::new(0.5, 2.0).unwrap());
         let v = process_avar(&ma, 1, 1.0).unwrap();
         assert!((v - 2.0 * 0.75).abs() < CLOSED_FORM_REL_TOL);
         assert!(process_avar(&ma, 0, 1.0).is_err());
+        let mut g = [0.0; 2];
+        assert!(kind_avar_grad(ProcessKind::Ar1, &[1.0, 1.0], 4.0, 1.0, &mut g).is_nan());
+        assert!(g.iter().all(|x| x.is_nan()));
     }
 }
