@@ -536,10 +536,12 @@ mod tests {
             for v in x.iter() {
                 c.push(c.last().unwrap() + v);
             }
+            let t = c.len() - 1;
             let cum = Cumulative {
                 c: Cow::Owned(c),
                 factor: 1.0,
                 mean: 0.0,
+                t,
             };
             for m in [1usize, 2, 16, 100, 1000, 3000] {
                 let means: Vec<f64> = x

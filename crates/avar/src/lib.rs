@@ -52,12 +52,14 @@ pub(crate) struct Cumulative<'a> {
     pub(crate) c: Cow<'a, [f64]>,
     pub(crate) factor: f64,
     pub(crate) mean: f64,
+    /// Number of rate samples T (`c` may be empty when no CI needs it).
+    pub(crate) t: usize,
 }
 
 impl Cumulative<'_> {
     /// Number of rate samples T.
     pub(crate) fn t(&self) -> usize {
-        self.c.len() - 1
+        self.t
     }
 }
 
@@ -94,6 +96,7 @@ pub(crate) fn cumulative<'a>(
                 c: Cow::Borrowed(&scratch[..]),
                 factor: 1.0,
                 mean,
+                t: data.len(),
             })
         }
         InputKind::Angle => {
@@ -113,6 +116,7 @@ pub(crate) fn cumulative<'a>(
                 c: Cow::Borrowed(data),
                 factor: rate_hz,
                 mean,
+                t,
             })
         }
     }
@@ -153,6 +157,13 @@ fn allan_variance_with(
     scratch: &mut Vec<f64>,
 ) -> Result<AllanVariance, AvarError> {
     validate_rate_alpha(rate_hz, config.alpha)?;
+    if matches!(config.input, InputKind::Rate)
+        && matches!(config.estimator, Estimator::Overlapping)
+        && matches!(config.ci, CiMethod::None)
+        && data.len() >= kernel::STREAM_MIN_T
+    {
+        return allan_variance_streamed(data, rate_hz, config);
+    }
     let cum = cumulative(data, rate_hz, config.input, scratch)?;
     let t = cum.t();
     let ms = config.scales.cluster_sizes(t)?;
@@ -160,9 +171,52 @@ fn allan_variance_with(
         Estimator::Overlapping => kernel::overlapping_sums(&cum.c, &ms),
         Estimator::NonOverlapping => kernel::nonoverlapping_sums(&cum.c, &ms),
     };
+    finish(cum, rate_hz, config, &ms, &sums)
+}
+
+/// Overlapping AV of long rate series without a series-sized buffer (used when no confidence
+/// interval needs the full cumulative sum): the sums are streamed from the samples and sparse
+/// checkpoints of the centred cumulative sum. The values agree with the buffered path to
+/// rounding (not bit for bit); each path alone is deterministic.
+fn allan_variance_streamed(
+    data: &[f64],
+    rate_hz: f64,
+    config: &AvarConfig,
+) -> Result<AllanVariance, AvarError> {
+    if data.is_empty() {
+        return Err(AvarError::Empty);
+    }
+    if data.len() < MIN_SAMPLES {
+        return Err(AvarError::TooShort {
+            got: data.len(),
+            need: MIN_SAMPLES,
+        });
+    }
+    let ck = kernel::checkpoints(data)?;
+    let t = data.len();
+    let ms = config.scales.cluster_sizes(t)?;
+    let sums = kernel::overlapping_sums_stream(data, &ck, &ms);
+    let cum = Cumulative {
+        c: Cow::Borrowed(&[]),
+        factor: 1.0,
+        mean: ck.mean,
+        t,
+    };
+    finish(cum, rate_hz, config, &ms, &sums)
+}
+
+/// Turns the sums of squared second differences into AV points, then applies the CI.
+fn finish(
+    cum: Cumulative<'_>,
+    rate_hz: f64,
+    config: &AvarConfig,
+    ms: &[u64],
+    sums: &[f64],
+) -> Result<AllanVariance, AvarError> {
+    let t = cum.t();
     let mut points: Vec<AvarPoint> = ms
         .iter()
-        .zip(&sums)
+        .zip(sums)
         .map(|(&m, &s)| {
             let n_terms = n_terms(t, m, config.estimator);
             let scale = cum.factor / m as f64;
