@@ -42,8 +42,20 @@ fn main() -> ExitCode {
 /// Task names and one-line descriptions, for `cargo xtask help`.
 const TASKS: &[(&str, &str)] = &[
     // ("name", "description"),
-    ("avar-coverage", "Monte Carlo coverage of the avar CIs (WN, RW, AR1; all three families)"),
-    ("avar-speed", "MOAV speed: avar vs one pass vs allantools oadev (venv in target/venv)"),
-    ("gmwm-mc", "Monte Carlo bias/RMSE/coverage of the GMWM vs AVLR (issue 5) and bootstrap speed"),
-    ("spectral-table", "spectral: closed form vs Lemma 4.2 vs Lemma 4.1 quadrature table (README)"),
+    (
+        "avar-coverage",
+        "Monte Carlo coverage of the avar CIs (WN, RW, AR1; all three families)",
+    ),
+    (
+        "avar-speed",
+        "MOAV speed: avar vs one pass vs allantools oadev (venv in target/venv)",
+    ),
+    (
+        "gmwm-mc",
+        "Monte Carlo bias/RMSE/coverage of the GMWM vs AVLR (issue 5) and bootstrap speed",
+    ),
+    (
+        "spectral-table",
+        "spectral: closed form vs Lemma 4.2 vs Lemma 4.1 quadrature table (README)",
+    ),
 ];
