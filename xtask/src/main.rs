@@ -8,6 +8,7 @@ use std::process::ExitCode;
 mod avar_coverage;
 mod avar_speed;
 mod gmwm_report;
+mod sim_scaling;
 mod spectral_report;
 
 fn main() -> ExitCode {
@@ -19,6 +20,7 @@ fn main() -> ExitCode {
         "avar-coverage" => avar_coverage::run(rest),
         "avar-speed" => avar_speed::run(rest),
         "gmwm-mc" => gmwm_report::run(rest),
+        "sim-scaling" => sim_scaling::run(rest),
         "spectral-table" => spectral_report::run(rest),
         "help" | "--help" | "-h" => {
             println!("usage: cargo xtask <task> [args]\n\ntasks:");
