@@ -76,15 +76,15 @@ fn one_rep(
     {
         let mut at = 0;
         for k in &f.kinds {
-            if let Some(e) = a.get(*k) {
-                if matches!(
+            if let Some(e) = a.get(*k)
+                && matches!(
                     k,
                     ProcessKind::WhiteNoise
                         | ProcessKind::QuantizationNoise
                         | ProcessKind::RandomWalk
-                ) {
-                    avlr_theta[at] = Some(e.per_sample);
-                }
+                )
+            {
+                avlr_theta[at] = Some(e.per_sample);
             }
             at += k.n_params();
         }
