@@ -8,6 +8,7 @@
 //! the true AV (`spectral::model_allan_variance`) is tabulated. The acceptance: the default 95 %
 //! CI covers in 95 % ± 2.5 % at every scale whose (median) EDF is at least 10.
 
+use crate::args::parsed;
 use avar::{AvarConfig, CiMethod, Scales, allan_variance, haar_wavelet_variance};
 use processes::Model;
 use rayon::prelude::*;
@@ -29,22 +30,11 @@ struct Cell {
     haar: f64,
 }
 
-fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> Result<T, String> {
-    match args.iter().position(|a| a == name) {
-        Some(i) => args
-            .get(i + 1)
-            .ok_or(format!("{name} needs a value"))?
-            .parse()
-            .map_err(|_| format!("bad value for {name}")),
-        None => Ok(default),
-    }
-}
-
 /// Runs the report.
 pub fn run(args: &[String]) -> Result<(), String> {
-    let reps: usize = arg(args, "--reps", 1000)?;
-    let n: usize = arg(args, "--n", 1 << 15)?;
-    let seed: u64 = arg(args, "--seed", 20_240_404)?;
+    let reps: usize = parsed(args, "--reps", 1000)?;
+    let n: usize = parsed(args, "--n", 1 << 15)?;
+    let seed: u64 = parsed(args, "--seed", 20_240_404)?;
     if reps < 400 {
         return Err("the acceptance needs >= 400 replications".into());
     }

@@ -14,18 +14,13 @@
 //! Times are the best of three runs (allantools: one run at 1e8). Peak memory is the process
 //! high-water mark (VmHWM), which includes the input array.
 
+use crate::args::value;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
 use avar::{AvarConfig, CiMethod, Scales, allan_variance};
-
-fn arg(args: &[String], name: &str) -> Option<String> {
-    args.iter()
-        .position(|a| a == name)
-        .and_then(|i| args.get(i + 1).cloned())
-}
 
 fn data(n: usize) -> Vec<f64> {
     let mut s = 0x9E37_79B9_7F4A_7C15u64;
@@ -125,8 +120,8 @@ fn run_allantools(python: &Path, file: &Path, taus: &str) -> Result<Py, String> 
 
 /// Runs the report.
 pub fn run(args: &[String]) -> Result<(), String> {
-    let sizes: Vec<usize> = arg(args, "--sizes")
-        .unwrap_or_else(|| "1e6,1e7,1e8".into())
+    let sizes: Vec<usize> = value(args, "--sizes")
+        .unwrap_or("1e6,1e7,1e8")
         .split(',')
         .map(|s| {
             s.trim()
@@ -135,13 +130,13 @@ pub fn run(args: &[String]) -> Result<(), String> {
                 .map_err(|_| format!("bad size {s}"))
         })
         .collect::<Result<_, _>>()?;
-    let all_n = arg(args, "--all-n")
+    let all_n = value(args, "--all-n")
         .map(|s| s.parse::<f64>().map(|v| v as usize))
         .transpose()
         .map_err(|_| "bad --all-n")?
         .unwrap_or(1_000_000);
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let python = arg(args, "--python")
+    let python = value(args, "--python")
         .map(PathBuf::from)
         .unwrap_or_else(|| root.join("target/venv/bin/python"));
     let have_py = python.exists();

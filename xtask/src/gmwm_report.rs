@@ -14,6 +14,7 @@
 //! (acceptance 95 % ± 5 %), and the same bias/RMSE for the bootstrap bias-corrected estimate
 //! 2θ̂ − mean(θ*) (BC). Ends with the timing of 100 bootstrap replications at T = 10^6.
 
+use crate::args::parsed;
 use avar::{AvarConfig, allan_variance};
 use gmwm_prep::AvCurve;
 use gmwm_prep::avlr::{AvlrWindows, avlr};
@@ -27,17 +28,6 @@ const ALPHA: f64 = 0.05;
 /// `--reweight K`: reweighting steps of the diagonal weighting (GmwmOptions default 8).
 static REWEIGHT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(8);
 const RATE: f64 = 100.0;
-
-fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> Result<T, String> {
-    match args.iter().position(|a| a == name) {
-        Some(i) => args
-            .get(i + 1)
-            .ok_or(format!("{name} needs a value"))?
-            .parse()
-            .map_err(|_| format!("bad value for {name}")),
-        None => Ok(default),
-    }
-}
 
 struct Rep {
     theta: Vec<f64>,
@@ -256,12 +246,12 @@ fn speed(n: usize, seed: u64) -> Result<(), String> {
 
 /// Runs the report.
 pub fn run(args: &[String]) -> Result<(), String> {
-    let reps: usize = arg(args, "--reps", 100)?;
-    let boot: usize = arg(args, "--boot", 50)?;
-    let n: usize = arg(args, "--n", 1_000_000)?;
-    let seed: u64 = arg(args, "--seed", 20_261_121)?;
-    let which: String = arg(args, "--case", "all".to_string())?;
-    let rw: usize = arg(
+    let reps: usize = parsed(args, "--reps", 100)?;
+    let boot: usize = parsed(args, "--boot", 50)?;
+    let n: usize = parsed(args, "--n", 1_000_000)?;
+    let seed: u64 = parsed(args, "--seed", 20_261_121)?;
+    let which: String = parsed(args, "--case", "all".to_string())?;
+    let rw: usize = parsed(
         args,
         "--reweight",
         GmwmOptions::default().reweight_iterations,

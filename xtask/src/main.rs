@@ -5,6 +5,7 @@
 
 use std::process::ExitCode;
 
+mod args;
 mod avar_coverage;
 mod avar_speed;
 mod gmwm_report;

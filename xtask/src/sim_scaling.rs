@@ -5,18 +5,9 @@
 //! composite WN + RW + AR1 + QN, on rayon pools of 1 and 2 threads. It reports the best of R runs,
 //! because timing noise on a shared VM only ever adds time. Default n = 10^8 (800 MB per buffer).
 
+use crate::args::parsed;
 use processes::{Model, Process};
 use std::time::Instant;
-
-fn arg(args: &[String], name: &str, default: usize) -> Result<usize, String> {
-    match args.iter().position(|a| a == name) {
-        None => Ok(default),
-        Some(i) => args
-            .get(i + 1)
-            .and_then(|v| v.parse().ok())
-            .ok_or_else(|| format!("{name} needs a whole number")),
-    }
-}
 
 /// Best-of-`runs` wall time in seconds of `f`.
 fn best_of(runs: usize, mut f: impl FnMut()) -> f64 {
@@ -31,8 +22,8 @@ fn best_of(runs: usize, mut f: impl FnMut()) -> f64 {
 
 /// Runs the report.
 pub fn run(args: &[String]) -> Result<(), String> {
-    let n = arg(args, "--n", 100_000_000)?;
-    let runs = arg(args, "--runs", 5)?.max(1);
+    let n = parsed(args, "--n", 100_000_000usize)?;
+    let runs = parsed(args, "--runs", 5usize)?.max(1);
     let rate = 100.0;
     let cases = [
         ("WN", "WN(sigma2=1)"),
