@@ -65,16 +65,8 @@ pub fn haar_wavelet_variance(
     alpha: f64,
 ) -> Result<HaarWaveletVariance, AvarError> {
     crate::validate_rate_alpha(rate_hz, alpha)?;
-    if data.is_empty() {
-        return Err(AvarError::Empty);
-    }
     let t = data.len();
-    if t < crate::MIN_SAMPLES {
-        return Err(AvarError::TooShort {
-            got: t,
-            need: crate::MIN_SAMPLES,
-        });
-    }
+    crate::check_len(t, t)?;
     let jmax = match levels {
         Some(0) => return Err(AvarError::InvalidScales("levels must be >= 1".into())),
         Some(j) => {

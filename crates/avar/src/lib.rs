@@ -73,6 +73,21 @@ pub(crate) fn validate_rate_alpha(rate_hz: f64, alpha: f64) -> Result<(), AvarEr
     Ok(())
 }
 
+/// Errors for an empty input (`len` values) or for one holding fewer than [`MIN_SAMPLES`]
+/// rate samples (`got`: `len` for rate input, `len − 1` for angle input).
+pub(crate) fn check_len(len: usize, got: usize) -> Result<(), AvarError> {
+    if len == 0 {
+        return Err(AvarError::Empty);
+    }
+    if got < MIN_SAMPLES {
+        return Err(AvarError::TooShort {
+            got,
+            need: MIN_SAMPLES,
+        });
+    }
+    Ok(())
+}
+
 /// Validates the data and builds the cumulative representation.
 pub(crate) fn cumulative<'a>(
     data: &'a [f64],
@@ -80,17 +95,9 @@ pub(crate) fn cumulative<'a>(
     input: InputKind,
     scratch: &'a mut Vec<f64>,
 ) -> Result<Cumulative<'a>, AvarError> {
-    if data.is_empty() {
-        return Err(AvarError::Empty);
-    }
     match input {
         InputKind::Rate => {
-            if data.len() < MIN_SAMPLES {
-                return Err(AvarError::TooShort {
-                    got: data.len(),
-                    need: MIN_SAMPLES,
-                });
-            }
+            check_len(data.len(), data.len())?;
             let mean = kernel::centred_prefix_into(data, scratch)?;
             Ok(Cumulative {
                 c: Cow::Borrowed(&scratch[..]),
@@ -100,12 +107,8 @@ pub(crate) fn cumulative<'a>(
             })
         }
         InputKind::Angle => {
-            if data.len() < MIN_SAMPLES + 1 {
-                return Err(AvarError::TooShort {
-                    got: data.len() - 1,
-                    need: MIN_SAMPLES,
-                });
-            }
+            // T + 1 angle samples hold T rate samples.
+            check_len(data.len(), data.len().saturating_sub(1))?;
             kernel::check_finite(data)?;
             let t = data.len() - 1;
             let mean = (data[t] - data[0]) * rate_hz / t as f64;
@@ -183,15 +186,7 @@ fn allan_variance_streamed(
     rate_hz: f64,
     config: &AvarConfig,
 ) -> Result<AllanVariance, AvarError> {
-    if data.is_empty() {
-        return Err(AvarError::Empty);
-    }
-    if data.len() < MIN_SAMPLES {
-        return Err(AvarError::TooShort {
-            got: data.len(),
-            need: MIN_SAMPLES,
-        });
-    }
+    check_len(data.len(), data.len())?;
     let ck = kernel::checkpoints(data)?;
     let t = data.len();
     let ms = config.scales.cluster_sizes(t)?;
@@ -290,21 +285,8 @@ pub fn allan_variance_channels(
 /// assert!((fast - slow).abs() <= 1e-12 * slow);
 /// ```
 pub fn moav_reference(data: &[f64], m: u64) -> Result<f64, AvarError> {
-    if data.is_empty() {
-        return Err(AvarError::Empty);
-    }
-    if data.len() < MIN_SAMPLES {
-        return Err(AvarError::TooShort {
-            got: data.len(),
-            need: MIN_SAMPLES,
-        });
-    }
-    if let Some(index) = data.iter().position(|v| !v.is_finite()) {
-        return Err(AvarError::NonFinite {
-            index,
-            value: data[index],
-        });
-    }
+    check_len(data.len(), data.len())?;
+    kernel::check_finite(data)?;
     let t = data.len();
     if m == 0 {
         return Err(AvarError::ZeroScale);
