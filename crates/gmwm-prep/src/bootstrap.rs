@@ -37,6 +37,11 @@ pub struct BootstrapOptions {
 }
 
 impl BootstrapOptions {
+    /// AV curve of replicate `b` (stream `b` of `self.seed`) of `model` at scales `m`.
+    fn replicate(&self, model: &Model, m: &[u64], rate_hz: f64, b: usize) -> Result<AvCurve> {
+        simulate_curve(model, m, rate_hz, self.n, self.seed, b as u64, &self.avar)
+    }
+
     /// B replications of length n with seed, default AV settings, 95% intervals.
     pub fn new(replications: usize, seed: u64, n: usize) -> Self {
         Self {
@@ -142,15 +147,7 @@ pub fn parametric_bootstrap(
     let reps: Vec<Replicate> = (0..boot.replications)
         .into_par_iter()
         .map(|b| {
-            let c = simulate_curve(
-                &fit_.model,
-                &fit_.m,
-                fit_.rate_hz,
-                boot.n,
-                boot.seed,
-                b as u64,
-                &boot.avar,
-            )?;
+            let c = boot.replicate(&fit_.model, &fit_.m, fit_.rate_hz, b)?;
             let th = fit(&c, template, opts).ok().map(|f| f.theta);
             Ok((c.avar(), th))
         })
@@ -205,15 +202,7 @@ pub fn avlr_bootstrap(fit_: &AvlrFit, m: &[u64], boot: &BootstrapOptions) -> Res
     let reps: Vec<Result<Vec<f64>>> = (0..boot.replications)
         .into_par_iter()
         .map(|b| {
-            let c = simulate_curve(
-                &fit_.model,
-                m,
-                fit_.rate_hz,
-                boot.n,
-                boot.seed,
-                b as u64,
-                &boot.avar,
-            )?;
+            let c = boot.replicate(&fit_.model, m, fit_.rate_hz, b)?;
             let f = avlr(&c, &fit_.windows)?;
             Ok(f.estimates.iter().map(|e| e.per_sample).collect())
         })
