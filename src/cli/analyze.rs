@@ -6,7 +6,7 @@ use super::fit::{ChannelFit, FitSettings, fit_all};
 use super::{InputArgs, Ui};
 use crate::error::{Error, Result};
 use crate::plot::{AdevPlot, Series, acf_svg, adev_svg, timeseries_svg};
-use avar::{AllanVariance, AvarConfig};
+use avar::AllanVariance;
 use processes::{Sensor, Unit};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -417,13 +417,7 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
 
 /// Runs `imunoise analyze`.
 pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
-    let table = args.input.read(ui)?;
-    let units = crate::units::channel_units(&table.names, args.input.unit.as_deref())?;
-    let cfg = AvarConfig {
-        alpha: args.fit.alpha,
-        ..AvarConfig::default()
-    };
-    let curves = super::avar_cmd::compute(&table, args.input.rate, &cfg, ui)?;
+    let (table, units, curves) = super::fit::read_curves(&args.input, args.fit.alpha, ui)?;
     let mut settings = args.fit.clone();
     settings.select = !args.no_select && settings.method == super::fit::Method::Gmwm;
     let fits = fit_all(&curves, &units, &settings, ui)?;

@@ -428,15 +428,29 @@ pub fn write_table(out: &mut impl Write, fits: &[ChannelFit], alpha: f64) -> std
     Ok(())
 }
 
-/// Runs `imunoise fit`.
-pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
-    let table = args.input.read(ui)?;
-    let units = crate::units::channel_units(&table.names, args.input.unit.as_deref())?;
+/// Each channel's name with its Allan variance.
+pub(super) type ChannelCurves = Vec<(String, AllanVariance)>;
+
+/// Reads the input of `fit`/`analyze`, resolves each channel's unit and computes its Allan
+/// variance on the default (dyadic) scales with chi-square CIs at level 1 − `alpha`.
+pub(super) fn read_curves(
+    input: &InputArgs,
+    alpha: f64,
+    ui: &Ui,
+) -> Result<(crate::io::Table, Vec<Unit>, ChannelCurves)> {
+    let table = input.read(ui)?;
+    let units = crate::units::channel_units(&table.names, input.unit.as_deref())?;
     let cfg = AvarConfig {
-        alpha: args.fit.alpha,
+        alpha,
         ..AvarConfig::default()
     };
-    let curves = super::avar_cmd::compute(&table, args.input.rate, &cfg, ui)?;
+    let curves = super::avar_cmd::compute(&table, input.rate, &cfg, ui)?;
+    Ok((table, units, curves))
+}
+
+/// Runs `imunoise fit`.
+pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
+    let (_, units, curves) = read_curves(&args.input, args.fit.alpha, ui)?;
     let fits = fit_all(&curves, &units, &args.fit, ui)?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
