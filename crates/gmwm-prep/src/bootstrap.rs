@@ -137,6 +137,36 @@ pub fn parametric_bootstrap(
     opts: &GmwmOptions,
     boot: &BootstrapOptions,
 ) -> Result<BootstrapResult> {
+    parametric_bootstrap_with_progress(fit_, template, opts, boot, &|| {})
+}
+
+/// [`parametric_bootstrap`] calling `on_replicate` once per finished replicate (from the
+/// worker threads, in any order), e.g. to advance a progress bar. The result does not depend
+/// on the hook.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, bootstrap::{BootstrapOptions, parametric_bootstrap_with_progress}};
+/// use gmwm_prep::gmwm::{fit, GmwmOptions};
+/// use std::sync::atomic::{AtomicUsize, Ordering};
+/// let truth: processes::Model = "WN(sigma2=1e-4)".parse()?;
+/// let m: Vec<u64> = (1..=6).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(4096);
+/// let template: processes::Model = "WN".parse()?;
+/// let f = fit(&curve, &template, &GmwmOptions::default())?;
+/// let done = AtomicUsize::new(0);
+/// let b = parametric_bootstrap_with_progress(&f, &template, &GmwmOptions::default(),
+///     &BootstrapOptions::new(8, 1, 4096), &|| { done.fetch_add(1, Ordering::Relaxed); })?;
+/// assert_eq!((done.load(Ordering::Relaxed), b.replications), (8, 8));
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
+pub fn parametric_bootstrap_with_progress(
+    fit_: &GmwmFit,
+    template: &Model,
+    opts: &GmwmOptions,
+    boot: &BootstrapOptions,
+    on_replicate: &(dyn Fn() + Sync),
+) -> Result<BootstrapResult> {
     boot.check()?;
     if fit_.moments != Moments::AllanVariance {
         return Err(FitError::InvalidArgument(
@@ -149,6 +179,7 @@ pub fn parametric_bootstrap(
         .map(|b| {
             let c = boot.replicate(&fit_.model, &fit_.m, fit_.rate_hz, b)?;
             let th = fit(&c, template, opts).ok().map(|f| f.theta);
+            on_replicate();
             Ok((c.avar(), th))
         })
         .collect();

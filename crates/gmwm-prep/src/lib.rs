@@ -27,6 +27,7 @@
 //! # Ok::<(), gmwm_prep::FitError>(())
 //! ```
 
+mod avcov;
 pub mod avlr;
 pub mod bootstrap;
 pub mod curve;

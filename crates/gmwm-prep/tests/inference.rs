@@ -176,3 +176,70 @@ fn haar_wv_moments_fit_back_and_full_weighting_is_used() {
         ff.theta[0]
     );
 }
+
+#[test]
+fn model_covariance_of_white_noise_is_the_closed_form() {
+    // WN: D(t) has autocovariance σ² r(k), r = 2m − 3|k| (|k| ≤ m), |k| − 2m (m ≤ |k| ≤ 2m),
+    // so Var(AV̂) = σ⁴ (K S0 − S1) / (2 K² m⁴) with S0 = Σ r² = 2m(4m² + 5)/3 and
+    // S1 = Σ |k| r² = 2m²(2m² + 1)/3 (exact for 4m ≤ K). Rounding only: 1e-9 relative.
+    const TOL: f64 = 1e-9;
+    let s2 = 3e-4;
+    let model: Model = format!("WN(sigma2={s2})").parse().unwrap();
+    let n = 1_000_000u64;
+    let m: Vec<u64> = vec![1, 2, 5, 64, 1000, 1 << 17];
+    let v = gmwm_prep::inference::model_covariance(&model, &m, 100.0, n).unwrap();
+    for (j, &mj) in m.iter().enumerate() {
+        let (mf, k) = (mj as f64, (n - 2 * mj + 1) as f64);
+        let s0 = 2.0 * mf * (4.0 * mf * mf + 5.0) / 3.0;
+        let s1 = 2.0 * mf * mf * (2.0 * mf * mf + 1.0) / 3.0;
+        let want = s2 * s2 * (k * s0 - s1) / (2.0 * k * k * mf.powi(4));
+        let got = v.get(j, j);
+        assert!((got / want - 1.0).abs() < TOL, "m={mj}: {got} vs {want}");
+    }
+}
+
+#[test]
+fn model_covariance_matches_simulated_replicates() {
+    // 400 replicates of WN + RW + AR1 at n = 2^14: the empirical variance of AV̂ at each
+    // scale and the covariance of neighbouring scales must agree with the model covariance
+    // within 4 standard errors of the empirical moments (SE from the replicates' own fourth
+    // moments; a false alarm has probability < 1e-4 per comparison).
+    const Z: f64 = 4.0;
+    let model: Model = "WN(sigma2=1e-4) + RW(gamma2=1e-8) + AR1(phi=0.98, sigma2=1e-6)"
+        .parse()
+        .unwrap();
+    let (n, reps) = (1usize << 14, 400usize);
+    let m: Vec<u64> = vec![1, 4, 16, 64, 256, 1024];
+    let cfg = avar::AvarConfig::default();
+    let rows: Vec<Vec<f64>> = (0..reps)
+        .map(|r| {
+            gmwm_prep::bootstrap::simulate_curve(&model, &m, 100.0, n, 20261121, r as u64, &cfg)
+                .unwrap()
+                .avar()
+        })
+        .collect();
+    let v = gmwm_prep::inference::model_covariance(&model, &m, 100.0, n as u64).unwrap();
+    let mean: Vec<f64> = (0..m.len())
+        .map(|j| rows.iter().map(|r| r[j]).sum::<f64>() / reps as f64)
+        .collect();
+    let pairs: Vec<(usize, usize)> = (0..m.len())
+        .map(|j| (j, j))
+        .chain((1..m.len()).map(|j| (j - 1, j)))
+        .collect();
+    for (a, b) in pairs {
+        let prods: Vec<f64> = rows
+            .iter()
+            .map(|r| (r[a] - mean[a]) * (r[b] - mean[b]))
+            .collect();
+        let c = prods.iter().sum::<f64>() / (reps - 1) as f64;
+        let var_p = prods.iter().map(|p| (p - c) * (p - c)).sum::<f64>() / (reps - 1) as f64;
+        let se = (var_p / reps as f64).sqrt();
+        let want = v.get(a, b);
+        assert!(
+            (c - want).abs() <= Z * se,
+            "m=({}, {}): empirical {c} ± {se} vs model {want}",
+            m[a],
+            m[b]
+        );
+    }
+}
