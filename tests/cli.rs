@@ -440,6 +440,8 @@ fn fit_json_shape_and_white_noise_recovered() {
     assert_eq!(
         keys,
         [
+            "ci_level",
+            "ci_method",
             "converged",
             "fitted",
             "ieee",
@@ -451,6 +453,8 @@ fn fit_json_shape_and_white_noise_recovered() {
         ]
     );
     assert_eq!(ch["method"], "gmwm");
+    assert_eq!(ch["ci_method"], "delta_diagonal");
+    assert_eq!(ch["ci_level"], 0.95);
     let pars = ch["parameters"].as_array().unwrap();
     assert_eq!(pars.len(), 2);
     assert_eq!(
@@ -529,7 +533,53 @@ fn analyze_writes_report_plots_json_csv_yaml() {
 }
 
 #[test]
-fn demo_runs_small() {
+fn fit_says_which_ci_method_it_used() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "32768", "x");
+    let fit = |extra: &[&str]| {
+        let mut args = vec![
+            "fit",
+            p.to_str().unwrap(),
+            "--binary",
+            "f64",
+            "-r",
+            "100",
+            "--model",
+            "WN+RW",
+            "-q",
+        ];
+        args.extend_from_slice(extra);
+        let out = imunoise(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let doc: serde_json::Value =
+        serde_json::from_str(&fit(&["--bootstrap", "3", "--alpha", "0.1", "-f", "json"])).unwrap();
+    assert_eq!(doc["channels"][0]["ci_method"], "delta_bootstrap_cov");
+    assert!((doc["channels"][0]["ci_level"].as_f64().unwrap() - 0.9).abs() < 1e-15);
+    let table = fit(&["--bootstrap", "3"]);
+    assert!(
+        table.contains("95% CI (per sample; delta method, V = 3-replicate parametric-bootstrap"),
+        "{table}"
+    );
+    // The IEEE 952 read-off has no intervals, and says so.
+    let doc: serde_json::Value =
+        serde_json::from_str(&fit(&["--method", "ieee952", "-f", "json"])).unwrap();
+    assert_eq!(doc["channels"][0]["ci_method"], "none");
+    assert!(doc["channels"][0]["ci_level"].is_null());
+}
+
+/// Standard normal quantiles z_{1−α/2} for α = 0.05 and α = 0.05/24 (Python's
+/// `statistics.NormalDist().inv_cdf(1 - a/2)`, an independent implementation).
+const Z_975: f64 = 1.9599639845400536;
+const Z_BONFERRONI_24: f64 = 3.0780880728421613;
+
+#[test]
+fn demo_reports_marginal_and_simultaneous_coverage() {
     let dir = tempfile::tempdir().unwrap();
     let out = imunoise(&[
         "demo",
@@ -548,11 +598,67 @@ fn demo_runs_small() {
     );
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
-        text.contains("true parameters lie within their 95% CIs"),
+        text.contains("Bonferroni over all K = 24 parameters"),
         "{text}"
     );
+    assert!(text.contains("1 - 0.05/24 = 99.79%"), "{text}");
+    // 24 parameter rows + 2 IEEE rows for gyro_x.
     assert_eq!(text.matches("gyro_x ").count(), 4 + 2, "{text}");
     assert!(dir.path().join("d/report.html").exists());
+    let doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("d/demo.json")).unwrap()).unwrap();
+    assert_eq!(doc["k"], 24);
+    assert_eq!(doc["simultaneous_method"], "bonferroni");
+    assert!((doc["simultaneous_level"].as_f64().unwrap() - (1.0 - 0.05 / 24.0)).abs() < 1e-15);
+    assert_eq!(doc["ci_method"], "delta_bootstrap_cov");
+    let pair = |v: &serde_json::Value| (v[0].as_f64().unwrap(), v[1].as_f64().unwrap());
+    let (mut sim_in, mut marg_in, mut n_ratio) = (0, 0, 0);
+    let params = doc["parameters"].as_array().unwrap();
+    assert_eq!(params.len(), 24);
+    for p in params {
+        let (lo, hi) = pair(&p["ci"]);
+        let (slo, shi) = pair(&p["sim_ci"]);
+        let (t, est) = (
+            p["truth"].as_f64().unwrap(),
+            p["estimate"].as_f64().unwrap(),
+        );
+        assert!(slo <= lo && lo <= est && est <= hi && hi <= shi, "{p}");
+        // Variances get θ̂·exp(±z·se/θ̂): the log-width grows exactly by the ratio of quantiles.
+        // (Not where θ̂ sits on the boundary 0 and z·se/θ̂ is capped: on 65536 samples the
+        // gyros' RW can be.)
+        let name = p["parameter"].as_str().unwrap();
+        if (name.ends_with("sigma2") || name.ends_with("gamma2")) && lo > 0.0 && hi < 1.0 {
+            let ratio = (shi / slo).ln() / (hi / lo).ln();
+            assert!(
+                (ratio / (Z_BONFERRONI_24 / Z_975) - 1.0).abs() < 1e-9,
+                "{p}: {ratio}"
+            );
+            n_ratio += 1;
+        }
+        sim_in += usize::from(slo <= t && t <= shi);
+        marg_in += usize::from(lo <= t && t <= hi);
+    }
+    // At least every white noise σ² (the best-determined parameters) was checked.
+    assert!(n_ratio >= 6, "{n_ratio}");
+    // The summary line states both counts as recomputed here.
+    let summary = format!(
+        "{sim_in} of 24 true parameters lie within their simultaneous 95% intervals (Bonferroni, K = 24)"
+    );
+    assert!(text.contains(&summary), "{summary}\n{text}");
+    assert!(
+        text.contains(&format!("{marg_in} of 24 within their marginal 95% CIs")),
+        "{text}"
+    );
+    // IEEE N of a gyro in °/√h is 60·√(σ²/rate): its intervals are the images of σ²'s.
+    let n = &doc["ieee"][0];
+    assert_eq!(
+        (n["channel"].as_str(), n["parameter"].as_str()),
+        (Some("gyro_x"), Some("N"))
+    );
+    let (slo, shi) = pair(&params[0]["sim_ci"]);
+    let (nlo, nhi) = pair(&n["sim_ci"]);
+    assert!((nlo / (60.0 * (slo / 100.0).sqrt()) - 1.0).abs() < 1e-12);
+    assert!((nhi / (60.0 * (shi / 100.0).sqrt()) - 1.0).abs() < 1e-12);
 }
 
 #[test]

@@ -434,7 +434,7 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
     write_report(&args.out, &inp, ui)?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
-    super::fit::write_table(&mut out, &fits, settings.alpha)
+    super::fit::write_table(&mut out, &fits, settings.alpha, settings.bootstrap)
         .and_then(|_| {
             use std::io::Write;
             writeln!(

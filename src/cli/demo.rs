@@ -5,11 +5,13 @@
 
 use super::Ui;
 use super::analyze::num;
+use super::fit::LevelCis;
 use crate::error::{Error, Result};
 use avar::{AllanVariance, AvarConfig};
 use gmwm_prep::units::{IeeeTerm, process_ieee};
 
 use processes::{Model, Unit};
+use serde::Serialize;
 use std::io::Write;
 
 /// One channel of the demo IMU: name, unit and true model (per-sample parameters).
@@ -145,30 +147,49 @@ pub fn true_ieee(model: &Model, term: IeeeTerm, unit: &Unit) -> Option<(f64, Str
     })
 }
 
-/// True against estimated value of one parameter.
-#[derive(Debug, Clone)]
+/// True against estimated value of one parameter (or IEEE 952 term).
+#[derive(Debug, Clone, Serialize)]
 pub struct Comparison {
     /// Channel name.
     pub channel: String,
-    /// Process code and parameter name, e.g. `"RW gamma2"`.
+    /// Process code and parameter name, e.g. `"RW gamma2"`, or the IEEE term (`"N"`, `"K"`).
     pub parameter: String,
+    /// Unit of `truth` and `estimate` (empty for per-sample parameters).
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub unit: String,
     /// True value.
     pub truth: f64,
     /// Estimate.
     pub estimate: f64,
-    /// CI bounds, if any.
+    /// Marginal CI (level 1 − alpha), if any.
     pub ci: Option<(f64, f64)>,
+    /// Simultaneous interval (Bonferroni, level 1 − alpha/K), if any.
+    pub sim_ci: Option<(f64, f64)>,
+}
+
+fn covers(ci: Option<(f64, f64)>, x: f64) -> Option<bool> {
+    ci.map(|(a, b)| a <= x && x <= b)
 }
 
 impl Comparison {
-    /// Whether the CI covers the truth.
+    /// Whether the marginal CI covers the truth.
     pub fn covered(&self) -> Option<bool> {
-        self.ci.map(|(a, b)| a <= self.truth && self.truth <= b)
+        covers(self.ci, self.truth)
+    }
+    /// Whether the simultaneous interval covers the truth.
+    pub fn sim_covered(&self) -> Option<bool> {
+        covers(self.sim_ci, self.truth)
     }
 }
 
-/// Compares the fitted parameters (model order) with the true model's.
-pub fn compare(name: &str, truth: &Model, fit: &super::fit::ChannelFit) -> Vec<Comparison> {
+/// Compares the fitted parameters (model order) with the true model's; `sim` are the
+/// simultaneous intervals of the same parameters, if computed.
+pub fn compare(
+    name: &str,
+    truth: &Model,
+    fit: &super::fit::ChannelFit,
+    sim: Option<&LevelCis>,
+) -> Vec<Comparison> {
     let true_params: Vec<f64> = truth
         .processes()
         .map(|ps| ps.iter().flat_map(|p| p.params()).collect())
@@ -176,14 +197,75 @@ pub fn compare(name: &str, truth: &Model, fit: &super::fit::ChannelFit) -> Vec<C
     fit.parameters
         .iter()
         .zip(true_params)
-        .map(|(p, t)| Comparison {
+        .enumerate()
+        .map(|(i, (p, t))| Comparison {
             channel: name.to_string(),
             parameter: format!("{} {}", p.process, p.name),
+            unit: String::new(),
             truth: t,
             estimate: p.value,
             ci: p.ci_lo.zip(p.ci_hi),
+            sim_ci: sim.and_then(|s| s.parameters.get(i).copied()),
         })
         .collect()
+}
+
+/// The IEEE 952 terms N and K of a channel: true against estimated, with both intervals.
+pub fn compare_ieee(
+    name: &str,
+    truth: &Model,
+    unit: &Unit,
+    fit: &super::fit::ChannelFit,
+    sim: Option<&LevelCis>,
+) -> Vec<Comparison> {
+    [IeeeTerm::N, IeeeTerm::K]
+        .into_iter()
+        .filter_map(|term| {
+            let (t, u) = true_ieee(truth, term, unit)?;
+            let est = fit.ieee.get(term.symbol())?;
+            let s = sim.and_then(|s| s.ieee.get(term.symbol()));
+            Some(Comparison {
+                channel: name.to_string(),
+                parameter: term.symbol().to_string(),
+                unit: u,
+                truth: t,
+                estimate: est.value,
+                ci: est.ci_lo.zip(est.ci_hi),
+                sim_ci: s.and_then(|s| s.ci_lo.zip(s.ci_hi)),
+            })
+        })
+        .collect()
+}
+
+/// `demo.json`: the demo's true against estimated values with both kinds of interval.
+#[derive(Debug, Serialize)]
+pub struct DemoJson<'a> {
+    /// Family level: the simultaneous intervals cover all parameters jointly with ≥ 1 − alpha.
+    pub alpha: f64,
+    /// Number of parameters K in the Bonferroni family.
+    pub k: usize,
+    /// `"bonferroni"`.
+    pub simultaneous_method: &'static str,
+    /// Level of each simultaneous interval, 1 − alpha/K.
+    pub simultaneous_level: f64,
+    /// How the marginal intervals were computed (as `ci_method` of `imunoise fit`).
+    pub ci_method: super::fit::CiMethod,
+    /// Per-sample parameters.
+    pub parameters: &'a [Comparison],
+    /// IEEE 952 terms N and K (functions of WN σ² and RW γ², so in the same family).
+    pub ieee: &'a [Comparison],
+}
+
+fn interval(ci: Option<(f64, f64)>, f: impl Fn(f64) -> String) -> String {
+    ci.map_or("-".into(), |(a, b)| format!("[{}, {}]", f(a), f(b)))
+}
+
+fn yes_no(c: Option<bool>, no: &str) -> String {
+    match c {
+        Some(true) => "yes".into(),
+        Some(false) => no.into(),
+        None => "-".into(),
+    }
 }
 
 /// Runs `imunoise demo`.
@@ -191,6 +273,11 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     if args.n < 1 << 14 {
         return Err(Error::Usage(
             "--samples: the demo needs at least 16384 samples per channel".into(),
+        ));
+    }
+    if args.bootstrap == 1 {
+        return Err(Error::Usage(
+            "--bootstrap: a bootstrap needs at least 2 replicates (0: no bootstrap)".into(),
         ));
     }
     let t0 = std::time::Instant::now();
@@ -205,15 +292,55 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     let curves: Vec<(String, AllanVariance)> =
         super::avar_cmd::compute(&table, DEMO_RATE_HZ, &AvarConfig::default(), ui)?;
     // The true template (the structure is known; its values are estimated).
+    let alpha = 0.05;
     let settings = super::fit::FitSettings {
         model: data.models[0].template().to_string(),
         method: super::fit::Method::Gmwm,
         select: false,
         bootstrap: args.bootstrap,
         seed: args.seed.wrapping_add(1),
-        alpha: 0.05,
+        alpha,
     };
     let fits = super::fit::fit_all(&curves, &data.units, &settings, ui)?;
+    // Simultaneous intervals: Bonferroni over every parameter of every channel.
+    let k: usize = fits.iter().map(|f| f.parameters.len()).sum();
+    let alpha_sim = alpha / k as f64;
+    let sims = fits
+        .iter()
+        .map(|f| f.cis_at(alpha_sim))
+        .collect::<Result<Vec<_>>>()?;
+    let mut params = Vec::new();
+    let mut ieee = Vec::new();
+    for (i, f) in fits.iter().enumerate() {
+        params.extend(compare(
+            &data.names[i],
+            &data.models[i],
+            f,
+            sims[i].as_ref(),
+        ));
+        ieee.extend(compare_ieee(
+            &data.names[i],
+            &data.models[i],
+            &data.units[i],
+            f,
+            sims[i].as_ref(),
+        ));
+    }
+    let count = |v: &[Comparison], sim: bool| {
+        let c: Vec<Option<bool>> = v
+            .iter()
+            .map(|c| if sim { c.sim_covered() } else { c.covered() })
+            .collect();
+        (
+            c.iter().filter(|x| **x == Some(true)).count(),
+            c.iter().filter(|x| x.is_some()).count(),
+        )
+    };
+    let ci_method = fits
+        .first()
+        .map_or(super::fit::CiMethod::None, |f| f.ci_method);
+    let level = super::fit::percent(1.0 - alpha);
+    let sim_level = super::fit::percent(1.0 - alpha_sim);
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let mut w = |s: String| writeln!(out, "{s}").map_err(|e| Error::io("<stdout>", e));
@@ -225,75 +352,108 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         args.seed
     ))?;
     w(format!(
-        "GMWM fit of {} on the Allan variance, 95% CIs from a {}-replicate parametric bootstrap covariance:",
-        settings.model, args.bootstrap
+        "GMWM fit of {} on the Allan variance; CIs by {}.",
+        settings.model,
+        ci_method.describe(args.bootstrap)
     ))?;
     w(format!(
-        "{:<8} {:<11} {:>11} {:>11} {:>25}  {}",
-        "channel", "parameter", "true", "estimate", "95% CI", "covered"
+        "Simultaneous {level} intervals: Bonferroni over all K = {k} parameters, each at level 1 - {alpha}/{k} = {sim_level},\n\
+         so that all {k} cover their true values together with probability >= {level} (a marginal {level} CI\n\
+         covers its own parameter with {level}; all {k} at once only with about {:.0}% if independent).",
+        100.0 * (1.0 - alpha).powi(k as i32)
     ))?;
-    let (mut n_cov, mut n_all) = (0, 0);
-    let mut extra = String::from(
-        "<h2>Demo: true against estimated parameters</h2><table><tr><th class=l>channel</th><th class=l>parameter</th><th>true</th><th>estimate</th><th>95% CI</th><th>covered</th></tr>\n",
-    );
-    for (k, f) in fits.iter().enumerate() {
-        for c in compare(&data.names[k], &data.models[k], f) {
-            extra.push_str(&format!(
-                "<tr><td class=l>{}</td><td class=l>{}</td><td>{:.4e}</td><td>{:.4e}</td><td>{}</td><td>{}</td></tr>\n",
-                c.channel,
-                c.parameter,
-                c.truth,
-                c.estimate,
-                c.ci.map_or("-".into(), |(a, b)| format!("[{a:.3e}, {b:.3e}]")),
-                match c.covered() {
-                    Some(true) => "yes",
-                    Some(false) => "<span class=no>no</span>",
-                    None => "-",
-                }
-            ));
-            let cov = c.covered();
-            n_all += 1;
-            n_cov += usize::from(cov == Some(true));
-            w(format!(
-                "{:<8} {:<11} {:>11.4e} {:>11.4e} {:>25}  {}",
-                c.channel,
-                c.parameter,
-                c.truth,
-                c.estimate,
-                c.ci.map_or("-".into(), |(a, b)| format!("[{a:.3e}, {b:.3e}]")),
-                match cov {
-                    Some(true) => "yes",
-                    Some(false) => "NO",
-                    None => "-",
-                }
-            ))?;
-        }
+    w(format!(
+        "{:<8} {:<11} {:>11} {:>11} {:>25} {:>25}  {}",
+        "channel",
+        "parameter",
+        "true",
+        "estimate",
+        format!("{level} CI"),
+        format!("simultaneous {sim_level}"),
+        "covered (sim. / marg.)"
+    ))?;
+    let e4 = |x: f64| format!("{x:.3e}");
+    for c in &params {
+        w(format!(
+            "{:<8} {:<11} {:>11.4e} {:>11.4e} {:>25} {:>25}  {} / {}",
+            c.channel,
+            c.parameter,
+            c.truth,
+            c.estimate,
+            interval(c.ci, e4),
+            interval(c.sim_ci, e4),
+            yes_no(c.sim_covered(), "NO"),
+            yes_no(c.covered(), "no"),
+        ))?;
     }
+    let (sc, sn) = count(&params, true);
+    let (mc, mn) = count(&params, false);
     w(format!(
-        "{n_cov} of {n_all} true parameters lie within their 95% CIs (about 95% are expected to)."
-    ))?;
-    w("IEEE 952 units (true vs GMWM estimate):".into())?;
-    for (k, f) in fits.iter().enumerate() {
-        let unit = &data.units[k];
-        for term in [IeeeTerm::N, IeeeTerm::K] {
-            let (Some((truth, u)), Some(est)) = (
-                true_ieee(&data.models[k], term, unit),
-                f.ieee.get(term.symbol()),
-            ) else {
-                continue;
-            };
-            w(format!(
-                "{:<8} {:<2} true {:>10} estimate {:>10} {:>25} {u}",
-                data.names[k],
-                term.symbol(),
-                num(truth),
-                num(est.value),
-                match (est.ci_lo, est.ci_hi) {
-                    (Some(a), Some(b)) => format!("[{}, {}]", num(a), num(b)),
-                    _ => "-".into(),
-                }
-            ))?;
+        "{} true parameters lie within their simultaneous {level} intervals (Bonferroni, K = {k}){}; \
+         {mc} of {mn} within their marginal {level} CIs (about 95% each are expected to).",
+        if sn == 0 {
+            "none of the".to_string()
+        } else {
+            format!("{sc} of {sn}")
+        },
+        if sn > 0 && sc == sn {
+            ": all recovered"
+        } else {
+            ""
         }
+    ))?;
+    w("IEEE 952 units (true vs GMWM estimate; N and K are increasing functions of WN sigma2 and\n\
+       RW gamma2, so their intervals are the images of those parameters' and belong to the same family):"
+        .into())?;
+    for c in &ieee {
+        w(format!(
+            "{:<8} {:<2} true {:>10} estimate {:>10} {:>22} {:>22} {:<10} {} / {}",
+            c.channel,
+            c.parameter,
+            num(c.truth),
+            num(c.estimate),
+            interval(c.ci, num),
+            interval(c.sim_ci, num),
+            c.unit,
+            yes_no(c.sim_covered(), "NO"),
+            yes_no(c.covered(), "no"),
+        ))?;
+    }
+    let (ic, inn) = count(&ieee, true);
+    let (imc, imn) = count(&ieee, false);
+    w(format!(
+        "{ic} of {inn} IEEE terms within their simultaneous {level} intervals; {imc} of {imn} within their marginal {level} CIs."
+    ))?;
+    // The report: demo.json, and the truth table in report.html.
+    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(args.out.display().to_string(), e))?;
+    let dj = DemoJson {
+        alpha,
+        k,
+        simultaneous_method: "bonferroni",
+        simultaneous_level: 1.0 - alpha_sim,
+        ci_method,
+        parameters: &params,
+        ieee: &ieee,
+    };
+    let path = args.out.join("demo.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&dj)?)
+        .map_err(|e| Error::io(path.display().to_string(), e))?;
+    let mut extra = format!(
+        "<h2>Demo: true against estimated parameters</h2><p>Simultaneous intervals: Bonferroni over K = {k} parameters (each at {sim_level}), jointly ≥ {level}. {sc} of {sn} true parameters lie within their simultaneous intervals, {mc} of {mn} within their marginal {level} CIs.</p><table><tr><th class=l>channel</th><th class=l>parameter</th><th>true</th><th>estimate</th><th>{level} CI</th><th>simultaneous {sim_level}</th><th>covered (simultaneous)</th><th>covered (marginal)</th></tr>\n"
+    );
+    let html_yes = |c: Option<bool>| yes_no(c, "<span class=no>no</span>");
+    for c in &params {
+        extra.push_str(&format!(
+            "<tr><td class=l>{}</td><td class=l>{}</td><td>{:.4e}</td><td>{:.4e}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+            c.channel,
+            c.parameter,
+            c.truth,
+            c.estimate,
+            interval(c.ci, e4),
+            interval(c.sim_ci, e4),
+            html_yes(c.sim_covered()),
+            html_yes(c.covered()),
+        ));
     }
     extra.push_str("</table>\n");
     let inp = super::analyze::ReportInput {
@@ -308,7 +468,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     };
     super::analyze::write_report(&args.out, &inp, ui)?;
     w(format!(
-        "report (plots, results.json, avar.csv, imu.yaml) written to {}",
+        "report (plots, results.json, demo.json, avar.csv, imu.yaml) written to {}",
         args.out.join("report.html").display()
     ))?;
     out.flush().map_err(|e| Error::io("<stdout>", e))?;

@@ -5,7 +5,7 @@ use super::{InputArgs, Ui};
 use crate::error::{Error, Result};
 use avar::{AllanVariance, AvarConfig};
 use gmwm_prep::bootstrap::{BootstrapOptions, parametric_bootstrap};
-use gmwm_prep::gmwm::{self, GmwmOptions};
+use gmwm_prep::gmwm::{self, CovMatrix, GmwmFit, GmwmOptions};
 use gmwm_prep::inference::{delta_method, diagonal_covariance, select_by_wic};
 use gmwm_prep::report::{FitReport, IeeeValue};
 use gmwm_prep::{AvCurve, FitError};
@@ -35,6 +35,75 @@ pub enum Method {
     Avlr,
     /// IEEE Std 952 read-off of N, K, Q, R (and B) on the Allan deviation.
     Ieee952,
+}
+
+/// How a fit's confidence intervals were computed: the `ci_method` field of the JSON.
+///
+/// The delta method gives θ̂ ± z_{1−α/2}·se on each parameter's unconstrained scale with
+/// Cov(θ̂) = B V Bᵀ, where V is the covariance matrix of the Allan variance estimates; the
+/// variants differ in V.
+///
+/// ```
+/// use imunoise::cli::fit::CiMethod;
+/// assert_eq!(serde_json::to_string(&CiMethod::DeltaBootstrapCov).unwrap(), "\"delta_bootstrap_cov\"");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CiMethod {
+    /// Delta method, V = the model-implied covariance of the AV estimates at θ̂.
+    DeltaModelCov,
+    /// Delta method, V = the sample covariance of the AV of B parametric-bootstrap replicates.
+    DeltaBootstrapCov,
+    /// Delta method, V = the AV estimates' own variances on the diagonal (ignores the
+    /// correlation between scales: optimistic).
+    DeltaDiagonal,
+    /// θ̂ ± z_{1−α/2}·sd with sd from a parametric bootstrap (AVLR).
+    BootstrapSd,
+    /// No intervals.
+    None,
+}
+
+impl CiMethod {
+    /// A short phrase for table headers, e.g. "delta method, V = 40-replicate bootstrap covariance".
+    pub fn describe(self, bootstrap: usize) -> String {
+        match self {
+            CiMethod::DeltaModelCov => {
+                "delta method, V = model-implied covariance of the AV at the fit".into()
+            }
+            CiMethod::DeltaBootstrapCov => {
+                format!(
+                    "delta method, V = {bootstrap}-replicate parametric-bootstrap covariance of the AV"
+                )
+            }
+            CiMethod::DeltaDiagonal => {
+                "delta method, V = diagonal AV variances (ignores scale correlation: optimistic)"
+                    .into()
+            }
+            CiMethod::BootstrapSd => {
+                format!("estimate ± z·sd of a {bootstrap}-replicate parametric bootstrap")
+            }
+            CiMethod::None => "no CIs".into(),
+        }
+    }
+}
+
+/// A GMWM fit with the moment covariance V its CIs came from: enough to recompute the
+/// delta-method intervals at another level (the demo's simultaneous intervals).
+#[derive(Debug, Clone)]
+pub struct GmwmInference {
+    /// The fit.
+    pub fit: GmwmFit,
+    /// Covariance matrix V of the AV estimates used by the delta method.
+    pub v: CovMatrix,
+}
+
+/// Delta-method intervals of one fit at one level.
+#[derive(Debug, Clone)]
+pub struct LevelCis {
+    /// Per-sample parameter intervals, in the order of [`ChannelFit::parameters`].
+    pub parameters: Vec<(f64, f64)>,
+    /// IEEE equivalents with their intervals at this level.
+    pub ieee: BTreeMap<String, IeeeValue>,
 }
 
 /// Fit settings shared by `fit`, `analyze` and `demo`.
@@ -125,6 +194,10 @@ pub struct ChannelFit {
     pub ieee: BTreeMap<String, IeeeValue>,
     /// J test (GMWM).
     pub j_test: Option<JTestJson>,
+    /// How the CIs were computed (see [`CiMethod`]).
+    pub ci_method: CiMethod,
+    /// Coverage level of each CI, 1 − alpha (null without CIs).
+    pub ci_level: Option<f64>,
     /// WIC of the selected model (with --select).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wic: Option<f64>,
@@ -136,6 +209,34 @@ pub struct ChannelFit {
     /// The channel unit (not in the JSON).
     #[serde(skip)]
     pub unit: Unit,
+    /// The GMWM fit and its V, to recompute intervals at other levels (not in the JSON).
+    #[serde(skip)]
+    pub inference: Option<GmwmInference>,
+}
+
+impl ChannelFit {
+    /// The delta-method intervals of a GMWM fit at level 1 − `alpha` (None for other
+    /// methods, which keep only the intervals they were computed with).
+    ///
+    /// ```no_run
+    /// # fn f(fit: &imunoise::cli::fit::ChannelFit) -> imunoise::Result<()> {
+    /// // Bonferroni: each of K = 24 intervals at level 1 − 0.05/24 covers jointly with ≥ 95%.
+    /// if let Some(sim) = fit.cis_at(0.05 / 24.0)? {
+    ///     println!("{:?}", sim.parameters);
+    /// }
+    /// # Ok(()) }
+    /// ```
+    pub fn cis_at(&self, alpha: f64) -> Result<Option<LevelCis>> {
+        let Some(g) = &self.inference else {
+            return Ok(None);
+        };
+        let inf = delta_method(&g.fit, &g.v, alpha).map_err(|e| fit_err(&self.name, e))?;
+        let r = FitReport::from_gmwm(&g.fit, Some(&inf), &self.unit);
+        Ok(Some(LevelCis {
+            parameters: inf.ci,
+            ieee: r.ieee,
+        }))
+    }
 }
 
 /// The JSON document of `imunoise fit`.
@@ -149,7 +250,20 @@ fn fit_err(name: &str, e: FitError) -> Error {
     Error::Usage(format!("channel {name:?}: fit: {e}"))
 }
 
-fn from_report(name: &str, r: &FitReport, wic: Option<f64>, comps: &[ProcessKind]) -> ChannelFit {
+/// How a channel fit's intervals came about (for [`from_report`]).
+struct CiInfo {
+    method: CiMethod,
+    alpha: f64,
+    inference: Option<GmwmInference>,
+}
+
+fn from_report(
+    name: &str,
+    r: &FitReport,
+    wic: Option<f64>,
+    comps: &[ProcessKind],
+    ci: CiInfo,
+) -> ChannelFit {
     let components = comps
         .iter()
         .enumerate()
@@ -184,6 +298,8 @@ fn from_report(name: &str, r: &FitReport, wic: Option<f64>, comps: &[ProcessKind
             statistic: j.statistic,
             p_value: j.p_value,
         }),
+        ci_method: ci.method,
+        ci_level: (ci.method != CiMethod::None).then_some(1.0 - ci.alpha),
         wic,
         fitted: r
             .fitted
@@ -195,15 +311,18 @@ fn from_report(name: &str, r: &FitReport, wic: Option<f64>, comps: &[ProcessKind
             .collect(),
         components,
         unit: r.unit.clone(),
+        inference: ci.inference,
     }
 }
 
-/// Fits one channel's Allan variance curve as `settings` say.
+/// Fits one channel's Allan variance curve as `settings` say. `on_replicate` is called once
+/// per finished bootstrap replicate (for a progress bar; `&|| {}` for none).
 pub fn fit_channel(
     name: &str,
     av: &AllanVariance,
     unit: &Unit,
     settings: &FitSettings,
+    on_replicate: &(dyn Fn() + Sync),
 ) -> Result<ChannelFit> {
     let e = |x| fit_err(name, x);
     let curve = AvCurve::from_avar(av).map_err(e)?;
@@ -222,30 +341,44 @@ pub fn fit_channel(
                 (template, None)
             };
             let f = gmwm::fit(&curve, &template, &opts).map_err(e)?;
-            let v = if settings.bootstrap > 0 {
+            let (v, method) = if settings.bootstrap > 0 {
                 let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
                 b.alpha = settings.alpha;
-                parametric_bootstrap(&f, &template, &opts, &b)
-                    .map_err(e)?
-                    .av_cov
+                let _ = on_replicate;
+                let boot = parametric_bootstrap(&f, &template, &opts, &b).map_err(e)?;
+                (boot.av_cov, CiMethod::DeltaBootstrapCov)
             } else {
-                v0
+                (v0, CiMethod::DeltaDiagonal)
             };
             let inf = delta_method(&f, &v, settings.alpha).map_err(e)?;
             let r = FitReport::from_gmwm(&f, Some(&inf), unit);
-            Ok(from_report(name, &r, wic, &f.kinds))
+            let kinds = f.kinds.clone();
+            let ci = CiInfo {
+                method,
+                alpha: settings.alpha,
+                inference: Some(GmwmInference { fit: f, v }),
+            };
+            Ok(from_report(name, &r, wic, &kinds, ci))
         }
         Method::Avlr => {
             let w = gmwm_prep::avlr::AvlrWindows::auto(&curve).map_err(e)?;
             let mut f = gmwm_prep::avlr::avlr(&curve, &w).map_err(e)?;
+            let mut method = CiMethod::None;
             if settings.bootstrap > 0 {
                 let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
                 b.alpha = settings.alpha;
                 f = gmwm_prep::bootstrap::avlr_bootstrap(&f, &curve.m(), &b).map_err(e)?;
+                (0..settings.bootstrap).for_each(|_| on_replicate());
+                method = CiMethod::BootstrapSd;
             }
             let r = FitReport::from_avlr(&f, &curve.m(), unit);
             let kinds = f.model.kinds();
-            Ok(from_report(name, &r, None, &kinds))
+            let ci = CiInfo {
+                method,
+                alpha: settings.alpha,
+                inference: None,
+            };
+            Ok(from_report(name, &r, None, &kinds, ci))
         }
         Method::Ieee952 => ieee952(name, av, unit),
     }
@@ -322,6 +455,8 @@ pub fn ieee952(name: &str, av: &AllanVariance, unit: &Unit) -> Result<ChannelFit
             .collect(),
         ieee,
         j_test: None,
+        ci_method: CiMethod::None,
+        ci_level: None,
         wic: None,
         fitted: m
             .iter()
@@ -330,6 +465,7 @@ pub fn ieee952(name: &str, av: &AllanVariance, unit: &Unit) -> Result<ChannelFit
             .collect(),
         components,
         unit: unit.clone(),
+        inference: None,
     })
 }
 
@@ -347,18 +483,43 @@ pub fn fit_all(
             settings.alpha
         )));
     }
-    let pb = ui.bar(curves.len() as u64, "fitting");
+    // One step per channel fit, plus one per bootstrap replicate when bootstrapping.
+    let boots = match settings.method {
+        Method::Ieee952 => 0,
+        _ => settings.bootstrap as u64,
+    };
+    let per_channel = 1 + boots;
+    let msg = if boots > 0 {
+        "fit+bootstrap"
+    } else {
+        "fitting"
+    };
+    let pb = ui.bar(curves.len() as u64 * per_channel, msg);
+    let tick = || pb.inc(1);
     let out: Vec<Result<ChannelFit>> = curves
         .par_iter()
         .zip(units)
         .map(|((name, av), unit)| {
-            let r = fit_channel(name, av, unit, settings);
+            let r = fit_channel(name, av, unit, settings, &tick);
             pb.inc(1);
             r
         })
         .collect();
     pb.finish_and_clear();
     out.into_iter().collect()
+}
+
+/// A coverage level as a percentage with at most two decimals: 0.95 → "95%",
+/// 1 − 0.05/24 → "99.79%".
+///
+/// ```
+/// use imunoise::cli::fit::percent;
+/// assert_eq!(percent(0.95), "95%");
+/// assert_eq!(percent(1.0 - 0.05 / 24.0), "99.79%");
+/// ```
+pub fn percent(level: f64) -> String {
+    let s = format!("{:.2}", 100.0 * level);
+    format!("{}%", s.trim_end_matches('0').trim_end_matches('.'))
 }
 
 fn ci(lo: Option<f64>, hi: Option<f64>) -> String {
@@ -369,7 +530,13 @@ fn ci(lo: Option<f64>, hi: Option<f64>) -> String {
 }
 
 /// Writes fits as text tables.
-pub fn write_table(out: &mut impl Write, fits: &[ChannelFit], alpha: f64) -> std::io::Result<()> {
+/// `bootstrap` is the number of replicates, for the CI method's description.
+pub fn write_table(
+    out: &mut impl Write,
+    fits: &[ChannelFit],
+    alpha: f64,
+    bootstrap: usize,
+) -> std::io::Result<()> {
     for (i, f) in fits.iter().enumerate() {
         if i > 0 {
             writeln!(out)?;
@@ -389,11 +556,12 @@ pub fn write_table(out: &mut impl Write, fits: &[ChannelFit], alpha: f64) -> std
         )?;
         writeln!(
             out,
-            "  {:<5} {:<7} {:>12}  {:.0}% CI (per sample)",
+            "  {:<5} {:<7} {:>12}  {} CI (per sample; {})",
             "proc",
             "param",
             "value",
-            100.0 * (1.0 - alpha)
+            percent(1.0 - alpha),
+            f.ci_method.describe(bootstrap)
         )?;
         for p in &f.parameters {
             writeln!(
@@ -458,7 +626,7 @@ pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
         super::Format::Json => serde_json::to_writer(&mut out, &FitJson { channels: fits })
             .map_err(std::io::Error::other)
             .and_then(|_| writeln!(out)),
-        _ => write_table(&mut out, &fits, args.fit.alpha),
+        _ => write_table(&mut out, &fits, args.fit.alpha, args.fit.bootstrap),
     };
     r.and_then(|_| out.flush())
         .map_err(|e| Error::io("<stdout>", e))
