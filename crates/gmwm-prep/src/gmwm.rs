@@ -12,6 +12,12 @@
 //!   residuals, which removes the downward bias of plain 1/ν̂² weighting; both steps are
 //!   consistent). [`Weighting::Full`]: Ω = V⁻¹ from a covariance matrix V of ν̂ (e.g. the
 //!   parametric bootstrap one of [`crate::bootstrap`]), used as given.
+//!   [`Weighting::ModelFull`] / [`Weighting::ModelDiagonal`]: iterated GMM weighting
+//!   Ω = V(θ̂)⁻¹ (or its diagonal) with V the exact covariance of the AV estimator under the
+//!   fitted model ([`crate::inference::model_covariance`]), starting from the diagonal fit.
+//!   On the WN + 2·AR1 Monte Carlo (`cargo xtask gmwm-mc`) the full form lowers the RMSE of
+//!   every AR1 parameter by 4–8 % against the default; it costs ~25 ms per weighting step
+//!   on 18 scales at n = 10^6, so the default stays the faster diagonal weighting.
 //! - **Transforms.** Variances are fitted on the log scale; drift as log|ω| with a fixed sign;
 //!   MA1's θ = tanh(η) (invertible branch); AR1 φ ∈ (0, 1) and GM β through λ = −ln φ (= βΔt),
 //!   all AR1/GM components in one chain λ₁ = e^{η₁}, λ_k = λ_{k−1}·logistic(η_k), so
@@ -124,6 +130,15 @@ pub enum Weighting {
     Diagonal,
     /// Ω = V⁻¹ for the given covariance matrix V of ν̂ (one row/column per scale).
     Full(CovMatrix),
+    /// Iterated model-based weighting, diagonal: starting from the [`Weighting::Diagonal`]
+    /// fit θ̂₀, Ω_k = diag(V(θ̂_{k−1}))⁻¹ with V the exact covariance of the AV estimator
+    /// under the fitted model ([`crate::inference::model_covariance`]), refitted
+    /// `reweight_iterations` times or to a 1e-8 fixed point. Needs the curve's series
+    /// length n ([`AvCurve::with_n`]).
+    ModelDiagonal,
+    /// As [`Weighting::ModelDiagonal`] with the full Ω_k = V(θ̂_{k−1})⁻¹ (the correlations
+    /// between scales are used).
+    ModelFull,
 }
 
 /// Range of the AR1 coefficient φ.
@@ -929,11 +944,10 @@ pub(crate) fn build_problem(
     opts: &GmwmOptions,
     reference: Option<&[f64]>,
 ) -> Result<Problem> {
-    let (offs, p) = offsets(&kinds);
     let j = curve.len();
     let nu_hat = curve.avar();
     let w = match &opts.weighting {
-        Weighting::Diagonal => {
+        Weighting::Diagonal | Weighting::ModelDiagonal | Weighting::ModelFull => {
             diag_whitening(reference.unwrap_or(&nu_hat), &curve.relative_variances())
         }
         Weighting::Full(v) => {
@@ -946,6 +960,17 @@ pub(crate) fn build_problem(
             full_whitening(v)?
         }
     };
+    Ok(problem_with_whitening(curve, kinds, opts, w))
+}
+
+fn problem_with_whitening(
+    curve: &AvCurve,
+    kinds: Vec<ProcessKind>,
+    opts: &GmwmOptions,
+    w: Mat<f64>,
+) -> Problem {
+    let (offs, p) = offsets(&kinds);
+    let nu_hat = curve.avar();
     let mut prob = Problem {
         kinds,
         offsets: offs,
@@ -962,7 +987,7 @@ pub(crate) fn build_problem(
     prob.chain = (0..prob.kinds.len())
         .filter(|&c| prob.in_chain(c))
         .collect();
-    Ok(prob)
+    prob
 }
 
 /// Fits `template` (its values, if any, are ignored) to the curve (see module doc).
@@ -981,6 +1006,12 @@ pub(crate) fn build_problem(
 /// # Ok::<(), gmwm_prep::FitError>(())
 /// ```
 pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<GmwmFit> {
+    if matches!(
+        opts.weighting,
+        Weighting::ModelDiagonal | Weighting::ModelFull
+    ) {
+        return fit_model_weighted(curve, template, opts);
+    }
     curve.validate()?;
     let kinds = check_template(template, opts.phi_range)?;
     let p = template.n_params();
@@ -1037,6 +1068,68 @@ pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<Gmwm
         FitError::OptimizationFailed("solution outside the parameter space".into())
     })?;
     finish(curve, template, opts, prob_final, theta, conv)
+}
+
+/// [`Weighting::ModelDiagonal`] / [`Weighting::ModelFull`]: the diagonal fit, then Ω from
+/// the model covariance of the AV at the previous estimate, iterated.
+fn fit_model_weighted(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<GmwmFit> {
+    let n = curve.n.ok_or_else(|| {
+        FitError::InvalidArgument(
+            "model-based weighting needs the series length n of the curve (AvCurve::with_n)".into(),
+        )
+    })?;
+    let full = opts.weighting == Weighting::ModelFull;
+    let first = fit(
+        curve,
+        template,
+        &GmwmOptions {
+            weighting: Weighting::Diagonal,
+            ..opts.clone()
+        },
+    )?;
+    let kinds = first.kinds.clone();
+    let m = curve.m();
+    let f2 = opts.moments.factor() * opts.moments.factor();
+    let mut theta = first.theta.clone();
+    let mut conv = first.convergence.clone();
+    let mut last: Option<Problem> = None;
+    for step in 0..opts.reweight_iterations.max(1) {
+        let model = template.with_params(&theta)?;
+        let mut v = crate::inference::model_covariance(&model, &m, curve.rate_hz, n)?;
+        v.data.iter_mut().for_each(|x| *x *= f2);
+        let w = if full {
+            full_whitening(&v)?
+        } else {
+            let d = v.diag();
+            if let Some(x) = d.iter().find(|x| x.is_nan() || **x <= 0.0) {
+                return Err(FitError::InvalidMatrix(format!(
+                    "model covariance has a non-positive variance {x}"
+                )));
+            }
+            Mat::from_fn(d.len(), d.len(), |a, b| {
+                if a == b { 1.0 / d[a].sqrt() } else { 0.0 }
+            })
+        };
+        let prob = problem_with_whitening(curve, kinds.clone(), opts, w);
+        let (eta, mut c) = prob.run(std::slice::from_ref(&theta), opts.max_iter)?;
+        c.iterations += conv.iterations;
+        conv = c;
+        let (th_new, _) = prob.theta(&eta).ok_or_else(|| {
+            FitError::OptimizationFailed("a step ended outside the parameter space".into())
+        })?;
+        let change = th_new
+            .iter()
+            .zip(&theta)
+            .map(|(a, b)| ((a - b) / b.abs().max(1e-300)).abs())
+            .fold(0.0, f64::max);
+        theta = th_new;
+        last = Some(prob);
+        if step > 0 && change < REWEIGHT_REL_TOL {
+            break;
+        }
+    }
+    let prob = last.ok_or_else(|| FitError::OptimizationFailed("no weighting step ran".into()))?;
+    finish(curve, template, opts, prob, theta, conv)
 }
 
 fn finish(

@@ -5,7 +5,8 @@
 //! V is the covariance matrix of the observed moments ν̂. The AV estimates at different scales
 //! are strongly correlated, so V should be a full matrix, e.g. the parametric bootstrap one of
 //! [`crate::bootstrap`]; [`diagonal_covariance`] (from the curve's CIs) ignores the
-//! correlations and gives optimistic standard errors.
+//! correlations and gives optimistic standard errors; [`fit_covariance`] (the exact model
+//! covariance of the AV at θ̂, [`model_covariance`]) accounts for them without a bootstrap.
 
 use crate::curve::AvCurve;
 use crate::error::{FitError, Result};
@@ -149,6 +150,38 @@ pub fn model_covariance(model: &Model, m: &[u64], rate_hz: f64, n: u64) -> Resul
         data[b * j + a] = x;
     }
     CovMatrix::new(j, data)
+}
+
+/// [`model_covariance`] at a fit: the covariance (J×J) of its moments ν̂ under the fitted
+/// model, at its scales and series length (Haar WV moments: ×¼). With [`delta_method`] this
+/// gives asymptotic standard errors that account for the correlation between scales without
+/// a bootstrap — the honest default (unlike [`diagonal_covariance`]).
+///
+/// Errors: the fit's curve had no series length n.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, inference::{delta_method, fit_covariance}};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=18).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(1_000_000);
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let inf = delta_method(&f, &fit_covariance(&f)?, 0.05)?;
+/// // WN σ² is known to ~0.2 % from 10^6 samples
+/// assert!(inf.se[0] > 1e-7 && inf.se[0] < 5e-7);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
+pub fn fit_covariance(fit: &GmwmFit) -> Result<CovMatrix> {
+    let n = fit.n.ok_or_else(|| {
+        FitError::InvalidArgument(
+            "the model covariance needs the series length n of the curve (AvCurve::with_n)".into(),
+        )
+    })?;
+    let mut v = model_covariance(&fit.model, &fit.m, fit.rate_hz, n)?;
+    if fit.moments == crate::gmwm::Moments::HaarWaveletVariance {
+        v.data.iter_mut().for_each(|x| *x *= 0.25);
+    }
+    Ok(v)
 }
 
 fn phi_range_of(fit: &GmwmFit, at: usize) -> PhiRange {

@@ -243,3 +243,70 @@ fn model_covariance_matches_simulated_replicates() {
         );
     }
 }
+
+#[test]
+fn model_full_weighting_is_used_and_is_a_fixed_point() {
+    // A simulated curve (n = 2^16, WN + AR1). Weighting::ModelFull iterates
+    // Ω = V(θ̂)⁻¹ with V the model covariance of the AV: at its fixed point, refitting with
+    // Weighting::Full(V(θ̂)) must return θ̂ itself (to the 1e-8 reweighting tolerance plus
+    // optimizer tolerance: 1e-5 relative), while the estimate differs from the diagonal
+    // weightings' (the correlations are actually used).
+    const FIXED_POINT_TOL: f64 = 1e-5;
+    let truth: Model = "WN(sigma2=1e-4) + AR1(phi=0.99, sigma2=1e-6)"
+        .parse()
+        .unwrap();
+    let n = 1usize << 16;
+    let m: Vec<u64> = (1..=14).map(|j| 1u64 << j).collect();
+    let curve = gmwm_prep::bootstrap::simulate_curve(
+        &truth,
+        &m,
+        100.0,
+        n,
+        11,
+        0,
+        &avar::AvarConfig::default(),
+    )
+    .unwrap();
+    let tpl: Model = "WN + AR1".parse().unwrap();
+    let with = |w: Weighting| {
+        fit(
+            &curve,
+            &tpl,
+            &GmwmOptions {
+                weighting: w,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
+    let full = with(Weighting::ModelFull);
+    let v = gmwm_prep::inference::fit_covariance(&full).unwrap();
+    let again = with(Weighting::Full(v));
+    for (a, b) in again.theta.iter().zip(&full.theta) {
+        assert!((a / b - 1.0).abs() < FIXED_POINT_TOL, "{a} vs {b}");
+    }
+    let omega = full.omega();
+    assert!(omega.get(0, 1).abs() > 0.0, "Ω must not be diagonal");
+    for w in [Weighting::Diagonal, Weighting::ModelDiagonal] {
+        let d = with(w.clone());
+        let diff = d
+            .theta
+            .iter()
+            .zip(&full.theta)
+            .map(|(a, b)| (a / b - 1.0).abs())
+            .fold(0.0, f64::max);
+        assert!(diff > 1e-4, "{w:?} gives the same estimate ({diff})");
+    }
+    // without the series length the model weighting is a clear error
+    let mut no_n = curve.clone();
+    no_n.n = None;
+    let e = fit(
+        &no_n,
+        &tpl,
+        &GmwmOptions {
+            weighting: Weighting::ModelFull,
+            ..Default::default()
+        },
+    );
+    assert!(matches!(e, Err(gmwm_prep::FitError::InvalidArgument(_))));
+}
