@@ -453,7 +453,7 @@ fn fit_json_shape_and_white_noise_recovered() {
         ]
     );
     assert_eq!(ch["method"], "gmwm");
-    assert_eq!(ch["ci_method"], "delta_diagonal");
+    assert_eq!(ch["ci_method"], "delta_model_cov");
     assert_eq!(ch["ci_level"], 0.95);
     let pars = ch["parameters"].as_array().unwrap();
     assert_eq!(pars.len(), 2);
@@ -659,6 +659,87 @@ fn demo_reports_marginal_and_simultaneous_coverage() {
     let (nlo, nhi) = pair(&n["sim_ci"]);
     assert!((nlo / (60.0 * (slo / 100.0).sqrt()) - 1.0).abs() < 1e-12);
     assert!((nhi / (60.0 * (shi / 100.0).sqrt()) - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn demo_help_documents_the_true_parameters() {
+    let out = imunoise(&["demo", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    for c in imunoise::cli::demo::DEMO_IMU {
+        // The help line "name [unit]  model" parses to the same model as the simulated one.
+        let line = help
+            .lines()
+            .find(|l| {
+                l.trim_start()
+                    .starts_with(&format!("{} [{}]", c.name, c.unit))
+            })
+            .unwrap_or_else(|| panic!("no help line for {}:\n{help}", c.name));
+        let text = line.split_once(']').unwrap().1;
+        let shown: imunoise::processes::Model = text.parse().unwrap();
+        let truth: imunoise::processes::Model = c.model.parse().unwrap();
+        assert_eq!(shown.to_string(), truth.to_string(), "{line}");
+    }
+}
+
+/// Runs `imunoise ARGS` on a pseudo-terminal (util-linux `script`) and returns what it drew,
+/// or None when `script` is not available.
+fn on_terminal(args: &[&str]) -> Option<String> {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("typescript");
+    let cmd = std::iter::once(env!("CARGO_BIN_EXE_imunoise"))
+        .chain(args.iter().copied())
+        .map(|a| format!("'{a}'"))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let out = Command::new("script")
+        .args(["-qec", &format!("{cmd} > /dev/null"), log.to_str().unwrap()])
+        .output()
+        .ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    Some(String::from_utf8_lossy(&std::fs::read(&log).ok()?).into_owned())
+}
+
+#[test]
+fn progress_bars_on_a_terminal_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "32768", "x");
+    let args = [
+        "fit",
+        p.to_str().unwrap(),
+        "--binary",
+        "f64",
+        "-r",
+        "100",
+        "--model",
+        "WN+RW",
+        "--bootstrap",
+        "3",
+    ];
+    // Not a terminal: no bar on stderr.
+    let out = imunoise(&args);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !err.contains("fit+bootstrap") && !err.contains("Allan var."),
+        "{err}"
+    );
+    let Some(drawn) = on_terminal(&args) else {
+        eprintln!("skipped: `script` (util-linux) cannot run a pseudo-terminal here");
+        return;
+    };
+    // One step per channel fit plus one per bootstrap replicate: 1 channel × (1 + 3).
+    assert!(drawn.contains("Allan var. ["), "{drawn}");
+    assert!(
+        drawn.contains("fit+bootstrap [") && drawn.contains("/4 "),
+        "{drawn}"
+    );
+    let quiet = on_terminal(&[&args[..], &["--quiet"]].concat()).unwrap_or_default();
+    assert!(
+        !quiet.contains("Allan var.") && !quiet.contains("fit+bootstrap"),
+        "{quiet}"
+    );
 }
 
 #[test]

@@ -4,9 +4,9 @@
 use super::{InputArgs, Ui};
 use crate::error::{Error, Result};
 use avar::{AllanVariance, AvarConfig};
-use gmwm_prep::bootstrap::{BootstrapOptions, parametric_bootstrap};
+use gmwm_prep::bootstrap::{BootstrapOptions, parametric_bootstrap_with_progress};
 use gmwm_prep::gmwm::{self, CovMatrix, GmwmFit, GmwmOptions};
-use gmwm_prep::inference::{delta_method, diagonal_covariance, select_by_wic};
+use gmwm_prep::inference::{delta_method, diagonal_covariance, model_covariance, select_by_wic};
 use gmwm_prep::report::{FitReport, IeeeValue};
 use gmwm_prep::{AvCurve, FitError};
 use processes::{Model, Process, ProcessKind, Unit};
@@ -118,8 +118,9 @@ pub struct FitSettings {
     /// Select the best sub-model of --model by WIC (GMWM only).
     #[arg(long)]
     pub select: bool,
-    /// Parametric bootstrap replications for the moments' covariance and the CIs
-    /// (0: delta method with the AV's diagonal variances, optimistic).
+    /// Parametric bootstrap replications B for the covariance V of the AV estimates behind
+    /// the CIs (GMWM), or for the CIs themselves (AVLR). 0: GMWM uses the exact covariance
+    /// of the AV estimates implied by the fitted model (no simulation), AVLR gives no CIs.
     #[arg(long, default_value_t = 0, value_name = "B")]
     pub bootstrap: usize,
     /// Seed of the bootstrap simulations.
@@ -344,11 +345,18 @@ pub fn fit_channel(
             let (v, method) = if settings.bootstrap > 0 {
                 let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
                 b.alpha = settings.alpha;
-                let _ = on_replicate;
-                let boot = parametric_bootstrap(&f, &template, &opts, &b).map_err(e)?;
+                let boot =
+                    parametric_bootstrap_with_progress(&f, &template, &opts, &b, on_replicate)
+                        .map_err(e)?;
                 (boot.av_cov, CiMethod::DeltaBootstrapCov)
             } else {
-                (v0, CiMethod::DeltaDiagonal)
+                // The exact covariance of the AV estimates under the fitted model. It exists
+                // for every model the fit can return; should it fail, the diagonal V is used
+                // and `ci_method` says so.
+                match model_covariance(&f.model, &f.m, f.rate_hz, av.n as u64) {
+                    Ok(v) => (v, CiMethod::DeltaModelCov),
+                    Err(_) => (v0, CiMethod::DeltaDiagonal),
+                }
             };
             let inf = delta_method(&f, &v, settings.alpha).map_err(e)?;
             let r = FitReport::from_gmwm(&f, Some(&inf), unit);

@@ -95,6 +95,9 @@ impl Ui {
             return ProgressBar::hidden();
         }
         let pb = ProgressBar::new_spinner();
+        if let Ok(style) = ProgressStyle::with_template("{spinner} {msg} {elapsed}") {
+            pb.set_style(style);
+        }
         pb.set_message(msg.into());
         pb.enable_steady_tick(std::time::Duration::from_millis(120));
         pb
@@ -200,7 +203,10 @@ impl InputArgs {
                 .as_deref()
                 .map(|s| s.split(',').map(|n| n.trim().to_string()).collect()),
         };
-        let pb = ui.spinner(format!("reading {}", self.file.display()));
+        let size = std::fs::metadata(&self.file).map_or(String::new(), |m| {
+            format!(" ({:.1} MB)", m.len() as f64 / 1e6)
+        });
+        let pb = ui.spinner(format!("reading {}{size}", self.file.display()));
         let t = io::read_table(&self.file, &opts);
         pb.finish_and_clear();
         t
