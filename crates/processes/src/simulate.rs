@@ -58,6 +58,20 @@
 //! per thread. Each component of a composite fills a block of 512 samples in turn, so a
 //! composite costs about the sum of its parts without the per-part output traffic.
 //!
+//! Thread scaling into a fresh buffer: a model without recurrence (only WN, QN, DR, MA1) is
+//! one parallel loop over all its chunks. The pool gives each thread a contiguous run of
+//! chunks, so each thread page-faults its own huge pages as it writes them, with no serial
+//! pass and no barrier. (Through the recurrences' groups of 8 chunks, i.e. 4 MB and one
+//! barrier per group, the thread that took a group's page faults kept the other waiting.)
+//! Measured for WN, n = 10^8 (fresh 800 MB output), best of 9 runs under `chrt -f 10` on the
+//! project's 2-core VM: groups 260–270 ms on 1 thread, 141–151 ms on 2 (1.75–1.85×); one
+//! loop 239–253 ms and 121–130 ms (1.94–1.99×), the 2-thread time within 5 ms of generating
+//! into an already-faulted buffer. Tried and not kept: `MADV_POPULATE_WRITE` of each chunk
+//! by its worker just before generating (131 vs 130 ms on 2 threads: a huge-page fault
+//! already maps 2 MiB at once); 4 KiB pages, i.e. no huge-page advice (560–570 ms and
+//! 315–323 ms, with or without populate). A private `mmap` (e.g. `MAP_NORESERVE`) cannot
+//! back the output, which is a `Vec` freed by the global allocator.
+//!
 //! Normal variates come from `rand_distr`'s ziggurat `StandardNormal`; uniforms from the top
 //! 52 bits of a 64-bit draw. Changing either changes the streams (see the value-stability
 //! test).
@@ -571,7 +585,14 @@ fn run(
     let rec: Vec<usize> = (0..plans.len())
         .filter(|&j| plans[j].recipe.is_recurrence())
         .collect();
-    let group = (4 * rayon::current_num_threads()).max(MIN_GROUP_CHUNKS);
+    // Recurrences need groups (their scratch stays in cache, their carries are sequential).
+    // Without one, a single group spans the path: the pool splits it into contiguous runs
+    // of chunks with no barrier every few chunks (see "Memory and speed" above).
+    let group = if rec.is_empty() {
+        total_chunks
+    } else {
+        (4 * rayon::current_num_threads()).max(MIN_GROUP_CHUNKS)
+    };
     // Room per chunk and recurrence in the scratch buffer: a chunk, or all of a short path.
     let room = CHUNK_LEN.min(n);
     let stride = rec.len() * room;

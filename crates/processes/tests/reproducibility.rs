@@ -25,23 +25,29 @@ fn bits(x: &[f64]) -> Vec<u64> {
 
 #[test]
 fn same_seed_same_bits_on_any_number_of_threads() {
-    let model: Model = ALL_KINDS.parse().unwrap();
-    // 2.3 groups of 8 chunks on 1–2 threads, and groups of 12 on 3 threads; last chunk partial.
+    // With recurrences: 2.3 groups of 8 chunks on 1–2 threads, and groups of 12 on 3
+    // threads. Without (WN, QN, DR, MA1): one group of 19 chunks split by the pool. The last
+    // chunk is partial.
+    let no_recurrence =
+        "WN(sigma2=1e-4) + QN(q2=1e-6) + DR(omega=1e-7) + MA1(theta=0.4, sigma2=1e-5)";
     let n = 18 * CHUNK_LEN + 1234;
-    let reference = pool(1).install(|| model.simulate(n, RATE_HZ, 42).unwrap());
-    for threads in [2, 3] {
-        let x = pool(threads).install(|| model.simulate(n, RATE_HZ, 42).unwrap());
-        assert_eq!(
-            bits(x.values()),
-            bits(reference.values()),
-            "{threads} threads"
-        );
-        let s = pool(threads).install(|| model.simulate_components(n, RATE_HZ, 42).unwrap());
-        assert_eq!(bits(s.total.values()), bits(reference.values()));
+    for text in [ALL_KINDS, no_recurrence] {
+        let model: Model = text.parse().unwrap();
+        let reference = pool(1).install(|| model.simulate(n, RATE_HZ, 42).unwrap());
+        for threads in [2, 3] {
+            let x = pool(threads).install(|| model.simulate(n, RATE_HZ, 42).unwrap());
+            assert_eq!(
+                bits(x.values()),
+                bits(reference.values()),
+                "{text}: {threads} threads"
+            );
+            let s = pool(threads).install(|| model.simulate_components(n, RATE_HZ, 42).unwrap());
+            assert_eq!(bits(s.total.values()), bits(reference.values()), "{text}");
+        }
+        // And again on the same pool (no hidden state).
+        let again = pool(1).install(|| model.simulate(n, RATE_HZ, 42).unwrap());
+        assert_eq!(bits(again.values()), bits(reference.values()), "{text}");
     }
-    // And again on the same pool (no hidden state).
-    let again = pool(1).install(|| model.simulate(n, RATE_HZ, 42).unwrap());
-    assert_eq!(bits(again.values()), bits(reference.values()));
 }
 
 #[test]
