@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use avar::{AllanVariance, AvarConfig};
 use gmwm_prep::bootstrap::{BootstrapOptions, parametric_bootstrap_with_progress};
 use gmwm_prep::gmwm::{self, CovMatrix, GmwmFit, GmwmOptions};
-use gmwm_prep::inference::{delta_method, diagonal_covariance, model_covariance, select_by_wic};
+use gmwm_prep::inference::{delta_method, diagonal_covariance, fit_covariance, select_by_wic};
 use gmwm_prep::report::{FitReport, IeeeValue};
 use gmwm_prep::{AvCurve, FitError};
 use processes::{Model, Process, ProcessKind, Unit};
@@ -353,7 +353,7 @@ pub fn fit_channel(
                 // The exact covariance of the AV estimates under the fitted model. It exists
                 // for every model the fit can return; should it fail, the diagonal V is used
                 // and `ci_method` says so.
-                match model_covariance(&f.model, &f.m, f.rate_hz, av.n as u64) {
+                match fit_covariance(&f) {
                     Ok(v) => (v, CiMethod::DeltaModelCov),
                     Err(_) => (v0, CiMethod::DeltaDiagonal),
                 }
