@@ -254,20 +254,24 @@ pub(crate) const STREAM_MIN_T: usize = 1 << 22;
 /// Granularity (samples) of the checkpoints of the centred cumulative sum.
 const G: usize = 64;
 /// Length of one segment of k on which d_k is carried by its own recurrence.
-const SEG: usize = 1024;
-/// Segments per k-chunk (one fixed accumulator each).
-const NSEG: usize = CHUNK / SEG;
-const _: () = assert!(NSEG == LANES && PCHUNK.is_multiple_of(G) && CHUNK.is_multiple_of(SEG));
+const SEG: usize = 1024 + G;
+/// Segments per k-chunk of the streamed kernel (one fixed accumulator each).
+const NSEG: usize = 16;
+/// Width of the k-chunks of the streamed kernel. Segment starts are SEG·8 bytes apart, 512 bytes
+/// more than a multiple of 4 KiB, so that the rows read together fall in different L1 sets; and
+/// they are multiples of G, so that for m a multiple of G (dyadic m ≥ G) every starting d comes
+/// from three checkpoints without a local sum.
+const SCHUNK: usize = NSEG * SEG;
+const _: () = assert!(NSEG == LANES && PCHUNK.is_multiple_of(G) && SEG.is_multiple_of(G));
 
 /// The centred cumulative sum C_p = Σ_{i<p} (x_i − mean) of rate samples, kept only at every
-/// [`G`]-th index as compensated (hi, lo) pairs: `hi[g] + lo[g]` = C_{gG} (last entry: C_T).
+/// [`G`]-th index as compensated (hi, lo) pairs: `ck[g].0 + ck[g].1` = C_{gG} (last entry: C_T).
 pub(crate) struct Checkpoints {
     pivot: f64,
     delta: f64,
     /// The mean of the samples (pivot + delta).
     pub(crate) mean: f64,
-    hi: Vec<f64>,
-    lo: Vec<f64>,
+    ck: Vec<(f64, f64)>,
 }
 
 impl Checkpoints {
@@ -276,6 +280,10 @@ impl Checkpoints {
     #[inline]
     fn at(&self, x: &[f64], p: usize) -> (f64, f64) {
         let g = p / G;
+        let (hi, lo) = self.ck[g];
+        if p == g * G {
+            return (hi, lo);
+        }
         let mut l = [0.0f64; 4];
         let mut it = x[g * G..p].chunks_exact(4);
         for v in &mut it {
@@ -286,51 +294,54 @@ impl Checkpoints {
         for (j, v) in it.remainder().iter().enumerate() {
             l[j] += (v - self.pivot) - self.delta;
         }
-        (self.hi[g], self.lo[g] + ((l[0] + l[1]) + (l[2] + l[3])))
+        (hi, lo + ((l[0] + l[1]) + (l[2] + l[3])))
     }
 }
 
-/// Builds the checkpoints of the centred cumulative sum (one parallel pass over `x` plus a
-/// sequential compensated scan of T/G block sums). Errors on non-finite samples (naming the
-/// first index) and on overflow.
+/// Builds the checkpoints of the centred cumulative sum (one parallel pass over `x` writing the
+/// T/G block sums into the checkpoint buffer, then a sequential compensated scan over it in
+/// place). Errors on non-finite samples (naming the first index) and on overflow.
 pub(crate) fn checkpoints(x: &[f64]) -> Result<Checkpoints, AvarError> {
     let t = x.len();
     let head = &x[..t.min(PIVOT_LEN)];
     let pivot = head.iter().sum::<f64>() / head.len() as f64;
-    let sums: Vec<f64> = x
-        .par_chunks(PCHUNK)
-        .flat_map_iter(|ch| ch.chunks(G).map(|b| lane_sum(b, pivot)))
-        .collect();
-    if !pivot.is_finite() || sums.iter().any(|s| !s.is_finite()) {
+    let n_blocks = t.div_ceil(G);
+    let mut ck = vec![(0.0f64, 0.0f64); n_blocks + 1];
+    ck[..n_blocks]
+        .par_chunks_mut(PCHUNK / G)
+        .zip(x.par_chunks(PCHUNK))
+        .for_each(|(out, xs)| {
+            for (o, b) in out.iter_mut().zip(xs.chunks(G)) {
+                o.0 = lane_sum(b, pivot);
+            }
+        });
+    if !pivot.is_finite() || ck.iter().any(|s| !s.0.is_finite()) {
         if let Some((index, value)) = first_non_finite(x) {
             return Err(AvarError::NonFinite { index, value });
         }
         return Err(AvarError::Overflow);
     }
     let mut tot = Neumaier::default();
-    for &s in &sums {
+    for &(s, _) in &ck[..n_blocks] {
         tot.add(s);
     }
     let delta = tot.value() / t as f64;
     let mean = pivot + delta;
-    let mut hi = Vec::with_capacity(sums.len() + 1);
-    let mut lo = Vec::with_capacity(sums.len() + 1);
     let mut run = Neumaier::default();
-    for (g, &s) in sums.iter().enumerate() {
-        hi.push(run.hi);
-        lo.push(run.lo);
-        let len = G.min(t - g * G) as f64;
-        run.add(s);
-        run.add(-(len * delta));
+    for (g, c) in ck.iter_mut().enumerate() {
+        let s = c.0;
+        *c = (run.hi, run.lo);
+        if g < n_blocks {
+            let len = G.min(t - g * G) as f64;
+            run.add(s);
+            run.add(-(len * delta));
+        }
     }
-    hi.push(run.hi);
-    lo.push(run.lo);
     Ok(Checkpoints {
         pivot,
         delta,
         mean,
-        hi,
-        lo,
+        ck,
     })
 }
 
@@ -371,14 +382,14 @@ fn seg_sum(x: &[f64], d0: f64, m: usize, s: usize, e: usize) -> f64 {
 const ROW: usize = SEG + 8;
 
 /// Scales with 2m > FAR_M are "far" (their lagged blocks are not in cache in plain chunk order)
-/// and are walked by residue class of the chunk index modulo FAR_M (a multiple of CHUNK).
+/// and are walked by residue class of the chunk index modulo FAR_M (a multiple of SCHUNK).
 const FAR_M: usize = 1 << 21;
 
 /// Elements ahead that [`fill_y_avx2`] prefetches in each of its three input streams.
 const PREFETCH: usize = 256;
 
 /// y_k = (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (as in [`seg_sum`]) for the full chunk
-/// [a, a + CHUNK), segment l in row l of `yb` (stride [`ROW`]), with software prefetch: the
+/// [a, a + SCHUNK), segment l in row l of `yb` (stride [`ROW`]), with software prefetch: the
 /// lagged streams come from far back in the series, and the hardware prefetcher stops at every
 /// 4 KiB page.
 #[cfg(target_arch = "x86_64")]
@@ -406,7 +417,7 @@ fn fill_y_avx2(x: &[f64], m: usize, a: usize, yb: &mut [f64]) {
     }
 }
 
-/// The NSEG segment sums of a full chunk [a, a + CHUNK) (2m ≤ a, a + CHUNK ≤ T) from its y
+/// The NSEG segment sums of a full chunk [a, a + SCHUNK) (2m ≤ a, a + SCHUNK ≤ T) from its y
 /// rows (see [`fill_y_avx2`]), four segments per AVX2 vector (one lane each). Each lane performs exactly the operations of [`seg_sum`] in
 /// the same order (y_k computed as there; acc += d·d without FMA; d += y_k), so the results are
 /// bit-identical to the portable path.
@@ -460,6 +471,221 @@ unsafe fn full_chunk_avx2(yb: &[f64], d0: &[f64; NSEG]) -> [f64; NSEG] {
     }
 }
 
+/// Columns of a chunk that [`chunk_all_avx512`] runs for every scale of a batch before moving on
+/// (the rows of x they read stay in L1 from one scale to the next; for dyadic scales the x_{k−2m}
+/// rows of scale m are the x_{k−m'} rows of m' = 2m).
+const BLK: usize = 64;
+const _: () = assert!(SEG.is_multiple_of(BLK) && BLK.is_multiple_of(8));
+
+/// How far past the chunk end [`block_avx512`] reads with misalignment `s` (its last window).
+const fn tail_reach(s: usize) -> usize {
+    if s > 0 { 8 - s } else { 0 }
+}
+
+/// Per-scale state of the NSEG segment recurrences of one chunk: the current d and the running
+/// sum of d² of each segment.
+#[derive(Clone, Copy)]
+struct SegState {
+    d: [f64; NSEG],
+    acc: [f64; NSEG],
+}
+
+/// Advances the NSEG segment recurrences of a full chunk [a, a + SCHUNK) of scale m over the
+/// columns of every segment (k = a + l·SEG + j) read in the windows j ∈ [jb − s, jb − s + 8) for
+/// jb = j0, j0 + 8, … < j1 (plus the window at jb = SEG when j1 = SEG), skipping columns outside
+/// [0, SEG): with `s` the misalignment of x[a] in elements (and m a multiple of 8) every load is
+/// then 64-byte aligned. Eight segments per AVX-512 vector (one lane each), straight from `x`:
+/// for every window the three input rows of each segment are loaded, y is formed row-wise
+/// exactly as in [`seg_sum`], the 8 × 8 block is transposed in registers, and each lane then
+/// performs acc += d·d (no FMA); d += y_k in increasing k: the operations of [`seg_sum`] in the
+/// same order, so the results are bit-identical to the portable path whatever s and however the
+/// columns are split into blocks.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn block_avx512(
+    x: &[f64],
+    m: usize,
+    a: usize,
+    s: usize,
+    j0: usize,
+    j1: usize,
+    st: &mut SegState,
+) {
+    use std::arch::x86_64::*;
+    const G8: usize = NSEG / 8;
+    assert!(
+        a >= 2 * m + s
+            && a + SCHUNK + tail_reach(s) <= x.len()
+            && s < 8
+            && j0.is_multiple_of(8)
+            && j1 <= SEG
+    );
+    // SAFETY: AVX-512F is available (caller contract). Every load reads x[k], x[k − m] and
+    // x[k − 2m] for k in [a − s, a + SCHUNK + tail_reach(s)), inside `x` by the assertion above; the
+    // state arrays hold NSEG = 8·G8 values.
+    unsafe {
+        let px = x.as_ptr();
+        let mut dv = [_mm512_setzero_pd(); G8];
+        let mut av = [_mm512_setzero_pd(); G8];
+        for g in 0..G8 {
+            dv[g] = _mm512_loadu_pd(st.d.as_ptr().add(8 * g));
+            av[g] = _mm512_loadu_pd(st.acc.as_ptr().add(8 * g));
+        }
+        // the eight columns jb − s + c (c = 0..8) of rows 8g..8g + 8, transposed: lane r of
+        // column c is y at k = a + (8g + r)·SEG + jb − s + c
+        macro_rules! window {
+            ($jb:expr, $g:expr) => {{
+                let mut y = [_mm512_setzero_pd(); 8];
+                for (r, yr) in y.iter_mut().enumerate() {
+                    let k = a + (8 * $g + r) * SEG + $jb - s;
+                    let xa = _mm512_loadu_pd(px.add(k));
+                    let xb = _mm512_loadu_pd(px.add(k - m));
+                    let xc = _mm512_loadu_pd(px.add(k - 2 * m));
+                    *yr = _mm512_sub_pd(_mm512_sub_pd(xa, xb), _mm512_sub_pd(xb, xc));
+                }
+                let t0 = _mm512_unpacklo_pd(y[0], y[1]);
+                let t1 = _mm512_unpackhi_pd(y[0], y[1]);
+                let t2 = _mm512_unpacklo_pd(y[2], y[3]);
+                let t3 = _mm512_unpackhi_pd(y[2], y[3]);
+                let t4 = _mm512_unpacklo_pd(y[4], y[5]);
+                let t5 = _mm512_unpackhi_pd(y[4], y[5]);
+                let t6 = _mm512_unpacklo_pd(y[6], y[7]);
+                let t7 = _mm512_unpackhi_pd(y[6], y[7]);
+                let u0 = _mm512_shuffle_f64x2::<0x88>(t0, t2);
+                let u1 = _mm512_shuffle_f64x2::<0xDD>(t0, t2);
+                let u2 = _mm512_shuffle_f64x2::<0x88>(t1, t3);
+                let u3 = _mm512_shuffle_f64x2::<0xDD>(t1, t3);
+                let u4 = _mm512_shuffle_f64x2::<0x88>(t4, t6);
+                let u5 = _mm512_shuffle_f64x2::<0xDD>(t4, t6);
+                let u6 = _mm512_shuffle_f64x2::<0x88>(t5, t7);
+                let u7 = _mm512_shuffle_f64x2::<0xDD>(t5, t7);
+                [
+                    _mm512_shuffle_f64x2::<0x88>(u0, u4),
+                    _mm512_shuffle_f64x2::<0x88>(u2, u6),
+                    _mm512_shuffle_f64x2::<0x88>(u1, u5),
+                    _mm512_shuffle_f64x2::<0x88>(u3, u7),
+                    _mm512_shuffle_f64x2::<0xDD>(u0, u4),
+                    _mm512_shuffle_f64x2::<0xDD>(u2, u6),
+                    _mm512_shuffle_f64x2::<0xDD>(u1, u5),
+                    _mm512_shuffle_f64x2::<0xDD>(u3, u7),
+                ]
+            }};
+        }
+        let mut jb = j0;
+        while jb < j1 {
+            let lo = if jb == 0 { s } else { 0 };
+            for g in 0..G8 {
+                let cols = window!(jb, g);
+                if lo == 0 {
+                    for c in cols {
+                        av[g] = _mm512_add_pd(av[g], _mm512_mul_pd(dv[g], dv[g]));
+                        dv[g] = _mm512_add_pd(dv[g], c);
+                    }
+                } else {
+                    for &c in &cols[lo..] {
+                        av[g] = _mm512_add_pd(av[g], _mm512_mul_pd(dv[g], dv[g]));
+                        dv[g] = _mm512_add_pd(dv[g], c);
+                    }
+                }
+            }
+            jb += 8;
+        }
+        if j1 == SEG && s > 0 {
+            for g in 0..G8 {
+                let cols = window!(SEG, g);
+                for &c in &cols[..s] {
+                    av[g] = _mm512_add_pd(av[g], _mm512_mul_pd(dv[g], dv[g]));
+                    dv[g] = _mm512_add_pd(dv[g], c);
+                }
+            }
+        }
+        for g in 0..G8 {
+            _mm512_storeu_pd(st.d.as_mut_ptr().add(8 * g), dv[g]);
+            _mm512_storeu_pd(st.acc.as_mut_ptr().add(8 * g), av[g]);
+        }
+    }
+}
+
+/// Chunk partials of chunk `i` for every scale of `batch` (each as [`stream_chunk`] would
+/// return it, bit for bit), with the AVX-512 block kernel: the chunk is walked in column blocks
+/// of [`BLK`], all scales per block. Scales whose chunk is not full go through [`stream_chunk`].
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn chunk_all_avx512(x: &[f64], ck: &Checkpoints, batch: &[u64], i: usize) -> Vec<f64> {
+    let t = x.len();
+    let a = i * SCHUNK;
+    // misalignment (elements) of x[a] and of every row start (SEG and SCHUNK are multiples of 8)
+    let mis = (x.as_ptr().wrapping_add(a) as usize % 64) / 8;
+    let shift = |m: usize| if m.is_multiple_of(8) { mis } else { 0 };
+    let full = |m: usize| a >= 2 * m + shift(m) && a + SCHUNK + tail_reach(shift(m)) <= t;
+    let mut states: Vec<(usize, SegState)> = batch
+        .iter()
+        .map(|&m| m as usize)
+        .filter(|&m| full(m))
+        .map(|m| {
+            let mut d = [0.0f64; NSEG];
+            for (l, dl) in d.iter_mut().enumerate() {
+                *dl = d_start(x, ck, m, a + l * SEG);
+            }
+            let acc = [0.0f64; NSEG];
+            (m, SegState { d, acc })
+        })
+        .collect();
+    for j0 in (0..SEG).step_by(BLK) {
+        for (m, st) in states.iter_mut() {
+            // SAFETY: AVX-512F is available (caller contract); the chunk is full for m.
+            unsafe { block_avx512(x, *m, a, shift(*m), j0, j0 + BLK, st) };
+        }
+    }
+    let mut done = states.into_iter();
+    batch
+        .iter()
+        .map(|&m| {
+            let m = m as usize;
+            if full(m) {
+                let (_, st) = done.next().expect("one state per full scale");
+                reduce_lanes(&st.acc)
+            } else {
+                stream_chunk(x, ck, m, i, Simd::None, &mut [])
+            }
+        })
+        .collect()
+}
+
+/// Which vector kernel [`stream_chunk`] uses for full chunks.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Simd {
+    /// Portable [`seg_sum`] only.
+    None,
+    /// [`fill_y_avx2`] + [`full_chunk_avx2`].
+    Avx2,
+    /// [`chunk_all_avx512`].
+    Avx512,
+}
+
+impl Simd {
+    /// The widest kernel the CPU supports.
+    fn detect() -> Simd {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return Simd::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Simd::Avx2;
+            }
+        }
+        Simd::None
+    }
+}
+
 /// Chunk partial for scale m over chunk `i` of the k-grid, streamed from `x`: each SEG-segment
 /// of k starts from an exact d (checkpoints) and carries the recurrence; the NSEG segment sums
 /// are reduced by the fixed tree.
@@ -469,22 +695,31 @@ fn stream_chunk(
     ck: &Checkpoints,
     m: usize,
     i: usize,
-    simd: bool,
+    simd: Simd,
     yb: &mut [f64],
 ) -> f64 {
     let t = x.len();
-    let a = i * CHUNK;
+    let a = i * SCHUNK;
     let mut acc = [0.0f64; NSEG];
     #[cfg(target_arch = "x86_64")]
-    if simd && a >= 2 * m && a + CHUNK <= t {
+    if simd != Simd::None && a >= 2 * m && a + SCHUNK <= t {
         let mut d0 = [0.0f64; NSEG];
         for (l, d) in d0.iter_mut().enumerate() {
             *d = d_start(x, ck, m, a + l * SEG);
         }
-        // SAFETY: `simd` is set only when the CPU supports AVX2; the range is checked above.
-        acc = unsafe {
-            fill_y_avx2(x, m, a, yb);
-            full_chunk_avx2(yb, &d0)
+        acc = if simd == Simd::Avx512 {
+            let mut st = SegState { d: d0, acc };
+            // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present); the
+            // range is checked above.
+            unsafe { block_avx512(x, m, a, 0, 0, SEG, &mut st) };
+            st.acc
+        } else {
+            // SAFETY: `Simd::Avx2` comes only from `Simd::detect` (AVX2 present); the range is
+            // checked above.
+            unsafe {
+                fill_y_avx2(x, m, a, yb);
+                full_chunk_avx2(yb, &d0)
+            }
         };
         return reduce_lanes(&acc);
     }
@@ -504,11 +739,8 @@ fn stream_chunk(
 /// count and any set of requested scales: the value for m is the Neumaier sum, in chunk order,
 /// of chunk partials that depend only on (x, m, chunk).
 pub(crate) fn overlapping_sums_stream(x: &[f64], ck: &Checkpoints, ms: &[u64]) -> Vec<f64> {
-    #[cfg(target_arch = "x86_64")]
-    let simd = std::arch::is_x86_feature_detected!("avx2");
-    #[cfg(not(target_arch = "x86_64"))]
-    let simd = false;
-    let n_chunks = (x.len() + 1).div_ceil(CHUNK);
+    let simd = Simd::detect();
+    let n_chunks = (x.len() + 1).div_ceil(SCHUNK);
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
         (0..ms.len()).partition(|&s| ms[s] as usize <= FAR_M / 2);
@@ -516,6 +748,11 @@ pub(crate) fn overlapping_sums_stream(x: &[f64], ck: &Checkpoints, ms: &[u64]) -
         for idx in group.chunks(SCALE_BATCH) {
             let batch: Vec<u64> = idx.iter().map(|&s| ms[s]).collect();
             let run = |yb: &mut Vec<f64>, i: usize| -> Vec<f64> {
+                #[cfg(target_arch = "x86_64")]
+                if simd == Simd::Avx512 {
+                    // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present).
+                    return unsafe { chunk_all_avx512(x, ck, &batch, i) };
+                }
                 batch
                     .iter()
                     .map(|&m| stream_chunk(x, ck, m as usize, i, simd, yb))
@@ -526,7 +763,7 @@ pub(crate) fn overlapping_sums_stream(x: &[f64], ck: &Checkpoints, ms: &[u64]) -
                 // blocks a − m and a − 2m (m a multiple of FAR_M for dyadic grids) are members
                 // of the same class visited a few steps earlier and still in cache; each block
                 // is then read from memory about once for all far scales
-                let n_cls = (FAR_M / CHUNK).min(n_chunks);
+                let n_cls = (FAR_M / SCHUNK).min(n_chunks);
                 let mut by_class: Vec<(usize, Vec<f64>)> = (0..n_cls)
                     .into_par_iter()
                     .map_init(
@@ -550,7 +787,7 @@ pub(crate) fn overlapping_sums_stream(x: &[f64], ck: &Checkpoints, ms: &[u64]) -
             };
             for (s, (&o, &m)) in idx.iter().zip(&batch).enumerate() {
                 let mut acc = Neumaier::default();
-                for part in parts.iter().skip((2 * m as usize) / CHUNK) {
+                for part in parts.iter().skip((2 * m as usize) / SCHUNK) {
                     acc.add(part[s]);
                 }
                 out[o] = acc.value();
@@ -574,10 +811,8 @@ pub(crate) fn prefix_from_checkpoints(x: &[f64], ck: &Checkpoints, c: &mut Vec<f
         .enumerate()
         .for_each(|(i, (out, xs))| {
             let g = i * (PCHUNK / G);
-            let mut run = Neumaier {
-                hi: ck.hi[g],
-                lo: ck.lo[g],
-            };
+            let (hi, lo) = ck.ck[g];
+            let mut run = Neumaier { hi, lo };
             const B: usize = 8;
             let mut io = out.chunks_exact_mut(B);
             let mut ix = xs.chunks_exact(B);
@@ -639,9 +874,9 @@ mod tests {
     /// invariant.
     #[test]
     fn streamed_sums_match_buffered_and_are_path_independent() {
-        let n = 3 * CHUNK + 12_345;
+        let n = 3 * SCHUNK + 12_345;
         let ms: Vec<u64> = vec![
-            1, 2, 3, 7, 64, 1000, 1024, 5000, 8192, 16_384, 20_000, 30_000,
+            1, 2, 3, 7, 8, 64, 1000, 1024, 5000, 8192, 16_384, 20_000, 30_000,
         ];
         let x = series(n, 0.0);
         let ck = checkpoints(&x).unwrap();
@@ -652,21 +887,45 @@ mod tests {
         for (a, b) in streamed.iter().zip(&buffered) {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "{a} vs {b}");
         }
-        let n_chunks = (n + 1).div_ceil(CHUNK);
+        let n_chunks = (n + 1).div_ceil(SCHUNK);
         let mut yb = vec![0.0; NSEG * ROW];
-        #[cfg(target_arch = "x86_64")]
-        let simd = std::arch::is_x86_feature_detected!("avx2");
-        #[cfg(not(target_arch = "x86_64"))]
-        let simd = false;
+        let best = Simd::detect();
+        let mut paths = vec![Simd::None];
+        if best != Simd::None {
+            paths.push(Simd::Avx2);
+        }
+        if best == Simd::Avx512 {
+            paths.push(Simd::Avx512);
+        }
         for &m in &ms {
             for i in 0..n_chunks {
-                let p = stream_chunk(&x, &ck, m as usize, i, false, &mut yb);
-                let q = stream_chunk(&x, &ck, m as usize, i, simd, &mut yb);
-                assert_eq!(p.to_bits(), q.to_bits(), "m {m} chunk {i}");
+                let p = stream_chunk(&x, &ck, m as usize, i, Simd::None, &mut yb);
+                for &simd in &paths[1..] {
+                    let q = stream_chunk(&x, &ck, m as usize, i, simd, &mut yb);
+                    assert_eq!(p.to_bits(), q.to_bits(), "m {m} chunk {i} {simd:?}");
+                }
+            }
+        }
+        // the AVX-512 chunk walk (all scales per column block, aligned windows) on data at
+        // every misalignment within a cache line
+        #[cfg(target_arch = "x86_64")]
+        if best == Simd::Avx512 {
+            let big = series(n + 8, 0.0);
+            for o in 0..8 {
+                let xo = &big[o..o + n];
+                let cko = checkpoints(xo).unwrap();
+                for i in 0..n_chunks {
+                    // SAFETY: AVX-512F detected above.
+                    let q = unsafe { chunk_all_avx512(xo, &cko, &ms, i) };
+                    for (&m, qm) in ms.iter().zip(&q) {
+                        let p = stream_chunk(xo, &cko, m as usize, i, Simd::None, &mut yb);
+                        assert_eq!(p.to_bits(), qm.to_bits(), "offset {o} m {m} chunk {i}");
+                    }
+                }
             }
         }
         let single = overlapping_sums_stream(&x, &ck, &[5000]);
-        assert_eq!(single[0].to_bits(), streamed[7].to_bits());
+        assert_eq!(single[0].to_bits(), streamed[8].to_bits());
         let std = 0.3;
         let y: Vec<f64> = x.iter().map(|v| v + 1e4 * std).collect();
         let cy = checkpoints(&y).unwrap();
