@@ -563,9 +563,41 @@ fn fit_says_which_ci_method_it_used() {
     assert!((doc["channels"][0]["ci_level"].as_f64().unwrap() - 0.9).abs() < 1e-15);
     let table = fit(&["--bootstrap", "3"]);
     assert!(
-        table.contains("95% CI (per sample; delta method, V = 3-replicate parametric-bootstrap"),
+        table.contains("95% CI (delta method, V = 3-replicate parametric-bootstrap"),
         "{table}"
     );
+    // CSV: one row per parameter and IEEE term; IEEE N of a °/s channel is 60·√(σ²/rate) °/√h.
+    let csv = fit(&["--unit", "deg/s", "-f", "csv"]);
+    let rows: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(
+        rows[0].join(","),
+        "channel,process,name,value,ci_lo,ci_hi,unit,ci_method"
+    );
+    assert_eq!(rows.len(), 1 + 2 + 2, "{csv}");
+    let cell = |r: usize, c: usize| rows[r][c].parse::<f64>().unwrap();
+    let n = rows
+        .iter()
+        .position(|r| r[1] == "IEEE" && r[2] == "N")
+        .unwrap();
+    assert_eq!((rows[1][1], rows[1][2]), ("WN", "sigma2"));
+    assert!((cell(n, 3) / (60.0 * (cell(1, 3) / 100.0).sqrt()) - 1.0).abs() < 1e-12);
+    assert!((cell(n, 4) / (60.0 * (cell(1, 4) / 100.0).sqrt()) - 1.0).abs() < 1e-12);
+    assert_eq!(rows[n][6], "°/√h");
+    assert!(rows[1..].iter().all(|r| r[7] == "delta_model_cov"), "{csv}");
+    // --select compares GMWM fits: with another method it is a usage error.
+    let out = imunoise(&[
+        "fit",
+        p.to_str().unwrap(),
+        "--binary",
+        "f64",
+        "-r",
+        "100",
+        "--method",
+        "avlr",
+        "--select",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--select"));
     // The IEEE 952 read-off has no intervals, and says so.
     let doc: serde_json::Value =
         serde_json::from_str(&fit(&["--method", "ieee952", "-f", "json"])).unwrap();

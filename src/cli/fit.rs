@@ -21,10 +21,22 @@ pub const EXAMPLES: &str = "Examples:
   imunoise fit imu.csv.gz --rate 100 --select          # best sub-model of QN+WN+RW+AR1 by WIC
   imunoise fit imu.csv.gz --rate 100 --method avlr
 
+Parameters are per sample (Δt = 1/rate), in the parameterization of the model string and in
+the channel's unit u: WN sigma2 [u²], RW gamma2 [u² per sample], QN q2 [u²], DR omega
+[u per sample], AR1 phi [-] and sigma2 [u²]. The IEEE 952 equivalents are in the usual units
+(N in °/√h or m/s/√h, K in °/h/√h or m/s/h/√h, …) when --unit or the column names give u.
+
+CIs (level 1 − alpha, each on its own): GMWM uses the delta method with the covariance V of
+the Allan variance estimates implied by the fitted model, or with --bootstrap B its
+parametric-bootstrap estimate; AVLR needs --bootstrap; the IEEE 952 read-off has none.
+\"ci_method\" says which was used: delta_model_cov, delta_bootstrap_cov, delta_diagonal,
+bootstrap_sd or none.
+
 JSON shape: {\"channels\":[{\"name\",\"method\",\"model\",\"converged\",\"parameters\":[{\"process\",
 \"name\",\"value\",\"ci_lo\",\"ci_hi\"}],\"ieee\":{\"N\":{\"value\",\"unit\",\"ci_lo\",\"ci_hi\"},…},
-\"j_test\":{\"statistic\",\"p_value\"},\"fitted\":[{\"m\",\"avar\"}]}]} (plus \"wic\" with --select);
-`value` is per sample, in the parameterization of the model string.";
+\"j_test\":{\"statistic\",\"p_value\"},\"ci_method\",\"ci_level\",\"fitted\":[{\"m\",\"avar\"}]}]}
+(plus \"wic\" with --select). CSV: one row per parameter and IEEE term:
+channel,process,name,value,ci_lo,ci_hi,unit,ci_method (process \"IEEE\" for N, K, …).";
 
 /// Fitting methods.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -140,7 +152,7 @@ pub struct FitArgs {
     /// Fit settings.
     #[command(flatten)]
     pub fit: FitSettings,
-    /// Output format (table or json).
+    /// Output format: table, json or csv.
     #[arg(long, short, value_enum, default_value = "table")]
     pub format: super::Format,
 }
@@ -502,6 +514,11 @@ pub fn fit_all(
     } else {
         "fitting"
     };
+    if settings.select && settings.method != Method::Gmwm {
+        return Err(Error::Usage(
+            "--select works with --method gmwm only (it compares GMWM fits by WIC)".into(),
+        ));
+    }
     let pb = ui.bar(curves.len() as u64 * per_channel, msg);
     let tick = || pb.inc(1);
     let out: Vec<Result<ChannelFit>> = curves
@@ -562,14 +579,14 @@ pub fn write_table(
             if f.converged { "" } else { " (NOT converged)" },
             f.model
         )?;
+        let ci_head = match f.ci_method {
+            CiMethod::None => "no CI".to_string(),
+            m => format!("{} CI ({})", percent(1.0 - alpha), m.describe(bootstrap)),
+        };
         writeln!(
             out,
-            "  {:<5} {:<7} {:>12}  {} CI (per sample; {})",
-            "proc",
-            "param",
-            "value",
-            percent(1.0 - alpha),
-            f.ci_method.describe(bootstrap)
+            "  {:<5} {:<7} {:>12}  {ci_head}",
+            "proc", "param", "per sample",
         )?;
         for p in &f.parameters {
             writeln!(
@@ -599,6 +616,50 @@ pub fn write_table(
         }
         if let Some(w) = f.wic {
             writeln!(out, "  WIC of the selected model: {w:.4}")?;
+        }
+    }
+    Ok(())
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Writes fits as CSV: a header line, then one row per parameter (per sample) and per IEEE
+/// term (process `IEEE`), with empty CI cells where there is none.
+pub fn write_csv(out: &mut impl Write, fits: &[ChannelFit]) -> std::io::Result<()> {
+    writeln!(out, "channel,process,name,value,ci_lo,ci_hi,unit,ci_method")?;
+    let o = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:e}"));
+    for f in fits {
+        let method = serde_json::to_value(f.ci_method)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default();
+        let name = csv_field(&f.name);
+        for p in &f.parameters {
+            writeln!(
+                out,
+                "{name},{},{},{:e},{},{},per sample,{method}",
+                p.process,
+                p.name,
+                p.value,
+                o(p.ci_lo),
+                o(p.ci_hi)
+            )?;
+        }
+        for (k, v) in &f.ieee {
+            writeln!(
+                out,
+                "{name},IEEE,{k},{:e},{},{},{},{method}",
+                v.value,
+                o(v.ci_lo),
+                o(v.ci_hi),
+                csv_field(&v.unit)
+            )?;
         }
     }
     Ok(())
@@ -634,7 +695,8 @@ pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
         super::Format::Json => serde_json::to_writer(&mut out, &FitJson { channels: fits })
             .map_err(std::io::Error::other)
             .and_then(|_| writeln!(out)),
-        _ => write_table(&mut out, &fits, args.fit.alpha, args.fit.bootstrap),
+        super::Format::Csv => write_csv(&mut out, &fits),
+        super::Format::Table => write_table(&mut out, &fits, args.fit.alpha, args.fit.bootstrap),
     };
     r.and_then(|_| out.flush())
         .map_err(|e| Error::io("<stdout>", e))

@@ -12,8 +12,13 @@ pub const EXAMPLES: &str = "Examples:
   imunoise theory --model \"WN(sigma2=1e-4)+RW(gamma2=1e-10)+AR1(phi=0.995,sigma2=1e-7)\" --rate 100
   imunoise theory --model \"QN(q2=1e-6)+WN(1e-4)\" --rate 200 --scales octave -n 100000 --format json
 
+The model's parameters are per sample (Δt = 1/rate) in the signal's unit u (WN sigma2 in u²,
+RW gamma2 in u² per sample, …); m is in samples, tau = m/rate in seconds, the AV in u² and the
+AD in u. The table and CSV give the AD of the whole model and of each component.
+
 JSON shape: {\"model\",\"rate_hz\",\"points\":[{\"m\",\"tau\",\"avar\",\"adev\"}],
-\"components\":[{\"name\",\"points\":[…]}]} (top-level points are the whole model).";
+\"components\":[{\"name\",\"points\":[…]}],\"psd\":[{\"f\",\"psd\"}]} (top-level points are the
+whole model; psd is two-sided, in u²/Hz at f in Hz).";
 
 /// Arguments of `imunoise theory`.
 #[derive(Debug, Clone, clap::Args)]
@@ -35,7 +40,7 @@ pub struct TheoryArgs {
         default_value_t = 1_000_000
     )]
     pub n: usize,
-    /// Output format (table or json).
+    /// Output format: table, json or csv.
     #[arg(long, short, value_enum, default_value = "table")]
     pub format: Format,
 }
