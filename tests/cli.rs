@@ -508,6 +508,8 @@ fn analyze_writes_report_plots_json_csv_yaml() {
         serde_json::from_slice(&std::fs::read(out_dir.join("results.json")).unwrap()).unwrap();
     assert_eq!(res["channels"][0]["name"], "gyro_x");
     assert_eq!(res["channels"][0]["fit"]["method"], "gmwm");
+    assert_eq!(res["channels"][0]["fit"]["ci_method"], "delta_model_cov");
+    assert!(html.contains("95% CIs by delta method, V = model-implied covariance"));
     let csv = std::fs::read_to_string(out_dir.join("avar.csv")).unwrap();
     // header + 14 dyadic scales (2^(j+1) < 65536 → j ≤ 14)
     assert_eq!(csv.lines().count(), 15);

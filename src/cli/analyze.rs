@@ -30,7 +30,8 @@ pub struct AnalyzeArgs {
     /// Fit settings (by default: the best sub-model of QN+WN+RW+AR1 by WIC).
     #[command(flatten)]
     pub fit: FitSettings,
-    /// Fit exactly --model instead of selecting its best sub-model by WIC.
+    /// Fit exactly --model instead of selecting its best sub-model by WIC (selecting is the
+    /// default here, so --select changes nothing).
     #[arg(long)]
     pub no_select: bool,
     /// Output directory (created if needed).
@@ -84,6 +85,8 @@ pub struct ReportInput<'a> {
     pub fits: &'a [ChannelFit],
     /// Extra HTML inserted after the summary (e.g. the demo's truth table).
     pub extra_html: String,
+    /// Bootstrap replicates behind the CIs (0: none), for their description.
+    pub bootstrap: usize,
 }
 
 fn file_safe(name: &str) -> String {
@@ -277,10 +280,17 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         rate = inp.rate_hz,
         n = inp.columns.first().map_or(0, Vec::len),
         h = inp.columns.first().map_or(0, Vec::len) as f64 / inp.rate_hz / 3600.0,
-        method = inp
-            .fits
-            .first()
-            .map_or("-".to_string(), |f| f.method.clone())
+        method = inp.fits.first().map_or("-".to_string(), |f| {
+            let ci = match f.ci_method {
+                super::fit::CiMethod::None => "no CIs".to_string(),
+                m => format!(
+                    "{} CIs by {}",
+                    super::fit::percent(f.ci_level.unwrap_or(0.95)),
+                    m.describe(inp.bootstrap)
+                ),
+            };
+            format!("{}, {}", f.method, html_esc(&ci))
+        })
     );
     // IEEE noise table.
     html.push_str("<h2>Noise terms (IEEE Std 952 units)</h2><table><tr><th class=l>channel</th><th class=l>unit</th><th class=l>fitted model (per sample)</th><th>N (ARW/VRW)</th><th>K (RRW)</th><th>Q</th><th>R</th><th class=l>J-test p</th></tr>\n");
@@ -314,7 +324,15 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
     html.push_str("</table>\n");
     html.push_str(&inp.extra_html);
     // Parameter table.
-    html.push_str("<h2>Parameters (per sample, 95% CI)</h2><table><tr><th class=l>channel</th><th class=l>process</th><th class=l>parameter</th><th>value</th><th>CI low</th><th>CI high</th></tr>\n");
+    let level = inp
+        .fits
+        .iter()
+        .find_map(|f| f.ci_level)
+        .map_or("no".to_string(), super::fit::percent);
+    let _ = write!(
+        html,
+        "<h2>Parameters (per sample, {level} CI)</h2><table><tr><th class=l>channel</th><th class=l>process</th><th class=l>parameter</th><th>value</th><th>CI low</th><th>CI high</th></tr>\n"
+    );
     for (k, f) in inp.fits.iter().enumerate() {
         for p in &f.parameters {
             let o = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4e}"));
@@ -430,6 +448,7 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         curves: &curves,
         fits: &fits,
         extra_html: String::new(),
+        bootstrap: settings.bootstrap,
     };
     write_report(&args.out, &inp, ui)?;
     let stdout = std::io::stdout();

@@ -474,6 +474,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         curves: &curves,
         fits: &fits,
         extra_html: extra,
+        bootstrap: args.bootstrap,
     };
     super::analyze::write_report(&args.out, &inp, ui)?;
     w(format!(
