@@ -329,9 +329,9 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         .iter()
         .find_map(|f| f.ci_level)
         .map_or("no".to_string(), super::fit::percent);
-    let _ = write!(
+    let _ = writeln!(
         html,
-        "<h2>Parameters (per sample, {level} CI)</h2><table><tr><th class=l>channel</th><th class=l>process</th><th class=l>parameter</th><th>value</th><th>CI low</th><th>CI high</th></tr>\n"
+        "<h2>Parameters (per sample, {level} CI)</h2><table><tr><th class=l>channel</th><th class=l>process</th><th class=l>parameter</th><th>value</th><th>CI low</th><th>CI high</th></tr>"
     );
     for (k, f) in inp.fits.iter().enumerate() {
         for p in &f.parameters {
