@@ -6,7 +6,7 @@
 use imunoise::avar::{AvarConfig, allan_variance};
 use imunoise::gmwm_prep::AvCurve;
 use imunoise::gmwm_prep::gmwm::{GmwmOptions, fit};
-use imunoise::gmwm_prep::inference::{delta_method, diagonal_covariance};
+use imunoise::gmwm_prep::inference::{delta_method, fit_covariance};
 use imunoise::processes::Model;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -17,8 +17,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let av = allan_variance(x.values(), rate, &AvarConfig::default())?;
     let curve = AvCurve::from_avar(&av)?;
     let f = fit(&curve, &truth.template(), &GmwmOptions::default())?;
-    // Diagonal moment covariance: quick but optimistic CIs (the CLI's --bootstrap is better).
-    let inf = delta_method(&f, &diagonal_covariance(&curve), 0.05)?;
+    // V = the exact covariance of the AV estimates under the fitted model: it accounts for the
+    // correlation between scales (the diagonal one would not, and gives too-narrow CIs).
+    let inf = delta_method(&f, &fit_covariance(&f)?, 0.05)?;
     let true_params: Vec<f64> = truth.processes()?.iter().flat_map(|p| p.params()).collect();
     println!("{:>12} {:>12} {:>28}", "true", "estimate", "95% CI");
     for (i, t) in true_params.iter().enumerate() {

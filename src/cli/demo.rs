@@ -277,25 +277,81 @@ fn yes_no(c: Option<bool>, no: &str) -> String {
     }
 }
 
-/// Runs `imunoise demo`.
-pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
-    if args.n < 1 << 14 {
+/// Counts (covered, with an interval) among comparisons, on the simultaneous (`sim`) or the
+/// marginal intervals.
+pub fn count_covered(v: &[Comparison], sim: bool) -> (usize, usize) {
+    let c: Vec<Option<bool>> = v
+        .iter()
+        .map(|c| if sim { c.sim_covered() } else { c.covered() })
+        .collect();
+    (
+        c.iter().filter(|x| **x == Some(true)).count(),
+        c.iter().filter(|x| x.is_some()).count(),
+    )
+}
+
+/// Everything the demo estimates: the simulated record, its AV, the fits, and true against
+/// estimated values with marginal and simultaneous intervals.
+pub struct DemoRun {
+    /// The simulated record (names, units, true models; `columns` moved into `table`).
+    pub table: crate::io::Table,
+    /// Channel units.
+    pub units: Vec<Unit>,
+    /// True models.
+    pub models: Vec<Model>,
+    /// Allan variance of each channel.
+    pub curves: Vec<(String, AllanVariance)>,
+    /// GMWM fit of each channel.
+    pub fits: Vec<super::fit::ChannelFit>,
+    /// Per-sample parameters, true against estimated.
+    pub params: Vec<Comparison>,
+    /// IEEE 952 N and K, true against estimated.
+    pub ieee: Vec<Comparison>,
+    /// Family level alpha (0.05).
+    pub alpha: f64,
+    /// Number K of parameters in the Bonferroni family.
+    pub k: usize,
+    /// How the marginal CIs were computed.
+    pub ci_method: super::fit::CiMethod,
+}
+
+impl DemoRun {
+    /// Level of each simultaneous interval, alpha/K.
+    pub fn alpha_sim(&self) -> f64 {
+        self.alpha / self.k as f64
+    }
+}
+
+/// Simulates the demo IMU (`n` samples per channel, `seed`), computes the AV, fits the true
+/// template WN + RW + AR1 by GMWM (CIs from the model-implied covariance of the AV, or from a
+/// `bootstrap`-replicate parametric bootstrap when > 0) and compares with the truth, with
+/// simultaneous Bonferroni intervals over all K parameters next to the marginal 95% CIs.
+///
+/// ```no_run
+/// use imunoise::cli::{Ui, demo};
+/// let ui = Ui { progress: false, notes: false };
+/// let run = demo::estimate(1 << 20, 7, 0, &ui)?;
+/// let (covered, total) = demo::count_covered(&run.params, true);
+/// println!("{covered} of {total} true parameters within their simultaneous 95% intervals");
+/// # Ok::<(), imunoise::Error>(())
+/// ```
+pub fn estimate(n: usize, seed: u64, bootstrap: usize, ui: &Ui) -> Result<DemoRun> {
+    if n < 1 << 14 {
         return Err(Error::Usage(
             "--samples: the demo needs at least 16384 samples per channel".into(),
         ));
     }
-    if args.bootstrap == 1 {
+    if bootstrap == 1 {
         return Err(Error::Usage(
             "--bootstrap: a bootstrap needs at least 2 replicates (0: no bootstrap)".into(),
         ));
     }
-    let t0 = std::time::Instant::now();
     let pb = ui.spinner("simulating the demo IMU");
-    let data = simulate(args.n, args.seed)?;
+    let data = simulate(n, seed)?;
     pb.finish_and_clear();
     let table = crate::io::Table {
         file: "<demo>".into(),
-        names: data.names.clone(),
+        names: data.names,
         columns: data.columns,
     };
     let curves: Vec<(String, AllanVariance)> =
@@ -306,48 +362,55 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         model: data.models[0].template().to_string(),
         method: super::fit::Method::Gmwm,
         select: false,
-        bootstrap: args.bootstrap,
-        seed: args.seed.wrapping_add(1),
+        bootstrap,
+        seed: seed.wrapping_add(1),
         alpha,
     };
     let fits = super::fit::fit_all(&curves, &data.units, &settings, ui)?;
     // Simultaneous intervals: Bonferroni over every parameter of every channel.
     let k: usize = fits.iter().map(|f| f.parameters.len()).sum();
-    let alpha_sim = alpha / k as f64;
     let sims = fits
         .iter()
-        .map(|f| f.cis_at(alpha_sim))
+        .map(|f| f.cis_at(alpha / k as f64))
         .collect::<Result<Vec<_>>>()?;
     let mut params = Vec::new();
     let mut ieee = Vec::new();
     for (i, f) in fits.iter().enumerate() {
-        params.extend(compare(
-            &data.names[i],
-            &data.models[i],
-            f,
-            sims[i].as_ref(),
-        ));
+        let name = &table.names[i];
+        params.extend(compare(name, &data.models[i], f, sims[i].as_ref()));
         ieee.extend(compare_ieee(
-            &data.names[i],
+            name,
             &data.models[i],
             &data.units[i],
             f,
             sims[i].as_ref(),
         ));
     }
-    let count = |v: &[Comparison], sim: bool| {
-        let c: Vec<Option<bool>> = v
-            .iter()
-            .map(|c| if sim { c.sim_covered() } else { c.covered() })
-            .collect();
-        (
-            c.iter().filter(|x| **x == Some(true)).count(),
-            c.iter().filter(|x| x.is_some()).count(),
-        )
-    };
     let ci_method = fits
         .first()
         .map_or(super::fit::CiMethod::None, |f| f.ci_method);
+    Ok(DemoRun {
+        table,
+        units: data.units,
+        models: data.models,
+        curves,
+        fits,
+        params,
+        ieee,
+        alpha,
+        k,
+        ci_method,
+    })
+}
+
+/// Runs `imunoise demo`.
+pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let r = estimate(args.n, args.seed, args.bootstrap, ui)?;
+    let (alpha, k, alpha_sim, ci_method) = (r.alpha, r.k, r.alpha_sim(), r.ci_method);
+    let (params, ieee) = (&r.params, &r.ieee);
+    let count = count_covered;
+    let model = r.models[0].template().to_string();
     let level = super::fit::percent(1.0 - alpha);
     let sim_level = super::fit::percent(1.0 - alpha_sim);
     let stdout = std::io::stdout();
@@ -362,7 +425,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     ))?;
     w(format!(
         "GMWM fit of {} on the Allan variance; CIs by {}.",
-        settings.model,
+        model,
         ci_method.describe(args.bootstrap)
     ))?;
     w(format!(
@@ -382,7 +445,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         "covered (sim. / marg.)"
     ))?;
     let e4 = |x: f64| format!("{x:.3e}");
-    for c in &params {
+    for c in params {
         w(format!(
             "{:<8} {:<11} {:>11.4e} {:>11.4e} {:>25} {:>25}  {} / {}",
             c.channel,
@@ -395,8 +458,8 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
             yes_no(c.covered(), "no"),
         ))?;
     }
-    let (sc, sn) = count(&params, true);
-    let (mc, mn) = count(&params, false);
+    let (sc, sn) = count(params, true);
+    let (mc, mn) = count(params, false);
     w(format!(
         "{} true parameters lie within their simultaneous {level} intervals (Bonferroni, K = {k}){}; \
          {mc} of {mn} within their marginal {level} CIs (about 95% each are expected to).",
@@ -414,7 +477,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     w("IEEE 952 units (true vs GMWM estimate; N and K are increasing functions of WN sigma2 and\n\
        RW gamma2, so their intervals are the images of those parameters' and belong to the same family):"
         .into())?;
-    for c in &ieee {
+    for c in ieee {
         w(format!(
             "{:<8} {:<2} true {:>10} estimate {:>10} {:>22} {:>22} {:<10} {} / {}",
             c.channel,
@@ -428,8 +491,8 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
             yes_no(c.covered(), "no"),
         ))?;
     }
-    let (ic, inn) = count(&ieee, true);
-    let (imc, imn) = count(&ieee, false);
+    let (ic, inn) = count(ieee, true);
+    let (imc, imn) = count(ieee, false);
     w(format!(
         "{ic} of {inn} IEEE terms within their simultaneous {level} intervals; {imc} of {imn} within their marginal {level} CIs."
     ))?;
@@ -441,8 +504,8 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         simultaneous_method: "bonferroni",
         simultaneous_level: 1.0 - alpha_sim,
         ci_method,
-        parameters: &params,
-        ieee: &ieee,
+        parameters: params,
+        ieee,
     };
     let path = args.out.join("demo.json");
     std::fs::write(&path, serde_json::to_string_pretty(&dj)?)
@@ -451,7 +514,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         "<h2>Demo: true against estimated parameters</h2><p>Simultaneous intervals: Bonferroni over K = {k} parameters (each at {sim_level}), jointly ≥ {level}. {sc} of {sn} true parameters lie within their simultaneous intervals, {mc} of {mn} within their marginal {level} CIs.</p><table><tr><th class=l>channel</th><th class=l>parameter</th><th>true</th><th>estimate</th><th>{level} CI</th><th>simultaneous {sim_level}</th><th>covered (simultaneous)</th><th>covered (marginal)</th></tr>\n"
     );
     let html_yes = |c: Option<bool>| yes_no(c, "<span class=no>no</span>");
-    for c in &params {
+    for c in params {
         extra.push_str(&format!(
             "<tr><td class=l>{}</td><td class=l>{}</td><td>{:.4e}</td><td>{:.4e}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
             c.channel,
@@ -468,11 +531,11 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     let inp = super::analyze::ReportInput {
         source: "imunoise demo (simulated 6-axis MEMS IMU)",
         rate_hz: DEMO_RATE_HZ,
-        names: &table.names,
-        columns: &table.columns,
-        units: &data.units,
-        curves: &curves,
-        fits: &fits,
+        names: &r.table.names,
+        columns: &r.table.columns,
+        units: &r.units,
+        curves: &r.curves,
+        fits: &r.fits,
         extra_html: extra,
         bootstrap: args.bootstrap,
     };
