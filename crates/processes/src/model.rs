@@ -21,6 +21,14 @@ use std::ops::{Add, Mul};
 use std::str::FromStr;
 
 /// One term of a [`Model`]: a process with values, or a slot to be estimated.
+///
+/// ```
+/// use processes::{Component, Model, ProcessKind};
+/// let m: Model = "WN(sigma2=1) + AR1".parse()?;
+/// assert!(matches!(m.components()[0], Component::Known(_)));
+/// assert_eq!(m.components()[1], Component::Slot(ProcessKind::Ar1));
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum Component {
     /// A process with its parameter values.
@@ -31,6 +39,13 @@ pub enum Component {
 
 impl Component {
     /// The process kind of the component.
+    ///
+    /// ```
+    /// use processes::{Model, ProcessKind};
+    /// let m: Model = "WN(sigma2=1) + AR1".parse()?;
+    /// assert_eq!(m.components()[1].kind(), ProcessKind::Ar1);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn kind(&self) -> ProcessKind {
         match self {
             Component::Known(p) => p.kind(),
@@ -38,6 +53,14 @@ impl Component {
         }
     }
     /// The process, if the component has values.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// let m: Model = "WN(sigma2=1) + AR1".parse()?;
+    /// assert_eq!(m.components()[0].process().map(|p| p.params()), Some(vec![1.0]));
+    /// assert!(m.components()[1].process().is_none()); // a slot
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn process(&self) -> Option<&Process> {
         match self {
             Component::Known(p) => Some(p),
@@ -81,6 +104,14 @@ pub struct Model {
 
 impl Model {
     /// Builds a model from its components, checking it is non-empty and identifiable.
+    ///
+    /// ```
+    /// use processes::{Component, Model, ProcessKind};
+    /// let m = Model::new(vec![Component::Slot(ProcessKind::WhiteNoise)])?;
+    /// assert_eq!(m.to_string(), "WN");
+    /// assert!(Model::new(vec![]).is_err()); // empty
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(components: Vec<Component>) -> Result<Self> {
         if components.is_empty() {
             return Err(ProcessError::EmptyModel);
@@ -95,36 +126,84 @@ impl Model {
     }
 
     /// Builds a model whose components all have values.
+    ///
+    /// ```
+    /// use processes::{Model, Process, RandomWalk, WhiteNoise};
+    /// let wn = Process::from(WhiteNoise::new(1e-4)?);
+    /// let rw = Process::from(RandomWalk::new(1e-9)?);
+    /// assert_eq!(Model::from_processes([wn, rw])?.to_string(), "WN(sigma2=0.0001) + RW(gamma2=1e-9)");
+    /// assert!(Model::from_processes([wn, wn]).is_err()); // two WN: not identifiable
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn from_processes(processes: impl IntoIterator<Item = Process>) -> Result<Self> {
         Self::new(processes.into_iter().map(Component::Known).collect())
     }
 
     /// The components, in order.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// let m: Model = "WN + 2*AR1".parse()?;
+    /// assert_eq!(m.components().len(), 3);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn components(&self) -> &[Component] {
         &self.components
     }
 
     /// Number of components.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// assert_eq!("WN + RW + 2*AR1".parse::<Model>()?.len(), 4);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn len(&self) -> usize {
         self.components.len()
     }
 
     /// Always false: a model has at least one component.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// assert!(!"WN".parse::<Model>()?.is_empty());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn is_empty(&self) -> bool {
         self.components.is_empty()
     }
 
     /// The kinds of the components, in order.
+    ///
+    /// ```
+    /// use processes::{Model, ProcessKind};
+    /// let m: Model = "WN(sigma2=1) + 2*AR1".parse()?;
+    /// assert_eq!(m.kinds(), [ProcessKind::WhiteNoise, ProcessKind::Ar1, ProcessKind::Ar1]);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn kinds(&self) -> Vec<ProcessKind> {
         self.components.iter().map(Component::kind).collect()
     }
 
     /// Total number of parameters of the model.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// assert_eq!("WN + RW + 2*AR1".parse::<Model>()?.n_params(), 1 + 1 + 2 * 2);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn n_params(&self) -> usize {
         self.components.iter().map(|c| c.kind().n_params()).sum()
     }
 
     /// True when every component has values (no slots).
+    ///
+    /// ```
+    /// use processes::Model;
+    /// assert!("WN(sigma2=1)".parse::<Model>()?.is_specified());
+    /// assert!(!"WN(sigma2=1) + RW".parse::<Model>()?.is_specified());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn is_specified(&self) -> bool {
         self.components
             .iter()
@@ -132,6 +211,14 @@ impl Model {
     }
 
     /// The processes, or an error naming the first slot.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// let m: Model = "WN(sigma2=1) + AR1(phi=0.5, sigma2=2)".parse()?;
+    /// assert_eq!(m.processes()?[1].params(), [0.5, 2.0]);
+    /// assert!("WN(sigma2=1) + RW".parse::<Model>()?.processes().is_err()); // RW is a slot
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn processes(&self) -> Result<Vec<Process>> {
         self.components
             .iter()
@@ -147,6 +234,13 @@ impl Model {
     }
 
     /// The same model with every component turned into a slot (the template to fit).
+    ///
+    /// ```
+    /// use processes::Model;
+    /// let m: Model = "WN(sigma2=1) + AR1(phi=0.5, sigma2=2)".parse()?;
+    /// assert_eq!(m.template().to_string(), "WN + AR1");
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn template(&self) -> Model {
         Model {
             components: self.kinds().into_iter().map(Component::Slot).collect(),
@@ -154,17 +248,40 @@ impl Model {
     }
 
     /// Whether the sum is (weakly) stationary: true iff every component is (book Remark 2.6).
+    ///
+    /// ```
+    /// use processes::Model;
+    /// assert!("WN + AR1".parse::<Model>()?.is_stationary());
+    /// assert!(!"WN + RW".parse::<Model>()?.is_stationary());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn is_stationary(&self) -> bool {
         self.components.iter().all(|c| c.kind().is_stationary())
     }
 
     /// Mean E\[X_t\] at time index `t` = 1, 2, …: the sum of the components' means.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// // Drift ω = 0.5 unit per sample: E[X_4] = 0.5 · 4.
+    /// let m: Model = "WN(sigma2=1) + DR(omega=0.5)".parse()?;
+    /// assert_eq!(m.mean_at(4)?, 2.0);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn mean_at(&self, t: u64) -> Result<f64> {
         Ok(self.processes()?.iter().map(|p| p.mean_at(t)).sum())
     }
 
     /// Var(X_t) at time index `t` = 1, 2, …: the sum of the components' variances
     /// (they are independent). `rate_hz` matters for GM only.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// // σ² + t γ² (unit²) = 1 + 100 · 0.01 at t = 100.
+    /// let m: Model = "WN(sigma2=1) + RW(gamma2=0.01)".parse()?;
+    /// assert!((m.variance_at(100, 1.0)? - 2.0).abs() < 1e-12);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn variance_at(&self, t: u64, rate_hz: f64) -> Result<f64> {
         self.processes()?
             .iter()
@@ -173,6 +290,15 @@ impl Model {
     }
 
     /// Autocovariance γ(h) of a stationary model: the sum of the components' γ(h).
+    ///
+    /// ```
+    /// use processes::Model;
+    /// // AR1 with v²/(1 − φ²) = 0.75/0.75 = 1: γ(0) = 1 + 1, γ(1) = φ · 1 (unit²).
+    /// let m: Model = "WN(sigma2=1) + AR1(phi=0.5, sigma2=0.75)".parse()?;
+    /// assert!((m.autocovariance(0, 1.0)? - 2.0).abs() < 1e-12);
+    /// assert!((m.autocovariance(1, 1.0)? - 0.5).abs() < 1e-12);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn autocovariance(&self, h: u64, rate_hz: f64) -> Result<f64> {
         self.processes()?
             .iter()
@@ -181,12 +307,29 @@ impl Model {
     }
 
     /// Autocorrelation ρ(h) = γ(h)/γ(0) of a stationary model.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// // ρ(1) = γ(1)/γ(0) = 0.5/2 (see `autocovariance`).
+    /// let m: Model = "WN(sigma2=1) + AR1(phi=0.5, sigma2=0.75)".parse()?;
+    /// assert!((m.autocorrelation(1, 1.0)? - 0.25).abs() < 1e-12);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn autocorrelation(&self, h: u64, rate_hz: f64) -> Result<f64> {
         Ok(self.autocovariance(h, rate_hz)? / self.autocovariance(0, rate_hz)?)
     }
 
     /// The model with its slots filled from a flat parameter vector (in component order,
     /// each in the order of [`ProcessKind::param_names`]); known components are replaced too.
+    ///
+    /// ```
+    /// use processes::Model;
+    /// let template: Model = "WN + AR1".parse()?;
+    /// let m = template.with_params(&[1.0, 0.5, 0.75])?;
+    /// assert_eq!(m.to_string(), "WN(sigma2=1) + AR1(phi=0.5, sigma2=0.75)");
+    /// assert!(template.with_params(&[1.0]).is_err()); // 3 values needed
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn with_params(&self, values: &[f64]) -> Result<Model> {
         if values.len() != self.n_params() {
             return Err(ProcessError::InvalidArgument(format!(
@@ -210,6 +353,15 @@ impl Model {
     }
 
     /// Appends the components of `other`, checking identifiability.
+    ///
+    /// ```
+    /// use processes::{Model, RandomWalk};
+    /// let m: Model = "WN(sigma2=1)".parse()?;
+    /// let m = m.plus(RandomWalk::new(0.01)?)?;
+    /// assert_eq!(m.to_string(), "WN(sigma2=1) + RW(gamma2=0.01)");
+    /// assert!(m.plus("RW".parse::<Model>()?).is_err()); // a second RW
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn plus(mut self, other: impl Into<Model>) -> Result<Model> {
         self.components.extend(other.into().components);
         Model::new(self.components)
