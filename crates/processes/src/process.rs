@@ -60,12 +60,25 @@ pub struct WhiteNoise {
 
 impl WhiteNoise {
     /// Builds WN with variance `sigma2` > 0 (finite).
+    ///
+    /// ```
+    /// use processes::WhiteNoise;
+    /// assert_eq!(WhiteNoise::new(2.5e-5)?.sigma2(), 2.5e-5); // (°/s)² per sample, say
+    /// assert!(WhiteNoise::new(0.0).is_err() && WhiteNoise::new(f64::NAN).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(sigma2: f64) -> Result<Self> {
         Ok(Self {
             sigma2: check_positive("WN", "sigma2", sigma2)?,
         })
     }
     /// The variance σ² per sample.
+    ///
+    /// ```
+    /// use processes::WhiteNoise;
+    /// assert_eq!(WhiteNoise::new(1e-4)?.sigma2(), 1e-4);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn sigma2(&self) -> f64 {
         self.sigma2
     }
@@ -90,12 +103,25 @@ pub struct QuantizationNoise {
 
 impl QuantizationNoise {
     /// Builds QN with parameter `q2` = Q² > 0 (finite).
+    ///
+    /// ```
+    /// use processes::QuantizationNoise;
+    /// assert_eq!(QuantizationNoise::new(1e-6)?.q2(), 1e-6); // unit²
+    /// assert!(QuantizationNoise::new(-1e-6).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(q2: f64) -> Result<Self> {
         Ok(Self {
             q2: check_positive("QN", "q2", q2)?,
         })
     }
     /// The parameter Q².
+    ///
+    /// ```
+    /// use processes::QuantizationNoise;
+    /// assert_eq!(QuantizationNoise::new(4e-6)?.q2(), 4e-6);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn q2(&self) -> f64 {
         self.q2
     }
@@ -119,6 +145,13 @@ pub struct Drift {
 
 impl Drift {
     /// Builds DR with slope `omega` (finite, ≠ 0: the book's Ω is ℝ⁺ or ℝ⁻).
+    ///
+    /// ```
+    /// use processes::Drift;
+    /// assert_eq!(Drift::new(1e-7)?.omega(), 1e-7); // unit per sample
+    /// assert!(Drift::new(f64::INFINITY).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(omega: f64) -> Result<Self> {
         if omega == 0.0 {
             return Err(ProcessError::InvalidParameter {
@@ -133,6 +166,12 @@ impl Drift {
         })
     }
     /// The slope ω per sample.
+    ///
+    /// ```
+    /// use processes::Drift;
+    /// assert_eq!(Drift::new(-3e-8)?.omega(), -3e-8);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn omega(&self) -> f64 {
         self.omega
     }
@@ -155,12 +194,25 @@ pub struct RandomWalk {
 
 impl RandomWalk {
     /// Builds RW with innovation variance `gamma2` > 0 (finite).
+    ///
+    /// ```
+    /// use processes::RandomWalk;
+    /// assert_eq!(RandomWalk::new(1e-10)?.gamma2(), 1e-10); // unit² per sample
+    /// assert!(RandomWalk::new(0.0).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(gamma2: f64) -> Result<Self> {
         Ok(Self {
             gamma2: check_positive("RW", "gamma2", gamma2)?,
         })
     }
     /// The innovation variance γ² per sample.
+    ///
+    /// ```
+    /// use processes::RandomWalk;
+    /// assert_eq!(RandomWalk::new(4e-9)?.gamma2(), 4e-9);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn gamma2(&self) -> f64 {
         self.gamma2
     }
@@ -187,6 +239,14 @@ pub struct Ar1 {
 
 impl Ar1 {
     /// Builds AR1 with `phi` ∈ (−1, 1) and innovation variance `sigma2` > 0.
+    ///
+    /// ```
+    /// use processes::Ar1;
+    /// let ar = Ar1::new(-0.5, 3.0)?; // v² in unit²
+    /// assert_eq!((ar.phi(), ar.sigma2()), (-0.5, 3.0));
+    /// assert!(Ar1::new(-1.0, 1.0).is_err() && Ar1::new(0.5, 0.0).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(phi: f64, sigma2: f64) -> Result<Self> {
         if !(phi.is_finite() && phi > -1.0 && phi < 1.0) {
             return Err(ProcessError::InvalidParameter {
@@ -202,14 +262,33 @@ impl Ar1 {
         })
     }
     /// The autoregressive coefficient φ.
+    ///
+    /// ```
+    /// use processes::Ar1;
+    /// assert_eq!(Ar1::new(0.9, 1.0)?.phi(), 0.9);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn phi(&self) -> f64 {
         self.phi
     }
     /// The innovation variance v².
+    ///
+    /// ```
+    /// use processes::Ar1;
+    /// assert_eq!(Ar1::new(0.9, 1e-6)?.sigma2(), 1e-6);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn sigma2(&self) -> f64 {
         self.sigma2
     }
     /// The stationary variance v² / (1 − φ²).
+    ///
+    /// ```
+    /// use processes::Ar1;
+    /// // v² / (1 − φ²) = 0.75 / 0.75 (unit²).
+    /// assert!((Ar1::new(0.5, 0.75)?.stationary_variance() - 1.0).abs() < 1e-15);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn stationary_variance(&self) -> f64 {
         self.sigma2 / ((1.0 - self.phi) * (1.0 + self.phi))
     }
@@ -239,6 +318,14 @@ pub struct GaussMarkov {
 
 impl GaussMarkov {
     /// Builds GM with `beta` > 0 (1/s) and stationary variance `sigma2` = σ_G² > 0.
+    ///
+    /// ```
+    /// use processes::GaussMarkov;
+    /// let gm = GaussMarkov::new(0.02, 1e-6)?; // β in 1/s, σ_G² in unit²
+    /// assert_eq!((gm.beta(), gm.sigma2()), (0.02, 1e-6));
+    /// assert!(GaussMarkov::new(0.0, 1e-6).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(beta: f64, sigma2: f64) -> Result<Self> {
         Ok(Self {
             beta: check_positive("GM", "beta", beta)?,
@@ -246,18 +333,45 @@ impl GaussMarkov {
         })
     }
     /// β in 1/s.
+    ///
+    /// ```
+    /// use processes::GaussMarkov;
+    /// assert_eq!(GaussMarkov::new(0.5, 1.0)?.beta(), 0.5);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn beta(&self) -> f64 {
         self.beta
     }
     /// The stationary variance σ_G².
+    ///
+    /// ```
+    /// use processes::GaussMarkov;
+    /// assert_eq!(GaussMarkov::new(0.5, 2.0)?.sigma2(), 2.0);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn sigma2(&self) -> f64 {
         self.sigma2
     }
     /// The correlation time 1/β in seconds.
+    ///
+    /// ```
+    /// use processes::GaussMarkov;
+    /// assert_eq!(GaussMarkov::new(0.01, 1.0)?.correlation_time(), 100.0); // seconds
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn correlation_time(&self) -> f64 {
         1.0 / self.beta
     }
     /// The equivalent AR1 at sampling rate `rate_hz`: φ = e^{−β/rate}, v² = σ_G² (1 − φ²).
+    ///
+    /// ```
+    /// use processes::GaussMarkov;
+    /// let ar = GaussMarkov::new(2.0, 1.0)?.to_ar1(10.0)?; // Δt = 0.1 s
+    /// assert!((ar.phi() - (-0.2f64).exp()).abs() < 1e-15);
+    /// assert!((ar.stationary_variance() - 1.0).abs() < 1e-12);
+    /// assert!(GaussMarkov::new(2.0, 1.0)?.to_ar1(0.0).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn to_ar1(&self, rate_hz: f64) -> Result<Ar1> {
         let dt = 1.0 / check_rate(rate_hz)?;
         let phi = (-self.beta * dt).exp();
@@ -267,6 +381,15 @@ impl GaussMarkov {
     }
     /// The GM equivalent to an AR1 with φ ∈ (0, 1) at sampling rate `rate_hz`:
     /// β = −ln φ · rate, σ_G² = v² / (1 − φ²).
+    ///
+    /// ```
+    /// use processes::{Ar1, GaussMarkov};
+    /// let gm = GaussMarkov::from_ar1(&Ar1::new(0.5, 0.75)?, 1.0)?;
+    /// assert!((gm.beta() - 2f64.ln()).abs() < 1e-15); // 1/s
+    /// assert!((gm.sigma2() - 1.0).abs() < 1e-15);
+    /// assert!(GaussMarkov::from_ar1(&Ar1::new(-0.5, 1.0)?, 1.0).is_err()); // φ ≤ 0
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn from_ar1(ar1: &Ar1, rate_hz: f64) -> Result<Self> {
         let rate = check_rate(rate_hz)?;
         if ar1.phi() <= 0.0 {
@@ -300,6 +423,13 @@ pub struct Ma1 {
 
 impl Ma1 {
     /// Builds MA1 with finite `theta` and innovation variance `sigma2` > 0.
+    ///
+    /// ```
+    /// use processes::Ma1;
+    /// assert_eq!(Ma1::new(-2.0, 1e-6)?.theta(), -2.0); // σ² in unit²
+    /// assert!(Ma1::new(f64::NAN, 1.0).is_err() && Ma1::new(0.5, -1.0).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(theta: f64, sigma2: f64) -> Result<Self> {
         Ok(Self {
             theta: check_finite("MA1", "theta", theta)?,
@@ -307,10 +437,22 @@ impl Ma1 {
         })
     }
     /// The moving-average coefficient θ.
+    ///
+    /// ```
+    /// use processes::Ma1;
+    /// assert_eq!(Ma1::new(0.3, 1.0)?.theta(), 0.3);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn theta(&self) -> f64 {
         self.theta
     }
     /// The innovation variance σ².
+    ///
+    /// ```
+    /// use processes::Ma1;
+    /// assert_eq!(Ma1::new(0.3, 5.0)?.sigma2(), 5.0);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn sigma2(&self) -> f64 {
         self.sigma2
     }
@@ -352,6 +494,12 @@ pub enum ProcessKind {
 
 impl ProcessKind {
     /// Every kind, in the conventional order QN, WN, RW, DR, AR1, GM, MA1.
+    ///
+    /// ```
+    /// use processes::ProcessKind;
+    /// let codes: Vec<_> = ProcessKind::ALL.iter().map(|k| k.code()).collect();
+    /// assert_eq!(codes, ["QN", "WN", "RW", "DR", "AR1", "GM", "MA1"]);
+    /// ```
     pub const ALL: [ProcessKind; 7] = [
         ProcessKind::QuantizationNoise,
         ProcessKind::WhiteNoise,
@@ -363,6 +511,11 @@ impl ProcessKind {
     ];
 
     /// The short code used in model strings: `WN`, `QN`, `DR`, `RW`, `AR1`, `GM`, `MA1`.
+    ///
+    /// ```
+    /// use processes::ProcessKind;
+    /// assert_eq!(ProcessKind::GaussMarkov.code(), "GM");
+    /// ```
     pub fn code(self) -> &'static str {
         match self {
             ProcessKind::WhiteNoise => "WN",
@@ -376,6 +529,11 @@ impl ProcessKind {
     }
 
     /// Parameter names in the order of [`Process::params`].
+    ///
+    /// ```
+    /// use processes::ProcessKind;
+    /// assert_eq!(ProcessKind::GaussMarkov.param_names(), ["beta", "sigma2"]);
+    /// ```
     pub fn param_names(self) -> &'static [&'static str] {
         match self {
             ProcessKind::WhiteNoise => &["sigma2"],
@@ -389,18 +547,34 @@ impl ProcessKind {
     }
 
     /// Number of parameters.
+    ///
+    /// ```
+    /// use processes::ProcessKind;
+    /// assert_eq!((ProcessKind::WhiteNoise.n_params(), ProcessKind::Ma1.n_params()), (1, 2));
+    /// ```
     pub fn n_params(self) -> usize {
         self.param_names().len()
     }
 
     /// Whether the process is (weakly) stationary (book Remark 2.6): WN, QN, AR1, GM and
     /// MA1 are; DR and RW are not.
+    ///
+    /// ```
+    /// use processes::ProcessKind;
+    /// assert!(ProcessKind::QuantizationNoise.is_stationary());
+    /// assert!(!ProcessKind::RandomWalk.is_stationary());
+    /// ```
     pub fn is_stationary(self) -> bool {
         !matches!(self, ProcessKind::Drift | ProcessKind::RandomWalk)
     }
 
     /// Whether a model may hold several components of this kind and stay identifiable
     /// (only AR1 and GM may repeat).
+    ///
+    /// ```
+    /// use processes::ProcessKind;
+    /// assert!(ProcessKind::Ar1.may_repeat() && !ProcessKind::WhiteNoise.may_repeat());
+    /// ```
     pub fn may_repeat(self) -> bool {
         matches!(self, ProcessKind::Ar1 | ProcessKind::GaussMarkov)
     }
@@ -479,6 +653,12 @@ impl_from_process!(
 
 impl Process {
     /// The kind of this process.
+    ///
+    /// ```
+    /// use processes::{Drift, Process, ProcessKind};
+    /// assert_eq!(Process::from(Drift::new(1e-7)?).kind(), ProcessKind::Drift);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn kind(&self) -> ProcessKind {
         match self {
             Process::WhiteNoise(_) => ProcessKind::WhiteNoise,
@@ -492,6 +672,12 @@ impl Process {
     }
 
     /// Parameter values in the order of [`ProcessKind::param_names`].
+    ///
+    /// ```
+    /// use processes::{GaussMarkov, Process};
+    /// assert_eq!(Process::from(GaussMarkov::new(0.1, 2.0)?).params(), [0.1, 2.0]);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn params(&self) -> Vec<f64> {
         match *self {
             Process::WhiteNoise(p) => vec![p.sigma2],
@@ -506,6 +692,14 @@ impl Process {
 
     /// Builds a process of `kind` from its parameter values (same order as
     /// [`ProcessKind::param_names`]), validating them.
+    ///
+    /// ```
+    /// use processes::{Ar1, Process, ProcessKind};
+    /// assert_eq!(Process::from_params(ProcessKind::Ar1, &[0.9, 1e-6])?, Process::from(Ar1::new(0.9, 1e-6)?));
+    /// assert!(Process::from_params(ProcessKind::Ar1, &[0.9]).is_err()); // φ and v² needed
+    /// assert!(Process::from_params(ProcessKind::Ar1, &[1.5, 1e-6]).is_err()); // |φ| ≥ 1
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn from_params(kind: ProcessKind, values: &[f64]) -> Result<Self> {
         if values.len() != kind.n_params() {
             return Err(ProcessError::InvalidArgument(format!(
@@ -529,12 +723,27 @@ impl Process {
     }
 
     /// Whether the process is (weakly) stationary (book Remark 2.6).
+    ///
+    /// ```
+    /// use processes::{Process, RandomWalk, WhiteNoise};
+    /// assert!(Process::from(WhiteNoise::new(1.0)?).is_stationary());
+    /// assert!(!Process::from(RandomWalk::new(1.0)?).is_stationary());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn is_stationary(&self) -> bool {
         self.kind().is_stationary()
     }
 
     /// The process as an AR1 at sampling rate `rate_hz` when it is one (AR1 itself, or GM
     /// through the book's map); `None` for the other kinds.
+    ///
+    /// ```
+    /// use processes::{GaussMarkov, Process, WhiteNoise};
+    /// let gm = Process::from(GaussMarkov::new(1.0, 1.0)?);
+    /// assert!((gm.as_ar1(1.0)?.unwrap().phi() - (-1f64).exp()).abs() < 1e-15);
+    /// assert!(Process::from(WhiteNoise::new(1.0)?).as_ar1(1.0)?.is_none());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn as_ar1(&self, rate_hz: f64) -> Result<Option<Ar1>> {
         match self {
             Process::Ar1(a) => Ok(Some(*a)),
@@ -544,6 +753,13 @@ impl Process {
     }
 
     /// Mean E\[X_t\] at time index `t` = 1, 2, … (ω t for drift, 0 otherwise).
+    ///
+    /// ```
+    /// use processes::{Drift, Process, WhiteNoise};
+    /// assert_eq!(Process::from(Drift::new(0.25)?).mean_at(8), 2.0); // ω t, unit
+    /// assert_eq!(Process::from(WhiteNoise::new(1.0)?).mean_at(8), 0.0);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn mean_at(&self, t: u64) -> f64 {
         match self {
             Process::Drift(d) => d.omega * t as f64,
@@ -553,6 +769,13 @@ impl Process {
 
     /// Variance Var(X_t) at time index `t` = 1, 2, … : t γ² for RW, 0 for DR, and the
     /// stationary variance γ(0) otherwise. `rate_hz` is needed for GM only.
+    ///
+    /// ```
+    /// use processes::{Process, QuantizationNoise, RandomWalk};
+    /// assert_eq!(Process::from(RandomWalk::new(0.5)?).variance_at(10, 1.0)?, 5.0); // t γ², unit²
+    /// assert_eq!(Process::from(QuantizationNoise::new(1.0)?).variance_at(10, 1.0)?, 2.0); // 2Q²
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn variance_at(&self, t: u64, rate_hz: f64) -> Result<f64> {
         check_rate(rate_hz)?;
         match self {
@@ -564,6 +787,16 @@ impl Process {
 
     /// Autocovariance γ(h) at lag `h` (samples) of a stationary process.
     /// `rate_hz` is needed for GM only. Errors for RW and DR, which are not stationary.
+    ///
+    /// ```
+    /// use processes::{Ma1, Process, RandomWalk};
+    /// let ma = Process::from(Ma1::new(0.5, 2.0)?);
+    /// assert_eq!(ma.autocovariance(0, 1.0)?, 2.5); // (1 + θ²) σ², unit²
+    /// assert_eq!(ma.autocovariance(1, 1.0)?, 1.0); // θ σ²
+    /// assert_eq!(ma.autocovariance(2, 1.0)?, 0.0);
+    /// assert!(Process::from(RandomWalk::new(1.0)?).autocovariance(1, 1.0).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn autocovariance(&self, h: u64, rate_hz: f64) -> Result<f64> {
         check_rate(rate_hz)?;
         Ok(match *self {
@@ -600,6 +833,12 @@ impl Process {
     }
 
     /// Autocorrelation ρ(h) = γ(h)/γ(0) of a stationary process (see [`Self::autocovariance`]).
+    ///
+    /// ```
+    /// use processes::{Process, QuantizationNoise};
+    /// assert_eq!(Process::from(QuantizationNoise::new(3.0)?).autocorrelation(1, 1.0)?, -0.5);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn autocorrelation(&self, h: u64, rate_hz: f64) -> Result<f64> {
         Ok(self.autocovariance(h, rate_hz)? / self.autocovariance(0, rate_hz)?)
     }
