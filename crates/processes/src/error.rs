@@ -4,6 +4,14 @@ use thiserror::Error;
 
 /// Everything that can go wrong when building processes, models and time series,
 /// or when simulating them.
+///
+/// ```
+/// use processes::{Ar1, Model, ProcessError};
+/// let err = Ar1::new(1.2, 1.0).unwrap_err();
+/// assert!(matches!(err, ProcessError::InvalidParameter { name: "phi", .. }));
+/// assert!(err.to_string().contains("(-1, 1)"));
+/// assert_eq!("WN + WN".parse::<Model>().unwrap_err(), ProcessError::DuplicateComponent { kind: "WN" });
+/// ```
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ProcessError {
     /// A parameter is outside its admissible range (or not finite).
@@ -90,4 +98,12 @@ pub enum ProcessError {
 }
 
 /// Shorthand for results of this crate.
+///
+/// ```
+/// fn variance_of_wn(sigma2: f64) -> processes::Result<f64> {
+///     processes::Process::from(processes::WhiteNoise::new(sigma2)?).variance_at(1, 1.0)
+/// }
+/// assert_eq!(variance_of_wn(2.0), Ok(2.0));
+/// assert!(variance_of_wn(-2.0).is_err());
+/// ```
 pub type Result<T, E = ProcessError> = std::result::Result<T, E>;

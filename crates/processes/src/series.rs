@@ -39,14 +39,30 @@ pub enum Unit {
 
 impl Unit {
     /// True for gyroscope units (°/s, rad/s).
+    ///
+    /// ```
+    /// use processes::Unit;
+    /// assert!(Unit::DegPerSec.is_angular_rate() && !Unit::G.is_angular_rate());
+    /// ```
     pub fn is_angular_rate(&self) -> bool {
         matches!(self, Unit::DegPerSec | Unit::RadPerSec)
     }
     /// True for accelerometer units (g, m/s²).
+    ///
+    /// ```
+    /// use processes::Unit;
+    /// assert!(Unit::MetrePerSec2.is_acceleration() && !Unit::RadPerSec.is_acceleration());
+    /// ```
     pub fn is_acceleration(&self) -> bool {
         matches!(self, Unit::G | Unit::MetrePerSec2)
     }
     /// The unit's symbol as printed, e.g. `"°/s"`.
+    ///
+    /// ```
+    /// use processes::Unit;
+    /// assert_eq!(Unit::MetrePerSec2.symbol(), "m/s²");
+    /// assert_eq!(Unit::Other("V".into()).symbol(), "V");
+    /// ```
     pub fn symbol(&self) -> &str {
         match self {
             Unit::DegPerSec => "°/s",
@@ -115,11 +131,26 @@ pub struct TimeSeries {
 impl TimeSeries {
     /// Builds a series, checking the rate is finite and > 0 and that every value is finite
     /// (the error names the first bad index). Name `"x"`, start 0 s, unitless.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![0.5, 0.25], 10.0)?; // 10 Hz
+    /// assert_eq!((ts.name(), ts.start()), ("x", 0.0));
+    /// assert!(TimeSeries::new(vec![1.0], 0.0).is_err()); // rate must be > 0
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(values: Vec<f64>, rate_hz: f64) -> Result<Self> {
         Self::named(values, rate_hz, "x")
     }
 
     /// As [`Self::new`] with a name (used in error messages too).
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let err = TimeSeries::named(vec![1.0, 2.0, f64::INFINITY], 10.0, "acc_z").unwrap_err();
+    /// assert!(err.to_string().contains("\"acc_z\"") && err.to_string().contains("index 2"));
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn named(values: Vec<f64>, rate_hz: f64, name: &str) -> Result<Self> {
         if !(rate_hz.is_finite() && rate_hz > 0.0) {
             return Err(ProcessError::InvalidRate(rate_hz));
@@ -154,16 +185,39 @@ impl TimeSeries {
     }
 
     /// Sets the name.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// assert_eq!(ts.with_name("gyro_y").name(), "gyro_y");
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn with_name(mut self, name: &str) -> Self {
         self.name = name.to_string();
         self
     }
     /// Sets the unit.
+    ///
+    /// ```
+    /// use processes::{TimeSeries, Unit};
+    /// let ts = TimeSeries::new(vec![0.0], 1.0)?.with_unit(Unit::RadPerSec);
+    /// assert_eq!(ts.unit(), &Unit::RadPerSec);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn with_unit(mut self, unit: Unit) -> Self {
         self.unit = unit;
         self
     }
     /// Sets the start time in seconds (must be finite).
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// let ts = ts.with_start(10.0)?; // seconds
+    /// assert_eq!(ts.time(1), 10.02);
+    /// assert!(ts.with_start(f64::NAN).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn with_start(mut self, start: f64) -> Result<Self> {
         if !start.is_finite() {
             return Err(ProcessError::InvalidArgument(format!(
@@ -174,52 +228,135 @@ impl TimeSeries {
         Ok(self)
     }
     /// The samples.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// assert_eq!(ts.values()[3], 4.0);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn values(&self) -> &[f64] {
         &self.values
     }
     /// Takes the samples out.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// assert_eq!(ts.into_values(), [1.0, 2.0, 3.0, 4.0]);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn into_values(self) -> Vec<f64> {
         self.values
     }
     /// Number of samples T.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// assert_eq!(ts.len(), 4);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn len(&self) -> usize {
         self.values.len()
     }
     /// True when there are no samples.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// assert!(TimeSeries::new(vec![], 1.0)?.is_empty());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn is_empty(&self) -> bool {
         self.values.is_empty()
     }
     /// Sampling rate in Hz.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// assert_eq!(ts.rate_hz(), 50.0);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn rate_hz(&self) -> f64 {
         self.rate_hz
     }
     /// Sampling interval Δt = 1/rate in seconds.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// assert_eq!(ts.dt(), 0.02); // seconds
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn dt(&self) -> f64 {
         1.0 / self.rate_hz
     }
     /// Time of the first sample in seconds.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// assert_eq!(ts.with_start(-1.5)?.start(), -1.5); // seconds
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn start(&self) -> f64 {
         self.start
     }
     /// Time in seconds of sample `i` (zero-based): start + i Δt.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// assert_eq!(ts.time(3), 0.06); // seconds
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn time(&self, i: usize) -> f64 {
         self.start + i as f64 / self.rate_hz
     }
     /// Duration T Δt in seconds.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// let ts = TimeSeries::new(vec![1.0, 2.0, 3.0, 4.0], 50.0)?; // 50 Hz
+    /// assert_eq!(ts.duration(), 0.08); // 4 samples × 0.02 s
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn duration(&self) -> f64 {
         self.values.len() as f64 / self.rate_hz
     }
     /// The unit.
+    ///
+    /// ```
+    /// use processes::{TimeSeries, Unit};
+    /// assert_eq!(TimeSeries::new(vec![0.0], 1.0)?.unit(), &Unit::Unitless);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn unit(&self) -> &Unit {
         &self.unit
     }
     /// The name.
+    ///
+    /// ```
+    /// use processes::TimeSeries;
+    /// assert_eq!(TimeSeries::named(vec![0.0], 1.0, "gyro_z")?.name(), "gyro_z");
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn name(&self) -> &str {
         &self.name
     }
 }
 
 /// The kind of sensor a channel of an IMU record comes from.
+///
+/// ```
+/// use processes::{ImuRecord, Sensor, TimeSeries};
+/// let g = TimeSeries::new(vec![0.0; 5], 200.0)?;
+/// let a = TimeSeries::new(vec![1.0; 5], 200.0)?;
+/// let imu = ImuRecord::new(vec![(Sensor::Gyroscope, g), (Sensor::Accelerometer, a)])?;
+/// assert_eq!(imu.channels()[1].0, Sensor::Accelerometer);
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Sensor {
     /// Gyroscope (angular rate).
@@ -249,6 +386,15 @@ pub struct ImuRecord {
 
 impl ImuRecord {
     /// Builds a record; every channel must have the same length and rate.
+    ///
+    /// ```
+    /// use processes::{ImuRecord, Sensor, TimeSeries};
+    /// let a = TimeSeries::new(vec![0.0; 5], 100.0)?;
+    /// let b = TimeSeries::new(vec![0.0; 4], 100.0)?;
+    /// assert!(ImuRecord::new(vec![(Sensor::Gyroscope, a), (Sensor::Gyroscope, b)]).is_err());
+    /// assert!(ImuRecord::new(vec![]).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn new(channels: Vec<(Sensor, TimeSeries)>) -> Result<Self> {
         let Some((_, first)) = channels.first() else {
             return Err(ProcessError::InvalidArgument(
@@ -275,10 +421,29 @@ impl ImuRecord {
         Ok(Self { channels })
     }
     /// All channels with their sensor kind.
+    ///
+    /// ```
+    /// use processes::{ImuRecord, Sensor, TimeSeries};
+    /// let g = TimeSeries::new(vec![0.0; 5], 200.0)?;
+    /// let a = TimeSeries::new(vec![1.0; 5], 200.0)?;
+    /// let imu = ImuRecord::new(vec![(Sensor::Gyroscope, g), (Sensor::Accelerometer, a)])?;
+    /// assert_eq!(imu.channels().len(), 2);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn channels(&self) -> &[(Sensor, TimeSeries)] {
         &self.channels
     }
     /// The channels of one sensor kind.
+    ///
+    /// ```
+    /// use processes::{ImuRecord, Sensor, TimeSeries};
+    /// let g = TimeSeries::new(vec![0.0; 5], 200.0)?;
+    /// let a = TimeSeries::new(vec![1.0; 5], 200.0)?;
+    /// let imu = ImuRecord::new(vec![(Sensor::Gyroscope, g), (Sensor::Accelerometer, a)])?;
+    /// assert_eq!(imu.channels_of(Sensor::Gyroscope).count(), 1);
+    /// assert_eq!(imu.channels_of(Sensor::Other).count(), 0);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn channels_of(&self, sensor: Sensor) -> impl Iterator<Item = &TimeSeries> {
         self.channels
             .iter()
@@ -286,14 +451,41 @@ impl ImuRecord {
             .map(|(_, c)| c)
     }
     /// Samples per channel.
+    ///
+    /// ```
+    /// use processes::{ImuRecord, Sensor, TimeSeries};
+    /// let g = TimeSeries::new(vec![0.0; 5], 200.0)?;
+    /// let a = TimeSeries::new(vec![1.0; 5], 200.0)?;
+    /// let imu = ImuRecord::new(vec![(Sensor::Gyroscope, g), (Sensor::Accelerometer, a)])?;
+    /// assert_eq!(imu.len(), 5);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn len(&self) -> usize {
         self.channels[0].1.len()
     }
     /// True when the channels have no samples.
+    ///
+    /// ```
+    /// use processes::{ImuRecord, Sensor, TimeSeries};
+    /// let g = TimeSeries::new(vec![0.0; 5], 200.0)?;
+    /// let a = TimeSeries::new(vec![1.0; 5], 200.0)?;
+    /// let imu = ImuRecord::new(vec![(Sensor::Gyroscope, g), (Sensor::Accelerometer, a)])?;
+    /// assert!(!imu.is_empty());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
     /// The common sampling rate in Hz.
+    ///
+    /// ```
+    /// use processes::{ImuRecord, Sensor, TimeSeries};
+    /// let g = TimeSeries::new(vec![0.0; 5], 200.0)?;
+    /// let a = TimeSeries::new(vec![1.0; 5], 200.0)?;
+    /// let imu = ImuRecord::new(vec![(Sensor::Gyroscope, g), (Sensor::Accelerometer, a)])?;
+    /// assert_eq!(imu.rate_hz(), 200.0); // Hz
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     pub fn rate_hz(&self) -> f64 {
         self.channels[0].1.rate_hz()
     }

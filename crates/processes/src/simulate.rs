@@ -100,6 +100,16 @@ use rayon::prelude::*;
 /// Number of samples per chunk of the fixed chunk layout (2^16). Each chunk of each
 /// component has its own random stream; this constant is part of the reproducibility
 /// contract (changing it changes every simulated path).
+///
+/// ```
+/// use processes::{Model, CHUNK_LEN};
+/// // A shorter path is a prefix of a longer one, across chunk boundaries too.
+/// let m: Model = "WN(sigma2=1) + RW(gamma2=0.01)".parse()?;
+/// let long = m.simulate(2 * CHUNK_LEN + 5, 1.0, 3)?;
+/// let short = m.simulate(CHUNK_LEN + 1, 1.0, 3)?;
+/// assert_eq!(short.values(), &long.values()[..CHUNK_LEN + 1]);
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
 pub const CHUNK_LEN: usize = 1 << 16;
 
 /// Samples per inner block: each component fills a block in turn, so the block stays in L1.
