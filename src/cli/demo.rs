@@ -430,8 +430,9 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     ))?;
     w(format!(
         "Simultaneous {level} intervals: Bonferroni over all K = {k} parameters, each at level 1 - {alpha}/{k} = {sim_level},\n\
-         so that all {k} cover their true values together with probability >= {level} (a marginal {level} CI\n\
-         covers its own parameter with {level}; all {k} at once only with about {:.0}% if independent).",
+         so that all {k} cover their true values together with probability >= {level} (as far as the\n\
+         delta method's large-sample intervals are exact). A marginal {level} CI covers its own parameter\n\
+         with {level}; all {k} at once cover only with about {:.0}% if independent.",
         100.0 * (1.0 - alpha).powi(k as i32)
     ))?;
     w(format!(
