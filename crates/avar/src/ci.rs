@@ -370,58 +370,85 @@ fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
     let sxx = nf * (nf * nf - 1.0) / 12.0;
     let slope = if sxx > 0.0 { sty / sxx } else { 0.0 };
     let r = |i: usize| y(i) - (ym + slope * (i as f64 - tm));
-    // one pass for all three differencing levels: per block, the lag-1 products and squares of
-    // x^(d) − μ_d for d = 0, 1, 2 (μ_d from the end points: the residuals have mean 0)
+    // level by level (most scales stop at d = 0): per block, the lag-1 products and squares of
+    // x^(d) − μ_d, where x^(d) is the d-th difference of the residuals (μ_d from the end
+    // points: the residuals have mean 0), in one tight loop with the last d + 1 residuals
+    // carried along
     let mu = [
         0.0,
         (r(n - 1) - r(0)) / (n - 1) as f64,
         ((r(n - 1) - r(n - 2)) - (r(1) - r(0))) / (n - 2) as f64,
     ];
-    let parts: Vec<[f64; 6]> = (0..blocks)
-        .into_par_iter()
-        .map(|b| {
-            let mut acc = [0.0f64; 6];
-            let lo = b * B;
-            let end = ((b + 1) * B).min(n);
-            // residuals r_lo .. r_{end+2} (clipped at n), each computed once
-            let rb: Vec<f64> = (lo..(end + 3).min(n)).map(r).collect();
-            for (d, &mu_d) in mu.iter().enumerate() {
-                let len = n - d;
-                let end_d = end.min(len);
-                if lo >= end_d {
-                    continue;
-                }
-                let x = |i: usize| {
-                    let j = i - lo;
-                    match d {
-                        0 => rb[j],
-                        1 => rb[j + 1] - rb[j],
-                        _ => rb[j + 2] - 2.0 * rb[j + 1] + rb[j],
+    for d in 0..=2usize {
+        let len = n - d;
+        let mu_d = mu[d];
+        let parts: Vec<(f64, f64)> = (0..len.div_ceil(B))
+            .into_par_iter()
+            .map(|b| {
+                let lo = b * B;
+                let end = ((b + 1) * B).min(len);
+                // sub-blocks of S values of x^(d) − μ_d (plus the one after, for the lag
+                // product), formed in a small buffer, then summed with 8 lanes
+                const S: usize = 512;
+                let mut rb = [0.0f64; S + 3];
+                let mut xb = [0.0f64; S + 1];
+                let (mut lag, mut sq) = ([0.0f64; 8], [0.0f64; 8]);
+                let mut sb = lo;
+                while sb < end {
+                    let se = (sb + S).min(end);
+                    // x_i for i in [sb, xe): one past the sub-block when it exists
+                    let xe = (se + 1).min(len);
+                    let nx = xe - sb;
+                    for (k, v) in rb[..nx + d].iter_mut().enumerate() {
+                        *v = r(sb + k);
                     }
-                };
-                let mut prev = x(lo) - mu_d;
-                for i in lo..end_d {
-                    acc[2 * d + 1] += prev * prev;
-                    if i + 1 < len {
-                        let next = x(i + 1) - mu_d;
-                        acc[2 * d] += prev * next;
-                        prev = next;
+                    for (k, v) in xb[..nx].iter_mut().enumerate() {
+                        let x = match d {
+                            0 => rb[k],
+                            1 => rb[k + 1] - rb[k],
+                            _ => (rb[k + 2] - rb[k + 1]) - (rb[k + 1] - rb[k]),
+                        };
+                        *v = x - mu_d;
                     }
+                    let ns = se - sb;
+                    // squares of x_sb .. x_{se−1}; products x_i x_{i+1} for i + 1 < xe
+                    let np = nx - 1;
+                    let mut it = xb[..ns].chunks_exact(8);
+                    for ch in &mut it {
+                        for l in 0..8 {
+                            sq[l] += ch[l] * ch[l];
+                        }
+                    }
+                    for (l, v) in it.remainder().iter().enumerate() {
+                        sq[l] += v * v;
+                    }
+                    let (a, bb) = (&xb[..np], &xb[1..np + 1]);
+                    let mut ia = a.chunks_exact(8);
+                    let mut ib = bb.chunks_exact(8);
+                    for (ca, cb) in (&mut ia).zip(&mut ib) {
+                        for l in 0..8 {
+                            lag[l] += ca[l] * cb[l];
+                        }
+                    }
+                    for (l, (va, vb)) in ia.remainder().iter().zip(ib.remainder()).enumerate() {
+                        lag[l] += va * vb;
+                    }
+                    sb = se;
                 }
-            }
-            acc
-        })
-        .collect();
-    for d in 0..=2u32 {
-        let num: f64 = parts.iter().map(|p| p[2 * d as usize]).sum();
-        let den: f64 = parts.iter().map(|p| p[2 * d as usize + 1]).sum();
+                let red =
+                    |v: [f64; 8]| ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]));
+                (red(lag), red(sq))
+            })
+            .collect();
+        let num: f64 = parts.iter().map(|p| p.0).sum();
+        let den: f64 = parts.iter().map(|p| p.1).sum();
         let r1 = num / den;
         if !r1.is_finite() {
             return None;
         }
         let rho = r1 / (1.0 + r1);
         if rho < 0.25 || d >= 2 {
-            return Some(NoiseId::decide(r1, d, n_id));
+            return Some(NoiseId::decide(r1, d as u32, n_id));
         }
     }
     None

@@ -352,9 +352,26 @@ fn two_sum(a: f64, b: f64) -> (f64, f64) {
     (s, (a - (s - bb)) + (b - bb))
 }
 
-/// d_s = C_s − 2C_{s−m} + C_{s−2m} from the checkpoints, the large parts differenced exactly.
+/// d_s = C_s − 2C_{s−m} + C_{s−2m}: for m < G directly as Σ_{i=s−m}^{s−1} (x_i − x_{i−m}) (the
+/// mean and any offset cancel in each difference); otherwise from the checkpoints, the large
+/// parts differenced exactly.
 #[inline]
 fn d_start(x: &[f64], ck: &Checkpoints, m: usize, s: usize) -> f64 {
+    if m < G {
+        let mut l = [0.0f64; 4];
+        let (xa, xb) = (&x[s - m..s], &x[s - 2 * m..s - m]);
+        let mut ia = xa.chunks_exact(4);
+        let mut ib = xb.chunks_exact(4);
+        for (va, vb) in (&mut ia).zip(&mut ib) {
+            for j in 0..4 {
+                l[j] += va[j] - vb[j];
+            }
+        }
+        for (j, (va, vb)) in ia.remainder().iter().zip(ib.remainder()).enumerate() {
+            l[j] += va - vb;
+        }
+        return (l[0] + l[1]) + (l[2] + l[3]);
+    }
     let (ah, al) = ck.at(x, s);
     let (bh, bl) = ck.at(x, s - m);
     let (ch, cl) = ck.at(x, s - 2 * m);
