@@ -339,7 +339,7 @@ pub(crate) fn apply(
 /// streamed from the cumulative sums (no per-scale buffer): identical in exact arithmetic to
 /// [`identify_noise`] on the materialised means.
 fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
-    let c = &cum.c;
+    let c: &[f64] = &cum.c;
     let n = (c.len() - 1) / m;
     if n < MIN_ID_CLUSTERS {
         return None;
@@ -347,7 +347,18 @@ fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
     let inv = cum.factor / m as f64;
     let n_id = n;
     let y = |i: usize| (c[(i + 1) * m] - c[i * m]) * inv;
+    // y_lo, y_{lo+1}, … into `out` (strided reads of the cumulative sums)
+    let gather = |lo: usize, out: &mut [f64]| {
+        let mut it = c[lo * m..].iter().step_by(m);
+        let mut prev = it.next().copied().unwrap_or(0.0);
+        for (v, &next) in out.iter_mut().zip(it) {
+            *v = (next - prev) * inv;
+            prev = next;
+        }
+    };
     const B: usize = 1 << 14;
+    // sub-block of values gathered into a stack buffer, then summed with 8 lanes
+    const S: usize = 512;
     let blocks = n.div_ceil(B);
     // pass 1: least-squares line through (i, y_i)
     let nf = n as f64;
@@ -355,13 +366,33 @@ fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
     let parts: Vec<(f64, f64)> = (0..blocks)
         .into_par_iter()
         .map(|b| {
-            let (mut sy, mut sty) = (0.0, 0.0);
-            for i in b * B..((b + 1) * B).min(n) {
-                let v = y(i);
-                sy += v;
-                sty += (i as f64 - tm) * v;
+            let (mut sy, mut sty) = ([0.0f64; 8], [0.0f64; 8]);
+            let mut buf = [0.0f64; S];
+            let end = ((b + 1) * B).min(n);
+            let mut sb = b * B;
+            while sb < end {
+                let ns = (end - sb).min(S);
+                gather(sb, &mut buf[..ns]);
+                // i − tm, exact (half-integers far below 2^53)
+                let t0 = sb as f64 - tm;
+                let mut it = buf[..ns].chunks_exact(8);
+                let mut k0 = 0u32;
+                for ch in &mut it {
+                    for l in 0..8 {
+                        sy[l] += ch[l];
+                        sty[l] += (t0 + (k0 + l as u32) as f64) * ch[l];
+                    }
+                    k0 += 8;
+                }
+                for (l, &v) in it.remainder().iter().enumerate() {
+                    sy[l] += v;
+                    sty[l] += (t0 + (k0 + l as u32) as f64) * v;
+                }
+                sb += ns;
             }
-            (sy, sty)
+            let red =
+                |v: [f64; 8]| ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]));
+            (red(sy), red(sty))
         })
         .collect();
     let sy: f64 = parts.iter().map(|p| p.0).sum();
@@ -389,7 +420,6 @@ fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
                 let end = ((b + 1) * B).min(len);
                 // sub-blocks of S values of x^(d) − μ_d (plus the one after, for the lag
                 // product), formed in a small buffer, then summed with 8 lanes
-                const S: usize = 512;
                 let mut rb = [0.0f64; S + 3];
                 let mut xb = [0.0f64; S + 1];
                 let (mut lag, mut sq) = ([0.0f64; 8], [0.0f64; 8]);
@@ -399,8 +429,10 @@ fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
                     // x_i for i in [sb, xe): one past the sub-block when it exists
                     let xe = (se + 1).min(len);
                     let nx = xe - sb;
+                    gather(sb, &mut rb[..nx + d]);
+                    let t0 = sb as f64 - tm;
                     for (k, v) in rb[..nx + d].iter_mut().enumerate() {
-                        *v = r(sb + k);
+                        *v -= ym + slope * (t0 + (k as u32) as f64);
                     }
                     for (k, v) in xb[..nx].iter_mut().enumerate() {
                         let x = match d {
