@@ -61,16 +61,18 @@
 //! Thread scaling into a fresh buffer: a model without recurrence (only WN, QN, DR, MA1) is
 //! one parallel loop over all its chunks. The pool gives each thread a contiguous run of
 //! chunks, so each thread page-faults its own huge pages as it writes them, with no serial
-//! pass and no barrier. (Through the recurrences' groups of 8 chunks, i.e. 4 MB and one
-//! barrier per group, the thread that took a group's page faults kept the other waiting.)
-//! Measured for WN, n = 10^8 (fresh 800 MB output), best of 9 runs under `chrt -f 10` on the
-//! project's 2-core VM: groups 260–270 ms on 1 thread, 141–151 ms on 2 (1.75–1.85×); one
-//! loop 239–253 ms and 121–130 ms (1.94–1.99×), the 2-thread time within 5 ms of generating
-//! into an already-faulted buffer. Tried and not kept: `MADV_POPULATE_WRITE` of each chunk
-//! by its worker just before generating (131 vs 130 ms on 2 threads: a huge-page fault
-//! already maps 2 MiB at once); 4 KiB pages, i.e. no huge-page advice (560–570 ms and
-//! 315–323 ms, with or without populate). A private `mmap` (e.g. `MAP_NORESERVE`) cannot
-//! back the output, which is a `Vec` freed by the global allocator.
+//! pass and no barrier. Through the recurrences' groups of 8 chunks (4 MB, so 191 barriers
+//! at n = 10^8) the thread that finished its share first, or took fewer page faults in it,
+//! waited for the other at every barrier: 13 ms of 130 on 2 threads even into an
+//! already-faulted buffer. Measured for WN, n = 10^8 (fresh 800 MB output), best of 9 runs
+//! under `chrt -f 10` on the project's 2-core VM: groups 260–270 ms on 1 thread, 141–151 ms
+//! on 2 (1.75–1.85×); one loop 225–253 ms and 118–130 ms (1.91–1.99×), 5–12 ms more than
+//! into an already-faulted buffer; criterion, min / median of 10: 232 / 261 ms and
+//! 120 / 133 ms. Tried and not kept: `MADV_POPULATE_WRITE` of each chunk by its worker just
+//! before generating (131 vs 130 ms on 2 threads: one huge-page fault already maps 2 MiB);
+//! 4 KiB pages, i.e. no huge-page advice (560–570 ms and 315–323 ms, with or without
+//! populate). A private `mmap` (e.g. `MAP_NORESERVE`) cannot back the output, a `Vec` that
+//! the global allocator frees.
 //!
 //! Normal variates come from `rand_distr`'s ziggurat `StandardNormal`; uniforms from the top
 //! 52 bits of a 64-bit draw. Changing either changes the streams (see the value-stability
