@@ -399,7 +399,8 @@ fn seg_sum(x: &[f64], d0: f64, m: usize, s: usize, e: usize) -> f64 {
 const ROW: usize = SEG + 8;
 
 /// Scales with 2m > FAR_M are "far" (their lagged blocks are not in cache in plain chunk order)
-/// and are walked by residue class of the chunk index modulo FAR_M (a multiple of SCHUNK).
+/// and are walked by residue class of the chunk index modulo ⌊FAR_M / SCHUNK⌋ (a class step of
+/// FAR_M − 8192 samples: SCHUNK is not a power of two).
 const FAR_M: usize = 1 << 21;
 
 /// Elements ahead that [`fill_y_avx2`] prefetches in each of its three input streams.
@@ -776,10 +777,10 @@ pub(crate) fn overlapping_sums_stream(x: &[f64], ck: &Checkpoints, ms: &[u64]) -
                     .collect()
             };
             let parts: Vec<Vec<f64>> = if residue_order {
-                // far scales: walk the chunks by residue class mod FAR_M, so that the lagged
-                // blocks a − m and a − 2m (m a multiple of FAR_M for dyadic grids) are members
-                // of the same class visited a few steps earlier and still in cache; each block
-                // is then read from memory about once for all far scales
+                // far scales: walk the chunks by residue class (a step of about FAR_M), so that
+                // the lagged blocks a − m and a − 2m (m a multiple of FAR_M for dyadic grids)
+                // lie near members of the same class visited a few steps earlier (off by
+                // 8192·m/FAR_M samples), mostly still in cache
                 let n_cls = (FAR_M / SCHUNK).min(n_chunks);
                 let mut by_class: Vec<(usize, Vec<f64>)> = (0..n_cls)
                     .into_par_iter()
