@@ -28,6 +28,15 @@ fn bench_fit(c: &mut Criterion) {
     c.bench_function("gmwm fit QN+WN+RW+DR+2*AR1 on 20 scales", |b| {
         b.iter(|| fit(black_box(&curve), black_box(&template), black_box(&opts)).unwrap())
     });
+    // the iterated model-based full weighting (not the default: each step adds one
+    // model_covariance of the 20 scales)
+    let full = GmwmOptions {
+        weighting: gmwm_prep::gmwm::Weighting::ModelFull,
+        ..GmwmOptions::default()
+    };
+    c.bench_function("gmwm fit QN+WN+RW+DR+2*AR1 on 20 scales, ModelFull", |b| {
+        b.iter(|| fit(black_box(&curve), black_box(&template), black_box(&full)).unwrap())
+    });
 }
 
 fn bench_model_covariance(c: &mut Criterion) {
