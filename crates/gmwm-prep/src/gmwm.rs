@@ -16,8 +16,9 @@
 //!   Ω = V(θ̂)⁻¹ (or its diagonal) with V the exact covariance of the AV estimator under the
 //!   fitted model ([`crate::inference::model_covariance`]), starting from the diagonal fit.
 //!   On the WN + 2·AR1 Monte Carlo (`cargo xtask gmwm-mc`) the full form lowers the RMSE of
-//!   every AR1 parameter by 4–8 % against the default; it costs ~25 ms per weighting step
-//!   on 18 scales at n = 10^6, so the default stays the faster diagonal weighting.
+//!   every parameter of the three test models (crates/gmwm-prep/mc-report.md), but each
+//!   reweighting step computes one model covariance (~13 ms for 20 scales at n = 10^6; a
+//!   6-component fit takes ~115 ms against ~5 ms), so the default stays the diagonal one.
 //! - **Transforms.** Variances are fitted on the log scale; drift as log|ω| with a fixed sign;
 //!   MA1's θ = tanh(η) (invertible branch); AR1 φ ∈ (0, 1) and GM β through λ = −ln φ (= βΔt),
 //!   all AR1/GM components in one chain λ₁ = e^{η₁}, λ_k = λ_{k−1}·logistic(η_k), so
