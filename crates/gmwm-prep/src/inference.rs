@@ -351,7 +351,8 @@ pub struct Candidate {
 /// Fits every distinct non-empty sub-model of `full` (subsets of its components) with one
 /// common weighting matrix — the Ω of the full model's fit — and ranks them by WIC computed
 /// with the moments' covariance `v` (best first). Sub-models with more parameters than
-/// scales are skipped.
+/// scales, and those that fail to converge or are not identifiable from these scales
+/// (singular AᵀΩA at their estimate), are skipped; an empty list means none could be fitted.
 pub fn select_by_wic(
     curve: &AvCurve,
     full: &Model,
@@ -393,12 +394,19 @@ pub fn select_by_wic(
         if template.n_params() > j {
             continue;
         }
+        // a sub-model that cannot be fitted or whose parameters are not identifiable from
+        // these scales (e.g. an AR1 that collapsed onto another component) is not a candidate;
+        // it must not abort the selection among the others
         let f = match fit(curve, &template, &common) {
             Ok(f) => f,
-            Err(FitError::OptimizationFailed(_)) => continue,
+            Err(FitError::OptimizationFailed(_) | FitError::Unidentifiable(_)) => continue,
             Err(e) => return Err(e),
         };
-        let inf = delta_method(&f, v, 0.05)?;
+        let inf = match delta_method(&f, v, 0.05) {
+            Ok(inf) => inf,
+            Err(FitError::Unidentifiable(_)) => continue,
+            Err(e) => return Err(e),
+        };
         out.push(Candidate {
             model: f.model.to_string(),
             template: template.to_string(),
