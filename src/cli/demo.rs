@@ -365,6 +365,7 @@ pub fn estimate(n: usize, seed: u64, bootstrap: usize, ui: &Ui) -> Result<DemoRu
         bootstrap,
         seed: seed.wrapping_add(1),
         alpha,
+        weighting: super::fit::WeightingArg::Diagonal,
     };
     let fits = super::fit::fit_all(&curves, &data.units, &settings, ui)?;
     // Simultaneous intervals: Bonferroni over every parameter of every channel.
