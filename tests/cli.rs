@@ -253,27 +253,7 @@ fn simulate_csv_and_f64_round_trip_through_avar() {
     let f64p = dir.path().join("sim.f64");
     let model = "WN(sigma2=1e-4)+RW(gamma2=1e-10)";
     for p in [&csv, &f64p] {
-        let out = imunoise(&[
-            "simulate",
-            "--model",
-            model,
-            "-n",
-            "20000",
-            "--rate",
-            "100",
-            "--seed",
-            "3",
-            "--channels",
-            "2",
-            "-o",
-            p.to_str().unwrap(),
-            "--quiet",
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        simulate_file(p, model, "20000", "3", &["--channels", "2"]);
     }
     let header = std::fs::read_to_string(&csv).unwrap();
     assert!(header.starts_with("ch1,ch2\n"));
@@ -385,9 +365,10 @@ fn theory_psd_is_the_white_noise_level() {
     assert_eq!(psd.last().unwrap()["f"], 50.0);
 }
 
-fn simulate_to(dir: &Path, model: &str, n: &str, unit_name: &str) -> PathBuf {
-    let p = dir.join("sim.f64");
-    let out = imunoise(&[
+/// Runs `imunoise simulate` of `model` (n samples at 100 Hz, the given seed, extra flags) into
+/// `path` and asserts success.
+fn simulate_file(path: &Path, model: &str, n: &str, seed: &str, extra: &[&str]) {
+    let mut args = vec![
         "simulate",
         "--model",
         model,
@@ -396,16 +377,23 @@ fn simulate_to(dir: &Path, model: &str, n: &str, unit_name: &str) -> PathBuf {
         "--rate",
         "100",
         "--seed",
-        "11",
+        seed,
         "-o",
-        p.to_str().unwrap(),
+        path.to_str().unwrap(),
         "-q",
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let out = imunoise(&args);
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+fn simulate_to(dir: &Path, model: &str, n: &str, unit_name: &str) -> PathBuf {
+    let p = dir.join("sim.f64");
+    simulate_file(&p, model, n, "11", &[]);
     let _ = unit_name;
     p
 }
@@ -821,25 +809,7 @@ fn scale_accepts_fractions_of_integer_counts() {
 fn analyze_selection_skips_unidentifiable_candidates() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("wnrw.csv");
-    let out = imunoise(&[
-        "simulate",
-        "--model",
-        "WN(sigma2=1e-4)+RW(gamma2=1e-10)",
-        "-n",
-        "100000",
-        "--rate",
-        "100",
-        "--seed",
-        "4",
-        "-o",
-        p.to_str().unwrap(),
-        "-q",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    simulate_file(&p, "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "100000", "4", &[]);
     let out_dir = dir.path().join("rep");
     let out = imunoise(&[
         "analyze",
