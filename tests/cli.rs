@@ -12,6 +12,17 @@ fn imunoise(args: &[&str]) -> Output {
         .expect("the binary runs")
 }
 
+/// Runs the binary and asserts that it succeeded (printing its stderr otherwise).
+fn imunoise_ok(args: &[&str]) -> Output {
+    let out = imunoise(args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 fn write(dir: &Path, name: &str, content: &[u8]) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, content).expect("write");
@@ -136,7 +147,7 @@ fn avar_json_shape_and_ci_none() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(dir.path(), "ok.csv", good_csv(1000).as_bytes());
     let run = |ci: &str| {
-        let out = imunoise(&[
+        let out = imunoise_ok(&[
             "avar",
             p.to_str().unwrap(),
             "--rate",
@@ -146,11 +157,6 @@ fn avar_json_shape_and_ci_none() {
             "--ci",
             ci,
         ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
         serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
     };
     let doc = run("chi2");
@@ -292,7 +298,7 @@ fn simulate_csv_and_f64_round_trip_through_avar() {
 
 #[test]
 fn theory_json_shape_and_closed_forms() {
-    let out = imunoise(&[
+    let out = imunoise_ok(&[
         "theory",
         "--model",
         "WN(sigma2=1e-4)+RW(gamma2=1e-10)",
@@ -303,11 +309,6 @@ fn theory_json_shape_and_closed_forms() {
         "--format",
         "json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(doc["rate_hz"], 100.0);
     let pts = doc["points"].as_array().unwrap();
@@ -383,12 +384,7 @@ fn simulate_file(path: &Path, model: &str, n: &str, seed: &str, extra: &[&str]) 
         "-q",
     ];
     args.extend_from_slice(extra);
-    let out = imunoise(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    imunoise_ok(&args);
 }
 
 fn simulate_to(dir: &Path, model: &str, n: &str, unit_name: &str) -> PathBuf {
@@ -402,7 +398,7 @@ fn simulate_to(dir: &Path, model: &str, n: &str, unit_name: &str) -> PathBuf {
 fn fit_json_shape_and_white_noise_recovered() {
     let dir = tempfile::tempdir().unwrap();
     let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "65536", "x");
-    let out = imunoise(&[
+    let out = imunoise_ok(&[
         "fit",
         p.to_str().unwrap(),
         "--binary",
@@ -416,11 +412,6 @@ fn fit_json_shape_and_white_noise_recovered() {
         "-f",
         "json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let ch = &doc["channels"][0];
     let mut keys: Vec<&String> = ch.as_object().unwrap().keys().collect();
@@ -466,7 +457,7 @@ fn analyze_writes_report_plots_json_csv_yaml() {
     let dir = tempfile::tempdir().unwrap();
     let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "65536", "x");
     let out_dir = dir.path().join("rep");
-    let out = imunoise(&[
+    imunoise_ok(&[
         "analyze",
         p.to_str().unwrap(),
         "--binary",
@@ -484,11 +475,6 @@ fn analyze_writes_report_plots_json_csv_yaml() {
         "--out",
         out_dir.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let html = std::fs::read_to_string(out_dir.join("report.html")).unwrap();
     assert_eq!(html.matches("<svg").count(), 3);
     assert!(html.contains("Noise terms (IEEE Std 952 units)"));
@@ -539,12 +525,7 @@ fn fit_says_which_ci_method_it_used() {
             "-q",
         ];
         args.extend_from_slice(extra);
-        let out = imunoise(&args);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let out = imunoise_ok(&args);
         String::from_utf8_lossy(&out.stdout).into_owned()
     };
     let doc: serde_json::Value =
@@ -603,7 +584,7 @@ const Z_BONFERRONI_24: f64 = 3.0780880728421613;
 #[test]
 fn demo_reports_marginal_and_simultaneous_coverage() {
     let dir = tempfile::tempdir().unwrap();
-    let out = imunoise(&[
+    let out = imunoise_ok(&[
         "demo",
         "--samples",
         "65536",
@@ -613,11 +594,6 @@ fn demo_reports_marginal_and_simultaneous_coverage() {
         "--out",
         dir.path().join("d").to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("Bonferroni over all K = 24 parameters"),
@@ -773,7 +749,7 @@ fn scale_accepts_fractions_of_integer_counts() {
         .flat_map(|i| if i % 2 == 0 { 131i16 } else { -262 }.to_le_bytes())
         .collect();
     let p = write(dir.path(), "counts.bin", &bytes);
-    let out = imunoise(&[
+    let out = imunoise_ok(&[
         "avar",
         p.to_str().unwrap(),
         "--binary",
@@ -789,11 +765,6 @@ fn scale_accepts_fractions_of_integer_counts() {
         "-f",
         "json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!((doc["channels"][0]["points"][0]["avar"].as_f64().unwrap() - 4.5).abs() < 1e-12);
     let err = avar_fails(&p, &["--binary", "i16", "--scale", "1/0"]);
@@ -811,7 +782,7 @@ fn analyze_selection_skips_unidentifiable_candidates() {
     let p = dir.path().join("wnrw.csv");
     simulate_file(&p, "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "100000", "4", &[]);
     let out_dir = dir.path().join("rep");
-    let out = imunoise(&[
+    imunoise_ok(&[
         "analyze",
         p.to_str().unwrap(),
         "--rate",
@@ -820,11 +791,6 @@ fn analyze_selection_skips_unidentifiable_candidates() {
         "--out",
         out_dir.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("results.json")).unwrap())
             .unwrap();
@@ -841,7 +807,7 @@ fn fit_weighting_model_full_is_used() {
     let dir = tempfile::tempdir().unwrap();
     let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "65536", "x");
     let run = |w: &str| -> serde_json::Value {
-        let out = imunoise(&[
+        let out = imunoise_ok(&[
             "fit",
             p.to_str().unwrap(),
             "--binary",
@@ -856,11 +822,6 @@ fn fit_weighting_model_full_is_used() {
             "json",
             "-q",
         ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         v["channels"][0]["parameters"][0].clone()
     };
