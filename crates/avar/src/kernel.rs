@@ -253,16 +253,27 @@ pub(crate) const STREAM_MIN_T: usize = 1 << 22;
 
 /// Granularity (samples) of the checkpoints of the centred cumulative sum.
 const G: usize = 64;
-/// Length of one segment of k on which d_k is carried by its own recurrence.
-const SEG: usize = 1024 + G;
+/// Length of one segment of k on which d_k is carried by its own recurrence (near scales,
+/// 2m ≤ [`FAR_M`]); a k-chunk is NSEG segments. Near segment starts are SEG_NEAR·8 bytes apart,
+/// 512 bytes more than a multiple of 4 KiB, so that the rows read together fall in different L1
+/// sets; and they are multiples of G, so that for m a multiple of G (dyadic m ≥ G) every starting
+/// d comes from three checkpoints without a local sum.
+const SEG_NEAR: usize = 1024 + G;
+/// Segment length of the far scales (2m > [`FAR_M`]): a power of two, so that the chunk width
+/// (2048 samples, 16 KiB) divides the dyadic lags and the residue-class walk of [`stream_group`]
+/// finds the lagged blocks among the chunks it visited last; short, so that those (up to
+/// 2·2^25/FAR_M = 64 steps back at T = 10^8) still fit in L2 (measured: 128 beats 64, 256, 512,
+/// 1024 and the near grid by 15–25 % on the far scales of 10^8 samples).
+const SEG_FAR: usize = 128;
 /// Segments per k-chunk of the streamed kernel (one fixed accumulator each).
 const NSEG: usize = 16;
-/// Width of the k-chunks of the streamed kernel. Segment starts are SEG·8 bytes apart, 512 bytes
-/// more than a multiple of 4 KiB, so that the rows read together fall in different L1 sets; and
-/// they are multiples of G, so that for m a multiple of G (dyadic m ≥ G) every starting d comes
-/// from three checkpoints without a local sum.
-const SCHUNK: usize = NSEG * SEG;
-const _: () = assert!(NSEG == LANES && PCHUNK.is_multiple_of(G) && SEG.is_multiple_of(G));
+const _: () = assert!(
+    NSEG == LANES
+        && PCHUNK.is_multiple_of(G)
+        && SEG_NEAR.is_multiple_of(G)
+        && SEG_FAR.is_multiple_of(G)
+        && FAR_M.is_multiple_of(NSEG * SEG_FAR)
+);
 
 /// The centred cumulative sum C_p = Σ_{i<p} (x_i − mean) of rate samples, kept only at every
 /// [`G`]-th index as compensated (hi, lo) pairs: `ck[g].0 + ck[g].1` = C_{gG} (last entry: C_T).
@@ -394,32 +405,29 @@ fn seg_sum(x: &[f64], d0: f64, m: usize, s: usize, e: usize) -> f64 {
     acc + d * d
 }
 
-/// Row stride of the per-chunk y buffer (SEG plus one cache line, so that the NSEG rows read
-/// together do not map to the same L1 set).
-const ROW: usize = SEG + 8;
-
-/// Scales with 2m > FAR_M are "far" (their lagged blocks are not in cache in plain chunk order)
-/// and are walked by residue class of the chunk index modulo ⌊FAR_M / SCHUNK⌋ (a class step of
-/// FAR_M − 8192 samples: SCHUNK is not a power of two).
-const FAR_M: usize = 1 << 21;
+/// Scales with 2m > FAR_M are "far": their lagged blocks are not in cache in plain chunk order.
+/// They take the [`SEG_FAR`] grid and are walked by residue class of the chunk index modulo
+/// FAR_M / (NSEG·SEG_FAR), a class step of exactly FAR_M samples (see [`stream_group`]).
+const FAR_M: usize = 1 << 20;
 
 /// Elements ahead that [`fill_y_avx2`] prefetches in each of its three input streams.
 const PREFETCH: usize = 256;
 
 /// y_k = (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (as in [`seg_sum`]) for the full chunk
-/// [a, a + SCHUNK), segment l in row l of `yb` (stride [`ROW`]), with software prefetch: the
+/// [a, a + NSEG·SEG), segment l in row l of `yb` (stride SEG + 8: one more cache line, so that the NSEG rows read together do not map to
+/// the same L1 set), with software prefetch: the
 /// lagged streams come from far back in the series, and the hardware prefetcher stops at every
 /// 4 KiB page.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn fill_y_avx2(x: &[f64], m: usize, a: usize, yb: &mut [f64]) {
+fn fill_y_avx2<const SEG: usize>(x: &[f64], m: usize, a: usize, yb: &mut [f64]) {
     use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
     for l in 0..NSEG {
         let s = a + l * SEG;
         let xa = &x[s..s + SEG];
         let xb = &x[s - m..s - m + SEG];
         let xc = &x[s - 2 * m..s - 2 * m + SEG];
-        let row = &mut yb[l * ROW..l * ROW + SEG];
+        let row = &mut yb[l * (SEG + 8)..l * (SEG + 8) + SEG];
         for j0 in (0..SEG).step_by(8) {
             let pf = s + j0 + PREFETCH;
             // prefetch is a hint and never faults; wrapping_add keeps the address computation
@@ -435,7 +443,7 @@ fn fill_y_avx2(x: &[f64], m: usize, a: usize, yb: &mut [f64]) {
     }
 }
 
-/// The NSEG segment sums of a full chunk [a, a + SCHUNK) (2m ≤ a, a + SCHUNK ≤ T) from its y
+/// The NSEG segment sums of a full chunk [a, a + NSEG·SEG) (2m ≤ a, a + NSEG·SEG ≤ T) from its y
 /// rows (see [`fill_y_avx2`]), four segments per AVX2 vector (one lane each). Each lane performs exactly the operations of [`seg_sum`] in
 /// the same order (y_k computed as there; acc += d·d without FMA; d += y_k), so the results are
 /// bit-identical to the portable path.
@@ -444,10 +452,10 @@ fn fill_y_avx2(x: &[f64], m: usize, a: usize, yb: &mut [f64]) {
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn full_chunk_avx2(yb: &[f64], d0: &[f64; NSEG]) -> [f64; NSEG] {
+unsafe fn full_chunk_avx2<const SEG: usize>(yb: &[f64], d0: &[f64; NSEG]) -> [f64; NSEG] {
     use std::arch::x86_64::*;
     const G4: usize = NSEG / 4;
-    assert!(yb.len() >= NSEG * ROW);
+    assert!(yb.len() >= NSEG * (SEG + 8));
     // SAFETY: AVX2 is available (caller contract); every pointer stays inside `yb`, `d0` and
     // `out` (length asserted above; rows read at offsets < SEG).
     unsafe {
@@ -462,7 +470,7 @@ unsafe fn full_chunk_avx2(yb: &[f64], d0: &[f64; NSEG]) -> [f64; NSEG] {
             for g in 0..G4 {
                 let mut row = [_mm256_setzero_pd(); 4];
                 for (r, rv) in row.iter_mut().enumerate() {
-                    *rv = _mm256_loadu_pd(py.add((4 * g + r) * ROW + jb));
+                    *rv = _mm256_loadu_pd(py.add((4 * g + r) * (SEG + 8) + jb));
                 }
                 let t0 = _mm256_unpacklo_pd(row[0], row[1]);
                 let t1 = _mm256_unpackhi_pd(row[0], row[1]);
@@ -493,7 +501,8 @@ unsafe fn full_chunk_avx2(yb: &[f64], d0: &[f64; NSEG]) -> [f64; NSEG] {
 /// (the rows of x they read stay in L1 from one scale to the next; for dyadic scales the x_{k−2m}
 /// rows of scale m are the x_{k−m'} rows of m' = 2m).
 const BLK: usize = 64;
-const _: () = assert!(SEG.is_multiple_of(BLK) && BLK.is_multiple_of(8));
+const _: () =
+    assert!(SEG_NEAR.is_multiple_of(BLK) && SEG_FAR.is_multiple_of(BLK) && BLK.is_multiple_of(8));
 
 /// How far past the chunk end [`block_avx512`] reads with misalignment `s` (its last window).
 const fn tail_reach(s: usize) -> usize {
@@ -508,7 +517,7 @@ struct SegState {
     acc: [f64; NSEG],
 }
 
-/// Advances the NSEG segment recurrences of a full chunk [a, a + SCHUNK) of scale m over the
+/// Advances the NSEG segment recurrences of a full chunk [a, a + NSEG·SEG) of scale m over the
 /// columns of every segment (k = a + l·SEG + j) read in the windows j ∈ [jb − s, jb − s + 8) for
 /// jb = j0, j0 + 8, … < j1 (plus the window at jb = SEG when j1 = SEG), skipping columns outside
 /// [0, SEG): with `s` the misalignment of x[a] in elements (and m a multiple of 8) every load is
@@ -524,7 +533,7 @@ struct SegState {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn block_avx512(
+unsafe fn block_avx512<const SEG: usize>(
     x: &[f64],
     m: usize,
     a: usize,
@@ -537,13 +546,13 @@ unsafe fn block_avx512(
     const G8: usize = NSEG / 8;
     assert!(
         a >= 2 * m + s
-            && a + SCHUNK + tail_reach(s) <= x.len()
+            && a + (NSEG * SEG) + tail_reach(s) <= x.len()
             && s < 8
             && j0.is_multiple_of(8)
             && j1 <= SEG
     );
     // SAFETY: AVX-512F is available (caller contract). Every load reads x[k], x[k − m] and
-    // x[k − 2m] for k in [a − s, a + SCHUNK + tail_reach(s)), inside `x` by the assertion above; the
+    // x[k − 2m] for k in [a − s, a + NSEG·SEG + tail_reach(s)), inside `x` by the assertion above; the
     // state arrays hold NSEG = 8·G8 values.
     unsafe {
         let px = x.as_ptr();
@@ -636,13 +645,18 @@ unsafe fn block_avx512(
 /// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn chunk_all_avx512(x: &[f64], ck: &Checkpoints, batch: &[u64], i: usize) -> Vec<f64> {
+unsafe fn chunk_all_avx512<const SEG: usize>(
+    x: &[f64],
+    ck: &Checkpoints,
+    batch: &[u64],
+    i: usize,
+) -> Vec<f64> {
     let t = x.len();
-    let a = i * SCHUNK;
-    // misalignment (elements) of x[a] and of every row start (SEG and SCHUNK are multiples of 8)
+    let a = i * (NSEG * SEG);
+    // misalignment (elements) of x[a] and of every row start (SEG is a multiple of 8)
     let mis = (x.as_ptr().wrapping_add(a) as usize % 64) / 8;
     let shift = |m: usize| if m.is_multiple_of(8) { mis } else { 0 };
-    let full = |m: usize| a >= 2 * m + shift(m) && a + SCHUNK + tail_reach(shift(m)) <= t;
+    let full = |m: usize| a >= 2 * m + shift(m) && a + (NSEG * SEG) + tail_reach(shift(m)) <= t;
     let mut states: Vec<(usize, SegState)> = batch
         .iter()
         .map(|&m| m as usize)
@@ -659,7 +673,7 @@ unsafe fn chunk_all_avx512(x: &[f64], ck: &Checkpoints, batch: &[u64], i: usize)
     for j0 in (0..SEG).step_by(BLK) {
         for (m, st) in states.iter_mut() {
             // SAFETY: AVX-512F is available (caller contract); the chunk is full for m.
-            unsafe { block_avx512(x, *m, a, shift(*m), j0, j0 + BLK, st) };
+            unsafe { block_avx512::<SEG>(x, *m, a, shift(*m), j0, j0 + BLK, st) };
         }
     }
     let mut done = states.into_iter();
@@ -671,7 +685,7 @@ unsafe fn chunk_all_avx512(x: &[f64], ck: &Checkpoints, batch: &[u64], i: usize)
                 let (_, st) = done.next().expect("one state per full scale");
                 reduce_lanes(&st.acc)
             } else {
-                stream_chunk(x, ck, m, i, Simd::None, &mut [])
+                stream_chunk::<SEG>(x, ck, m, i, Simd::None, &mut [])
             }
         })
         .collect()
@@ -708,7 +722,7 @@ impl Simd {
 /// of k starts from an exact d (checkpoints) and carries the recurrence; the NSEG segment sums
 /// are reduced by the fixed tree.
 #[inline(always)]
-fn stream_chunk(
+fn stream_chunk<const SEG: usize>(
     x: &[f64],
     ck: &Checkpoints,
     m: usize,
@@ -717,10 +731,10 @@ fn stream_chunk(
     yb: &mut [f64],
 ) -> f64 {
     let t = x.len();
-    let a = i * SCHUNK;
+    let a = i * (NSEG * SEG);
     let mut acc = [0.0f64; NSEG];
     #[cfg(target_arch = "x86_64")]
-    if simd != Simd::None && a >= 2 * m && a + SCHUNK <= t {
+    if simd != Simd::None && a >= 2 * m && a + (NSEG * SEG) <= t {
         let mut d0 = [0.0f64; NSEG];
         for (l, d) in d0.iter_mut().enumerate() {
             *d = d_start(x, ck, m, a + l * SEG);
@@ -729,14 +743,14 @@ fn stream_chunk(
             let mut st = SegState { d: d0, acc };
             // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present); the
             // range is checked above.
-            unsafe { block_avx512(x, m, a, 0, 0, SEG, &mut st) };
+            unsafe { block_avx512::<SEG>(x, m, a, 0, 0, SEG, &mut st) };
             st.acc
         } else {
             // SAFETY: `Simd::Avx2` comes only from `Simd::detect` (AVX2 present); the range is
             // checked above.
             unsafe {
-                fill_y_avx2(x, m, a, yb);
-                full_chunk_avx2(yb, &d0)
+                fill_y_avx2::<SEG>(x, m, a, yb);
+                full_chunk_avx2::<SEG>(yb, &d0)
             }
         };
         return reduce_lanes(&acc);
@@ -755,64 +769,92 @@ fn stream_chunk(
 /// Σ_{k=2m}^{T} (C_k − 2C_{k−m} + C_{k−2m})² for each m in `ms`, streamed from the rate
 /// samples `x` and their checkpoints (no series-sized buffer). Deterministic for any thread
 /// count and any set of requested scales: the value for m is the Neumaier sum, in chunk order,
-/// of chunk partials that depend only on (x, m, chunk).
+/// of chunk partials that depend only on (x, m, chunk); the chunk grid depends only on m
+/// ([`SEG_NEAR`] for 2m ≤ [`FAR_M`], [`SEG_FAR`] above).
 pub(crate) fn overlapping_sums_stream(x: &[f64], ck: &Checkpoints, ms: &[u64]) -> Vec<f64> {
+    overlapping_sums_stream_split(x, ck, ms, FAR_M)
+}
+
+/// [`overlapping_sums_stream`] with the near/far threshold as a parameter: scales with
+/// 2m > `far_m` take the far grid and the residue-class walk of step `far_m` (tests use a small
+/// threshold to cover that path on short series).
+fn overlapping_sums_stream_split(
+    x: &[f64],
+    ck: &Checkpoints,
+    ms: &[u64],
+    far_m: usize,
+) -> Vec<f64> {
     let simd = Simd::detect();
-    let n_chunks = (x.len() + 1).div_ceil(SCHUNK);
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
-        (0..ms.len()).partition(|&s| ms[s] as usize <= FAR_M / 2);
-    for (group, residue_order) in [(near, false), (far, true)] {
-        for idx in group.chunks(SCALE_BATCH) {
-            let batch: Vec<u64> = idx.iter().map(|&s| ms[s]).collect();
-            let run = |yb: &mut Vec<f64>, i: usize| -> Vec<f64> {
-                #[cfg(target_arch = "x86_64")]
-                if simd == Simd::Avx512 {
-                    // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present).
-                    return unsafe { chunk_all_avx512(x, ck, &batch, i) };
-                }
-                batch
-                    .iter()
-                    .map(|&m| stream_chunk(x, ck, m as usize, i, simd, yb))
-                    .collect()
-            };
-            let parts: Vec<Vec<f64>> = if residue_order {
-                // far scales: walk the chunks by residue class (a step of about FAR_M), so that
-                // the lagged blocks a − m and a − 2m (m a multiple of FAR_M for dyadic grids)
-                // lie near members of the same class visited a few steps earlier (off by
-                // 8192·m/FAR_M samples), mostly still in cache
-                let n_cls = (FAR_M / SCHUNK).min(n_chunks);
-                let mut by_class: Vec<(usize, Vec<f64>)> = (0..n_cls)
-                    .into_par_iter()
-                    .map_init(
-                        || vec![0.0f64; NSEG * ROW],
-                        |yb, r| {
-                            (r..n_chunks)
-                                .step_by(n_cls)
-                                .map(|i| (i, run(yb, i)))
-                                .collect::<Vec<_>>()
-                        },
-                    )
-                    .flatten_iter()
-                    .collect();
-                by_class.sort_unstable_by_key(|(i, _)| *i);
-                by_class.into_iter().map(|(_, p)| p).collect()
-            } else {
-                (0..n_chunks)
-                    .into_par_iter()
-                    .map_init(|| vec![0.0f64; NSEG * ROW], |yb, i| run(yb, i))
-                    .collect()
-            };
-            for (s, (&o, &m)) in idx.iter().zip(&batch).enumerate() {
-                let mut acc = Neumaier::default();
-                for part in parts.iter().skip((2 * m as usize) / SCHUNK) {
-                    acc.add(part[s]);
-                }
-                out[o] = acc.value();
+        (0..ms.len()).partition(|&s| 2 * ms[s] as usize <= far_m);
+    stream_group::<SEG_NEAR>(x, ck, ms, &near, None, simd, &mut out);
+    stream_group::<SEG_FAR>(x, ck, ms, &far, Some(far_m), simd, &mut out);
+    out
+}
+
+/// The sums for the scales `ms[s]`, s in `group`, on the chunk grid of segment length SEG,
+/// written to `out[s]`. With `residue_step = Some(r)` the chunks are walked by residue class of
+/// the chunk index modulo r / (NSEG·SEG): for the far grid (NSEG·SEG a power of two dividing r)
+/// and dyadic m ≥ r, the lagged blocks a − m and a − 2m are then exactly members of the same
+/// class visited m/r and 2m/r steps earlier, still in cache (L2 for the far grid), so that
+/// each far block is read from main memory about once for all far scales.
+fn stream_group<const SEG: usize>(
+    x: &[f64],
+    ck: &Checkpoints,
+    ms: &[u64],
+    group: &[usize],
+    residue_step: Option<usize>,
+    simd: Simd,
+    out: &mut [f64],
+) {
+    let schunk = NSEG * SEG;
+    let row = SEG + 8;
+    let n_chunks = (x.len() + 1).div_ceil(schunk);
+    for idx in group.chunks(SCALE_BATCH) {
+        let batch: Vec<u64> = idx.iter().map(|&s| ms[s]).collect();
+        let run = |yb: &mut Vec<f64>, i: usize| -> Vec<f64> {
+            #[cfg(target_arch = "x86_64")]
+            if simd == Simd::Avx512 {
+                // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present).
+                return unsafe { chunk_all_avx512::<SEG>(x, ck, &batch, i) };
             }
+            batch
+                .iter()
+                .map(|&m| stream_chunk::<SEG>(x, ck, m as usize, i, simd, yb))
+                .collect()
+        };
+        let parts: Vec<Vec<f64>> = if let Some(step) = residue_step {
+            let n_cls = (step / schunk).clamp(1, n_chunks.max(1));
+            let mut by_class: Vec<(usize, Vec<f64>)> = (0..n_cls)
+                .into_par_iter()
+                .map_init(
+                    || vec![0.0f64; NSEG * row],
+                    |yb, r| {
+                        (r..n_chunks)
+                            .step_by(n_cls)
+                            .map(|i| (i, run(yb, i)))
+                            .collect::<Vec<_>>()
+                    },
+                )
+                .flatten_iter()
+                .collect();
+            by_class.sort_unstable_by_key(|(i, _)| *i);
+            by_class.into_iter().map(|(_, p)| p).collect()
+        } else {
+            (0..n_chunks)
+                .into_par_iter()
+                .map_init(|| vec![0.0f64; NSEG * row], |yb, i| run(yb, i))
+                .collect()
+        };
+        for (s, (&o, &m)) in idx.iter().zip(&batch).enumerate() {
+            let mut acc = Neumaier::default();
+            for part in parts.iter().skip((2 * m as usize) / schunk) {
+                acc.add(part[s]);
+            }
+            out[o] = acc.value();
         }
     }
-    out
 }
 
 /// The full centred cumulative sum (T + 1 entries) written into `c` from the checkpoints.
@@ -871,6 +913,8 @@ pub(crate) fn centred_prefix_into(x: &[f64], c: &mut Vec<f64>) -> Result<f64, Av
 mod tests {
     use super::*;
 
+    const SCHUNK: usize = NSEG * SEG_NEAR;
+
     fn series(n: usize, offset: f64) -> Vec<f64> {
         let mut s = 0x2545_F491_4F6C_DD1Du64;
         let mut walk = 0.0;
@@ -905,43 +949,20 @@ mod tests {
         for (a, b) in streamed.iter().zip(&buffered) {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "{a} vs {b}");
         }
-        let n_chunks = (n + 1).div_ceil(SCHUNK);
-        let mut yb = vec![0.0; NSEG * ROW];
-        let best = Simd::detect();
-        let mut paths = vec![Simd::None];
-        if best != Simd::None {
-            paths.push(Simd::Avx2);
-        }
-        if best == Simd::Avx512 {
-            paths.push(Simd::Avx512);
-        }
-        for &m in &ms {
-            for i in 0..n_chunks {
-                let p = stream_chunk(&x, &ck, m as usize, i, Simd::None, &mut yb);
-                for &simd in &paths[1..] {
-                    let q = stream_chunk(&x, &ck, m as usize, i, simd, &mut yb);
-                    assert_eq!(p.to_bits(), q.to_bits(), "m {m} chunk {i} {simd:?}");
-                }
+        check_paths::<SEG_NEAR>(n, &ms);
+        check_paths::<SEG_FAR>(n, &ms);
+        // the far grid and its residue-class walk (threshold lowered so that m > 2048 are far
+        // here): same sums as the buffered kernel; near scales bit-identical to the default split
+        let far_m = 4096;
+        let split = overlapping_sums_stream_split(&x, &ck, &ms, far_m);
+        for ((a, b), (&m, d)) in split.iter().zip(&buffered).zip(ms.iter().zip(&streamed)) {
+            assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
+            if 2 * m as usize <= far_m {
+                assert_eq!(a.to_bits(), d.to_bits(), "m {m}");
             }
         }
-        // the AVX-512 chunk walk (all scales per column block, aligned windows) on data at
-        // every misalignment within a cache line
-        #[cfg(target_arch = "x86_64")]
-        if best == Simd::Avx512 {
-            let big = series(n + 8, 0.0);
-            for o in 0..8 {
-                let xo = &big[o..o + n];
-                let cko = checkpoints(xo).unwrap();
-                for i in 0..n_chunks {
-                    // SAFETY: AVX-512F detected above.
-                    let q = unsafe { chunk_all_avx512(xo, &cko, &ms, i) };
-                    for (&m, qm) in ms.iter().zip(&q) {
-                        let p = stream_chunk(xo, &cko, m as usize, i, Simd::None, &mut yb);
-                        assert_eq!(p.to_bits(), qm.to_bits(), "offset {o} m {m} chunk {i}");
-                    }
-                }
-            }
-        }
+        let single_far = overlapping_sums_stream_split(&x, &ck, &[20_000], far_m);
+        assert_eq!(single_far[0].to_bits(), split[11].to_bits());
         let single = overlapping_sums_stream(&x, &ck, &[5000]);
         assert_eq!(single[0].to_bits(), streamed[8].to_bits());
         let std = 0.3;
@@ -950,6 +971,62 @@ mod tests {
         let off = overlapping_sums_stream(&y, &cy, &ms);
         for (a, b) in off.iter().zip(&streamed) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
+        }
+        let off_split = overlapping_sums_stream_split(&y, &cy, &ms, far_m);
+        for (a, b) in off_split.iter().zip(&split) {
+            assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
+        }
+    }
+
+    /// On the chunk grid of segment length SEG: every chunk partial is bit-identical between the
+    /// portable, AVX2 and AVX-512 paths, and between the AVX-512 chunk walk (all scales per
+    /// column block, aligned windows) and the portable path at every misalignment of the data
+    /// within a cache line.
+    fn check_paths<const SEG: usize>(n: usize, ms: &[u64]) {
+        let x = series(n, 0.0);
+        let ck = checkpoints(&x).unwrap();
+        let n_chunks = (n + 1).div_ceil(NSEG * SEG);
+        let mut yb = vec![0.0; NSEG * (SEG + 8)];
+        let best = Simd::detect();
+        let mut paths = vec![Simd::None];
+        if best != Simd::None {
+            paths.push(Simd::Avx2);
+        }
+        if best == Simd::Avx512 {
+            paths.push(Simd::Avx512);
+        }
+        for &m in ms {
+            for i in 0..n_chunks {
+                let p = stream_chunk::<SEG>(&x, &ck, m as usize, i, Simd::None, &mut yb);
+                for &simd in &paths[1..] {
+                    let q = stream_chunk::<SEG>(&x, &ck, m as usize, i, simd, &mut yb);
+                    assert_eq!(
+                        p.to_bits(),
+                        q.to_bits(),
+                        "SEG {SEG} m {m} chunk {i} {simd:?}"
+                    );
+                }
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        if best == Simd::Avx512 {
+            let big = series(n + 8, 0.0);
+            for o in 0..8 {
+                let xo = &big[o..o + n];
+                let cko = checkpoints(xo).unwrap();
+                for i in 0..n_chunks {
+                    // SAFETY: AVX-512F detected above.
+                    let q = unsafe { chunk_all_avx512::<SEG>(xo, &cko, ms, i) };
+                    for (&m, qm) in ms.iter().zip(&q) {
+                        let p = stream_chunk::<SEG>(xo, &cko, m as usize, i, Simd::None, &mut yb);
+                        assert_eq!(
+                            p.to_bits(),
+                            qm.to_bits(),
+                            "SEG {SEG} offset {o} m {m} chunk {i}"
+                        );
+                    }
+                }
+            }
         }
     }
 }
