@@ -4,8 +4,9 @@
 //! Determinism: every sum is defined on a fixed grid of `k` chunks ([`CHUNK`] wide, aligned to
 //! absolute indices) with fixed lane accumulators, and the chunk partials are combined in index
 //! order with Neumaier's compensated summation. Neither the thread count nor the SIMD width
-//! changes the order of any floating-point operation (no FMA contraction is used), so results
-//! are bit-identical on every run of the same binary on the same data.
+//! changes the order of any floating-point operation (no FMA contraction is used, except where
+//! written out: the streamed kernel's acc ← fma(d, d, acc), a correctly rounded fused operation
+//! in every path), so results are bit-identical on every run of the same binary on the same data.
 //!
 //! Long rate series without a CI take a streamed path ([`overlapping_sums_stream`]): no
 //! series-sized buffer, only checkpoints of the centred cumulative sum every [`G`] samples; each
@@ -393,16 +394,18 @@ fn d_start(x: &[f64], ck: &Checkpoints, m: usize, s: usize) -> f64 {
 }
 
 /// Σ d_k² over k in [s, e) (2m ≤ s < e ≤ T + 1), carrying d_{k+1} = d_k + y_k with
-/// y_k = (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (the mean cancels exactly), sequentially in k.
+/// y_k = (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (the mean cancels exactly), sequentially in k;
+/// each d_k² is accumulated by one fused multiply-add (acc ← fma(d, d, acc), a single rounding,
+/// the same in every vector path).
 #[inline(always)]
 fn seg_sum(x: &[f64], d0: f64, m: usize, s: usize, e: usize) -> f64 {
     let mut d = d0;
-    let mut acc = 0.0;
+    let mut acc = 0.0f64;
     for k in s..e - 1 {
-        acc += d * d;
+        acc = d.mul_add(d, acc);
         d += (x[k] - x[k - m]) - (x[k - m] - x[k - 2 * m]);
     }
-    acc + d * d
+    d.mul_add(d, acc)
 }
 
 /// Scales with 2m > FAR_M are "far": their lagged blocks are not in cache in plain chunk order.
@@ -445,18 +448,18 @@ fn fill_y_avx2<const SEG: usize>(x: &[f64], m: usize, a: usize, yb: &mut [f64]) 
 
 /// The NSEG segment sums of a full chunk [a, a + NSEG·SEG) (2m ≤ a, a + NSEG·SEG ≤ T) from its y
 /// rows (see [`fill_y_avx2`]), four segments per AVX2 vector (one lane each). Each lane performs exactly the operations of [`seg_sum`] in
-/// the same order (y_k computed as there; acc += d·d without FMA; d += y_k), so the results are
+/// the same order (y_k computed as there; acc ← fma(d, d, acc); d += y_k), so the results are
 /// bit-identical to the portable path.
 ///
 /// # Safety
-/// The CPU must support AVX2.
+/// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn full_chunk_avx2<const SEG: usize>(yb: &[f64], d0: &[f64; NSEG]) -> [f64; NSEG] {
     use std::arch::x86_64::*;
     const G4: usize = NSEG / 4;
     assert!(yb.len() >= NSEG * (SEG + 8));
-    // SAFETY: AVX2 is available (caller contract); every pointer stays inside `yb`, `d0` and
+    // SAFETY: AVX2 and FMA are available (caller contract); every pointer stays inside `yb`, `d0` and
     // `out` (length asserted above; rows read at offsets < SEG).
     unsafe {
         let py = yb.as_ptr();
@@ -483,7 +486,7 @@ unsafe fn full_chunk_avx2<const SEG: usize>(yb: &[f64], d0: &[f64; NSEG]) -> [f6
                     _mm256_permute2f128_pd(t1, t3, 0x31),
                 ];
                 for c in cols {
-                    av[g] = _mm256_add_pd(av[g], _mm256_mul_pd(dv[g], dv[g]));
+                    av[g] = _mm256_fmadd_pd(dv[g], dv[g], av[g]);
                     dv[g] = _mm256_add_pd(dv[g], c);
                 }
             }
@@ -524,7 +527,7 @@ struct SegState {
 /// then 64-byte aligned. Eight segments per AVX-512 vector (one lane each), straight from `x`:
 /// for every window the three input rows of each segment are loaded, y is formed row-wise
 /// exactly as in [`seg_sum`], the 8 × 8 block is transposed in registers, and each lane then
-/// performs acc += d·d (no FMA); d += y_k in increasing k: the operations of [`seg_sum`] in the
+/// performs acc ← fma(d, d, acc); d += y_k in increasing k: the operations of [`seg_sum`] in the
 /// same order, so the results are bit-identical to the portable path whatever s and however the
 /// columns are split into blocks.
 ///
@@ -609,12 +612,12 @@ unsafe fn block_avx512<const SEG: usize>(
                 let cols = window!(jb, g);
                 if lo == 0 {
                     for c in cols {
-                        av[g] = _mm512_add_pd(av[g], _mm512_mul_pd(dv[g], dv[g]));
+                        av[g] = _mm512_fmadd_pd(dv[g], dv[g], av[g]);
                         dv[g] = _mm512_add_pd(dv[g], c);
                     }
                 } else {
                     for &c in &cols[lo..] {
-                        av[g] = _mm512_add_pd(av[g], _mm512_mul_pd(dv[g], dv[g]));
+                        av[g] = _mm512_fmadd_pd(dv[g], dv[g], av[g]);
                         dv[g] = _mm512_add_pd(dv[g], c);
                     }
                 }
@@ -625,7 +628,7 @@ unsafe fn block_avx512<const SEG: usize>(
             for g in 0..G8 {
                 let cols = window!(SEG, g);
                 for &c in &cols[..s] {
-                    av[g] = _mm512_add_pd(av[g], _mm512_mul_pd(dv[g], dv[g]));
+                    av[g] = _mm512_fmadd_pd(dv[g], dv[g], av[g]);
                     dv[g] = _mm512_add_pd(dv[g], c);
                 }
             }
@@ -710,7 +713,9 @@ impl Simd {
             if std::arch::is_x86_feature_detected!("avx512f") {
                 return Simd::Avx512;
             }
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
                 return Simd::Avx2;
             }
         }
@@ -746,7 +751,7 @@ fn stream_chunk<const SEG: usize>(
             unsafe { block_avx512::<SEG>(x, m, a, 0, 0, SEG, &mut st) };
             st.acc
         } else {
-            // SAFETY: `Simd::Avx2` comes only from `Simd::detect` (AVX2 present); the range is
+            // SAFETY: `Simd::Avx2` comes only from `Simd::detect` (AVX2 and FMA present); the range is
             // checked above.
             unsafe {
                 fill_y_avx2::<SEG>(x, m, a, yb);
