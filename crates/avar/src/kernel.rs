@@ -12,7 +12,9 @@
 //! series-sized buffer, only checkpoints of the centred cumulative sum every [`G`] samples; each
 //! segment of k starts from an exact d_k rebuilt from the checkpoints and carries
 //! d_{k+1} = d_k + (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (SIMD across segments, the same
-//! operations in the same order as the portable code).
+//! operations in the same order as the portable code). The segment length depends only on m
+//! ([`SEG_NEAR`] for near scales, the power of two [`SEG_FAR`] for far ones, whose chunks are
+//! walked by residue class so that their lagged blocks are still cached).
 
 use rayon::prelude::*;
 
