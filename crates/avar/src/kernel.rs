@@ -369,7 +369,7 @@ fn two_sum(a: f64, b: f64) -> (f64, f64) {
 /// d_s = C_s − 2C_{s−m} + C_{s−2m}: for m < G directly as Σ_{i=s−m}^{s−1} (x_i − x_{i−m}) (the
 /// mean and any offset cancel in each difference); otherwise from the checkpoints, the large
 /// parts differenced exactly.
-#[inline]
+#[inline(always)]
 fn d_start(x: &[f64], ck: &Checkpoints, m: usize, s: usize) -> f64 {
     if m < G {
         let mut l = [0.0f64; 4];
@@ -386,9 +386,13 @@ fn d_start(x: &[f64], ck: &Checkpoints, m: usize, s: usize) -> f64 {
         }
         return (l[0] + l[1]) + (l[2] + l[3]);
     }
-    let (ah, al) = ck.at(x, s);
-    let (bh, bl) = ck.at(x, s - m);
-    let (ch, cl) = ck.at(x, s - 2 * m);
+    let ((ah, al), (bh, bl), (ch, cl)) = if s.is_multiple_of(G) && m.is_multiple_of(G) {
+        // all three on checkpoints (the common case: segment starts are multiples of G)
+        let (g, q) = (s / G, m / G);
+        (ck.ck[g], ck.ck[g - q], ck.ck[g - 2 * q])
+    } else {
+        (ck.at(x, s), ck.at(x, s - m), ck.at(x, s - 2 * m))
+    };
     let (s1, e1) = two_sum(ah, -bh);
     let (s2, e2) = two_sum(ch, -bh);
     let (s3, e3) = two_sum(s1, s2);
