@@ -9,7 +9,9 @@
 //! in every path), so results are bit-identical on every run of the same binary on the same data.
 //!
 //! Long rate series without a CI take a streamed path ([`overlapping_sums_stream`]): no
-//! series-sized buffer, only checkpoints of the centred cumulative sum every [`G`] samples; each
+//! series-sized buffer, only checkpoints of the centred cumulative sum every [`G`] samples (built
+//! by the near-scale walk itself, job by job in local frames, while each chunk is in cache, so
+//! that the series is read from memory once for the near scales and once for the far ones); each
 //! segment of k starts from an exact d_k rebuilt from the checkpoints and carries
 //! d_{k+1} = d_k + (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (SIMD across segments, the same
 //! operations in the same order as the portable code). The segment length depends only on m
@@ -279,23 +281,35 @@ const _: () = assert!(
         && FAR_M.is_multiple_of(NSEG * SEG_FAR)
 );
 
-/// The centred cumulative sum C_p = Σ_{i<p} (x_i − mean) of rate samples, kept only at every
-/// [`G`]-th index as compensated (hi, lo) pairs: `ck[g].0 + ck[g].1` = C_{gG} (last entry: C_T).
+/// The centred cumulative sum C_p = Σ_{i<p} (x_i − pivot − delta) of rate samples, kept only at
+/// every [`G`]-th index as compensated (hi, lo) pairs: `ck[g − g0].0 + ck[g − g0].1` = C_{gG}
+/// (last entry: C_T). [`checkpoints`] centres on the mean (delta = mean − pivot) from index 0;
+/// the streamed kernel also uses local frames (delta = 0, origin anywhere, entries from g0 on):
+/// second differences C_s − 2C_{s−m} + C_{s−2m} do not depend on the centring constant or on the
+/// origin.
 pub(crate) struct Checkpoints {
     pivot: f64,
     delta: f64,
     /// The mean of the samples (pivot + delta).
     pub(crate) mean: f64,
+    /// Index (in units of G samples) of the first entry of `ck`.
+    g0: usize,
     ck: Vec<(f64, f64)>,
 }
 
 impl Checkpoints {
+    /// C at index gG (needs g0 ≤ g < g0 + ck.len()).
+    #[inline(always)]
+    fn get(&self, g: usize) -> (f64, f64) {
+        self.ck[g - self.g0]
+    }
+
     /// C_p as an unevaluated sum (hi, lo): the checkpoint below p plus the short sequential
     /// local sum of the centred samples in between. A deterministic function of p.
     #[inline]
     fn at(&self, x: &[f64], p: usize) -> (f64, f64) {
         let g = p / G;
-        let (hi, lo) = self.ck[g];
+        let (hi, lo) = self.get(g);
         if p == g * G {
             return (hi, lo);
         }
@@ -318,8 +332,7 @@ impl Checkpoints {
 /// place). Errors on non-finite samples (naming the first index) and on overflow.
 pub(crate) fn checkpoints(x: &[f64]) -> Result<Checkpoints, AvarError> {
     let t = x.len();
-    let head = &x[..t.min(PIVOT_LEN)];
-    let pivot = head.iter().sum::<f64>() / head.len() as f64;
+    let pivot = pivot_of(x);
     let n_blocks = t.div_ceil(G);
     let mut ck = vec![(0.0f64, 0.0f64); n_blocks + 1];
     ck[..n_blocks]
@@ -356,8 +369,15 @@ pub(crate) fn checkpoints(x: &[f64]) -> Result<Checkpoints, AvarError> {
         pivot,
         delta,
         mean,
+        g0: 0,
         ck,
     })
+}
+
+/// The pivot subtracted before summing: the mean of the first [`PIVOT_LEN`] samples.
+fn pivot_of(x: &[f64]) -> f64 {
+    let head = &x[..x.len().min(PIVOT_LEN)];
+    head.iter().sum::<f64>() / head.len() as f64
 }
 
 #[inline(always)]
@@ -390,7 +410,7 @@ fn d_start(x: &[f64], ck: &Checkpoints, m: usize, s: usize) -> f64 {
     let ((ah, al), (bh, bl), (ch, cl)) = if s.is_multiple_of(G) && m.is_multiple_of(G) {
         // all three on checkpoints (the common case: segment starts are multiples of G)
         let (g, q) = (s / G, m / G);
-        (ck.ck[g], ck.ck[g - q], ck.ck[g - 2 * q])
+        (ck.get(g), ck.get(g - q), ck.get(g - 2 * q))
     } else {
         (ck.at(x, s), ck.at(x, s - m), ck.at(x, s - 2 * m))
     };
@@ -797,30 +817,254 @@ fn stream_chunk<const SEG: usize>(
 }
 
 /// Σ_{k=2m}^{T} (C_k − 2C_{k−m} + C_{k−2m})² for each m in `ms`, streamed from the rate
-/// samples `x` and their checkpoints (no series-sized buffer). Deterministic for any thread
-/// count and any set of requested scales: the value for m is the Neumaier sum, in chunk order,
-/// of chunk partials that depend only on (x, m, chunk); the chunk grid depends only on m
-/// ([`SEG_NEAR`] for 2m ≤ [`FAR_M`], [`SEG_FAR`] above).
-pub(crate) fn overlapping_sums_stream(x: &[f64], ck: &Checkpoints, ms: &[u64]) -> Vec<f64> {
-    overlapping_sums_stream_split(x, ck, ms, FAR_M)
+/// samples `x` (no series-sized buffer), and the mean of the samples. Deterministic for any
+/// thread count and any set of requested scales: the value for m is the Neumaier sum, in chunk
+/// order, of chunk partials that depend only on (x, m, chunk); the chunk grid depends only on m
+/// ([`SEG_NEAR`] for 2m ≤ [`FAR_M`], [`SEG_FAR`] above), and so do the checkpoints that start its
+/// segments (see [`stream_near`]). Errors on non-finite samples (naming the first) and on
+/// overflow.
+pub(crate) fn overlapping_sums_stream(x: &[f64], ms: &[u64]) -> Result<(Vec<f64>, f64), AvarError> {
+    overlapping_sums_stream_split(x, ms, FAR_M, JOB_CHUNKS)
 }
 
-/// [`overlapping_sums_stream`] with the near/far threshold as a parameter: scales with
-/// 2m > `far_m` take the far grid and the residue-class walk of step `far_m` (tests use a small
-/// threshold to cover that path on short series).
+/// [`overlapping_sums_stream`] with the near/far threshold and the job length as parameters:
+/// scales with 2m > `far_m` take the far grid and the residue-class walk of step `far_m`; the
+/// near walk runs in jobs of `job_chunks` near chunks with a warm-up of `far_m` samples (tests
+/// use small values to cover those paths on short series).
 fn overlapping_sums_stream_split(
     x: &[f64],
-    ck: &Checkpoints,
     ms: &[u64],
     far_m: usize,
-) -> Vec<f64> {
+    job_chunks: usize,
+) -> Result<(Vec<f64>, f64), AvarError> {
     let simd = Simd::detect();
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
         (0..ms.len()).partition(|&s| 2 * ms[s] as usize <= far_m);
-    stream_group::<SEG_NEAR>(x, ck, ms, &near, None, simd, &mut out);
-    stream_group::<SEG_FAR>(x, ck, ms, &far, Some(far_m), simd, &mut out);
-    out
+    let pivot = pivot_of(x);
+    let jobs = stream_near(x, pivot, ms, &near, far_m, job_chunks, simd, &mut out);
+    if !pivot.is_finite() || jobs.iter().any(|j| j.bad) {
+        if let Some((index, value)) = first_non_finite(x) {
+            return Err(AvarError::NonFinite { index, value });
+        }
+        return Err(AvarError::Overflow);
+    }
+    let (ck, total) = global_checkpoints(
+        x,
+        pivot,
+        &jobs,
+        job_chunks * NSEG * SEG_NEAR,
+        !far.is_empty(),
+    );
+    if !total.is_finite() {
+        return Err(AvarError::Overflow);
+    }
+    drop(jobs);
+    stream_group::<SEG_FAR>(x, &ck, ms, &far, Some(far_m), simd, &mut out);
+    Ok((out, pivot + total / x.len() as f64))
+}
+
+/// Near chunks per job of the near walk ([`stream_near`]): 480 chunks of 17 408 samples,
+/// 8.4 M samples (12 jobs at T = 10^8), so that the warm-up of [`FAR_M`] samples adds 12.5 %
+/// to the checkpoint sums and the jobs still balance over the threads.
+const JOB_CHUNKS: usize = 480;
+
+/// One job of the near walk: its checkpoints in a local frame (origin at the job start A, where
+/// C = 0, and pivot-only centring), from A − warm-up to the job end B, and the near chunk
+/// partials of its chunks.
+struct NearJob {
+    ck: Checkpoints,
+    /// Index (units of G) of the job start A.
+    g_a: usize,
+    /// Whether a block sum was not finite.
+    bad: bool,
+}
+
+/// Starts the local checkpoints of a job at sample `a` (a multiple of G): entries from
+/// (a − warm) / G up to a / G, summed backwards from C_a = 0.
+fn job_checkpoints(x: &[f64], pivot: f64, a: usize, warm: usize) -> NearJob {
+    let (g_w, g_a) = (a.saturating_sub(warm) / G, a / G);
+    let mut ck = vec![(0.0f64, 0.0f64); g_a - g_w + 1];
+    let mut bad = false;
+    let mut run = Neumaier::default();
+    for g in (g_w..g_a).rev() {
+        let b = lane_sum(&x[g * G..(g + 1) * G], pivot);
+        bad |= !b.is_finite();
+        run.add(-b);
+        ck[g - g_w] = (run.hi, run.lo);
+    }
+    NearJob {
+        ck: Checkpoints {
+            pivot,
+            delta: 0.0,
+            mean: f64::NAN,
+            g0: g_w,
+            ck,
+        },
+        g_a,
+        bad,
+    }
+}
+
+/// Extends the job's checkpoints forwards to index ⌈min(upto, T)/G⌉ (the last entry is C_T).
+fn job_extend(x: &[f64], job: &mut NearJob, upto: usize) {
+    let t = x.len();
+    let g_end = upto.min(t).div_ceil(G);
+    let ck = &mut job.ck;
+    let mut g = ck.g0 + ck.ck.len() - 1;
+    let (hi, lo) = ck.ck[ck.ck.len() - 1];
+    let mut run = Neumaier { hi, lo };
+    while g < g_end {
+        let b = lane_sum(&x[g * G..((g + 1) * G).min(t)], ck.pivot);
+        job.bad |= !b.is_finite();
+        run.add(b);
+        ck.ck.push((run.hi, run.lo));
+        g += 1;
+    }
+}
+
+/// The near scales `ms[s]`, s in `near`, written to `out[s]`, on the [`SEG_NEAR`] grid, in one
+/// pass that also builds the checkpoints: the chunks are cut into jobs of `job_chunks`, run in
+/// parallel, each walking its chunks in order and summing the blocks of a chunk (now in cache)
+/// just before running its scales. A job's segment starts read checkpoints of its own local
+/// frame, which reaches `warm` samples back (every near scale has 2m ≤ warm): a fixed function
+/// of (x, job grid), so the sums stay deterministic. Returns the jobs' checkpoints.
+#[allow(clippy::too_many_arguments)]
+fn stream_near(
+    x: &[f64],
+    pivot: f64,
+    ms: &[u64],
+    near: &[usize],
+    warm: usize,
+    job_chunks: usize,
+    simd: Simd,
+    out: &mut [f64],
+) -> Vec<NearJob> {
+    let schunk = NSEG * SEG_NEAR;
+    let n_chunks = (x.len() + 1).div_ceil(schunk);
+    let n_jobs = n_chunks.div_ceil(job_chunks);
+    let batches: Vec<Vec<usize>> = near.chunks(SCALE_BATCH).map(<[usize]>::to_vec).collect();
+    let scales = |idx: &[usize]| -> Vec<u64> { idx.iter().map(|&s| ms[s]).collect() };
+    let first = scales(batches.first().map_or(&[], |b| b));
+    let range = |j: usize| j * job_chunks..((j + 1) * job_chunks).min(n_chunks);
+    // the first batch of scales runs while the checkpoints are built
+    let (jobs, mut parts): (Vec<NearJob>, Vec<Vec<Vec<f64>>>) = (0..n_jobs)
+        .into_par_iter()
+        .map_init(
+            || vec![0.0f64; NSEG * (SEG_NEAR + 8)],
+            |yb, j| {
+                let mut job = job_checkpoints(x, pivot, range(j).start * schunk, warm);
+                let parts: Vec<Vec<f64>> = range(j)
+                    .map(|i| {
+                        job_extend(x, &mut job, (i + 1) * schunk);
+                        chunk_run::<SEG_NEAR>(x, &job.ck, &first, i, simd, yb, None)
+                    })
+                    .collect();
+                (job, parts)
+            },
+        )
+        .unzip();
+    for (b, idx) in batches.iter().enumerate() {
+        let batch = scales(idx);
+        if b > 0 {
+            parts = (0..n_jobs)
+                .into_par_iter()
+                .map_init(
+                    || vec![0.0f64; NSEG * (SEG_NEAR + 8)],
+                    |yb, j| {
+                        range(j)
+                            .map(|i| {
+                                chunk_run::<SEG_NEAR>(x, &jobs[j].ck, &batch, i, simd, yb, None)
+                            })
+                            .collect()
+                    },
+                )
+                .collect();
+        }
+        let flat: Vec<&Vec<f64>> = parts.iter().flatten().collect();
+        for (s, (&o, &m)) in idx.iter().zip(&batch).enumerate() {
+            let mut acc = Neumaier::default();
+            for part in flat.iter().skip((2 * m as usize) / schunk) {
+                acc.add(part[s]);
+            }
+            out[o] = acc.value();
+        }
+    }
+    jobs
+}
+
+/// The checkpoints of the whole series in one frame (origin 0, pivot-only centring), assembled
+/// from the jobs' local frames (each shifted by the compensated sum of the earlier jobs' totals;
+/// built only when `build`, i.e. for far scales), and the total Σ (x_i − pivot).
+fn global_checkpoints(
+    x: &[f64],
+    pivot: f64,
+    jobs: &[NearJob],
+    job_len: usize,
+    build: bool,
+) -> (Checkpoints, f64) {
+    let t = x.len();
+    let n_blocks = t.div_ceil(G);
+    let mut bases = Vec::with_capacity(jobs.len());
+    let mut run = Neumaier::default();
+    for (j, job) in jobs.iter().enumerate() {
+        bases.push((run.hi, run.lo));
+        let g_b = ((j + 1) * job_len).min(t).div_ceil(G);
+        let (hi, lo) = job.ck.get(g_b);
+        run.add(hi);
+        run.add(lo);
+    }
+    let mut ck = Vec::new();
+    if build {
+        ck = vec![(0.0f64, 0.0f64); n_blocks + 1];
+        let mut rest: &mut [(f64, f64)] = &mut ck;
+        let mut slices = Vec::with_capacity(jobs.len());
+        for (j, job) in jobs.iter().enumerate() {
+            let g_next = jobs.get(j + 1).map_or(n_blocks + 1, |n| n.g_a);
+            let (own, tail) = rest.split_at_mut(g_next - job.g_a);
+            slices.push((own, job, bases[j]));
+            rest = tail;
+        }
+        slices.into_par_iter().for_each(|(own, job, (bh, bl))| {
+            for (k, o) in own.iter_mut().enumerate() {
+                let (lh, ll) = job.ck.get(job.g_a + k);
+                let (h, e) = two_sum(bh, lh);
+                *o = (h, (e + bl) + ll);
+            }
+        });
+    }
+    let ck = Checkpoints {
+        pivot,
+        delta: 0.0,
+        mean: f64::NAN,
+        g0: 0,
+        ck,
+    };
+    (ck, run.value())
+}
+
+/// Chunk partials of chunk `i` on the grid of segment length SEG for every scale of `batch`
+/// (the AVX-512 chunk walk, or [`stream_chunk`] per scale). `next`: see [`chunk_all_avx512`].
+#[inline]
+fn chunk_run<const SEG: usize>(
+    x: &[f64],
+    ck: &Checkpoints,
+    batch: &[u64],
+    i: usize,
+    simd: Simd,
+    yb: &mut [f64],
+    next: Option<usize>,
+) -> Vec<f64> {
+    #[cfg(target_arch = "x86_64")]
+    if simd == Simd::Avx512 {
+        // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present).
+        return unsafe { chunk_all_avx512::<SEG>(x, ck, batch, i, next) };
+    }
+    let _ = next;
+    batch
+        .iter()
+        .map(|&m| stream_chunk::<SEG>(x, ck, m as usize, i, simd, yb))
+        .collect()
 }
 
 /// Asks the cache hierarchy for what the chunk [a, a + len) of the far grid will read first:
@@ -842,8 +1086,8 @@ fn prefetch_next(x: &[f64], ck: &Checkpoints, a: usize, len: usize, batch: &[u64
         }
         let n = ck.ck.len();
         let ck_range = |p: usize| {
-            let mut g = p / G;
-            while g < ((p + len) / G).min(n) {
+            let mut g = (p / G).saturating_sub(ck.g0);
+            while g < ((p + len) / G).saturating_sub(ck.g0).min(n) {
                 // SAFETY: see above.
                 unsafe { _mm_prefetch::<_MM_HINT_T0>(ck.ck.as_ptr().wrapping_add(g).cast()) };
                 g += 4;
@@ -883,17 +1127,9 @@ fn stream_group<const SEG: usize>(
     for idx in group.chunks(SCALE_BATCH) {
         let batch: Vec<u64> = idx.iter().map(|&s| ms[s]).collect();
         let run = |yb: &mut Vec<f64>, i: usize| -> Vec<f64> {
-            #[cfg(target_arch = "x86_64")]
-            if simd == Simd::Avx512 {
-                // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present).
-                // far grid: the next chunk of this residue class (see `prefetch_next`)
-                let nx = residue_step.map(|step| (i + (step / schunk).clamp(1, n_chunks)) * schunk);
-                return unsafe { chunk_all_avx512::<SEG>(x, ck, &batch, i, nx) };
-            }
-            batch
-                .iter()
-                .map(|&m| stream_chunk::<SEG>(x, ck, m as usize, i, simd, yb))
-                .collect()
+            // far grid: the next chunk of this residue class (see `prefetch_next`)
+            let nx = residue_step.map(|step| (i + (step / schunk).clamp(1, n_chunks)) * schunk);
+            chunk_run::<SEG>(x, ck, &batch, i, simd, yb, nx)
         };
         let parts: Vec<Vec<f64>> = if let Some(step) = residue_step {
             let n_cls = (step / schunk).clamp(1, n_chunks.max(1));
@@ -945,7 +1181,7 @@ pub(crate) fn prefix_from_checkpoints(x: &[f64], ck: &Checkpoints, c: &mut Vec<f
         .enumerate()
         .for_each(|(i, (out, xs))| {
             let g = i * (PCHUNK / G);
-            let (hi, lo) = ck.ck[g];
+            let (hi, lo) = ck.get(g);
             let mut run = Neumaier { hi, lo };
             const B: usize = 8;
             let mut io = out.chunks_exact_mut(B);
@@ -1015,10 +1251,10 @@ mod tests {
             1, 2, 3, 7, 8, 64, 1000, 1024, 5000, 8192, 16_384, 20_000, 30_000,
         ];
         let x = series(n, 0.0);
-        let ck = checkpoints(&x).unwrap();
-        let streamed = overlapping_sums_stream(&x, &ck, &ms);
+        let (streamed, mean) = overlapping_sums_stream(&x, &ms).unwrap();
         let mut c = Vec::new();
-        centred_prefix_into(&x, &mut c).unwrap();
+        let mean_buffered = centred_prefix_into(&x, &mut c).unwrap();
+        assert!((mean - mean_buffered).abs() <= 1e-15 * mean_buffered.abs().max(1.0));
         let buffered = overlapping_sums(&c, &ms);
         for (a, b) in streamed.iter().zip(&buffered) {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "{a} vs {b}");
@@ -1026,30 +1262,78 @@ mod tests {
         check_paths::<SEG_NEAR>(n, &ms);
         check_paths::<SEG_FAR>(n, &ms);
         // the far grid and its residue-class walk (threshold lowered so that m > 2048 are far
-        // here): same sums as the buffered kernel; near scales bit-identical to the default split
+        // here), with one job per near chunk (local checkpoint frames with a warm-up of
+        // 4096 samples): same sums as the buffered kernel
         let far_m = 4096;
-        let split = overlapping_sums_stream_split(&x, &ck, &ms, far_m);
-        for ((a, b), (&m, d)) in split.iter().zip(&buffered).zip(ms.iter().zip(&streamed)) {
+        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1).unwrap().0;
+        for ((a, b), &m) in split.iter().zip(&buffered).zip(&ms) {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
+        }
+        // one job (the default length here): near scales bit-identical to the default split
+        let one_job = overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS)
+            .unwrap()
+            .0;
+        for ((a, d), &m) in one_job.iter().zip(&streamed).zip(&ms) {
             if 2 * m as usize <= far_m {
                 assert_eq!(a.to_bits(), d.to_bits(), "m {m}");
             }
         }
-        let single_far = overlapping_sums_stream_split(&x, &ck, &[20_000], far_m);
+        // the value for m does not depend on the other requested scales
+        let single_far = overlapping_sums_stream_split(&x, &[20_000], far_m, 1)
+            .unwrap()
+            .0;
         assert_eq!(single_far[0].to_bits(), split[11].to_bits());
-        let single = overlapping_sums_stream(&x, &ck, &[5000]);
+        let single_near = overlapping_sums_stream_split(&x, &[1000], far_m, 1)
+            .unwrap()
+            .0;
+        assert_eq!(single_near[0].to_bits(), split[6].to_bits());
+        let single = overlapping_sums_stream(&x, &[5000]).unwrap().0;
         assert_eq!(single[0].to_bits(), streamed[8].to_bits());
+        // offset invariance
         let std = 0.3;
         let y: Vec<f64> = x.iter().map(|v| v + 1e4 * std).collect();
-        let cy = checkpoints(&y).unwrap();
-        let off = overlapping_sums_stream(&y, &cy, &ms);
+        let off = overlapping_sums_stream(&y, &ms).unwrap().0;
         for (a, b) in off.iter().zip(&streamed) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
-        let off_split = overlapping_sums_stream_split(&y, &cy, &ms, far_m);
+        let off_split = overlapping_sums_stream_split(&y, &ms, far_m, 1).unwrap().0;
         for (a, b) in off_split.iter().zip(&split) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
+    }
+
+    /// The streamed kernel names the first non-finite sample, in whichever job it lies, and
+    /// reports overflow of finite samples.
+    #[test]
+    fn streamed_sums_reject_non_finite_and_overflow() {
+        let n = 3 * SCHUNK + 12_345;
+        for (index, value) in [
+            (0, f64::NAN),
+            (SCHUNK + 5, f64::INFINITY),
+            (n - 1, f64::NAN),
+        ] {
+            let mut x = series(n, 0.0);
+            x[index] = value;
+            for job_chunks in [1, JOB_CHUNKS] {
+                match overlapping_sums_stream_split(&x, &[2, 8192], 4096, job_chunks) {
+                    Err(AvarError::NonFinite { index: i, .. }) => assert_eq!(i, index),
+                    other => panic!("index {index}: {other:?}"),
+                }
+            }
+        }
+        // the pivot overflows; then only the block sums do (alternating signs, pivot 0)
+        let x = vec![1.7e308; n];
+        assert!(matches!(
+            overlapping_sums_stream(&x, &[2]),
+            Err(AvarError::Overflow)
+        ));
+        let x: Vec<f64> = (0..n)
+            .map(|i| if i % 2 == 0 { 1.7e308 } else { -1.7e308 })
+            .collect();
+        assert!(matches!(
+            overlapping_sums_stream_split(&x, &[2], 4096, 1),
+            Err(AvarError::Overflow)
+        ));
     }
 
     /// On the chunk grid of segment length SEG: every chunk partial is bit-identical between the

@@ -187,14 +187,13 @@ fn allan_variance_streamed(
     config: &AvarConfig,
 ) -> Result<AllanVariance, AvarError> {
     check_len(data.len(), data.len())?;
-    let ck = kernel::checkpoints(data)?;
     let t = data.len();
     let ms = config.scales.cluster_sizes(t)?;
-    let sums = kernel::overlapping_sums_stream(data, &ck, &ms);
+    let (sums, mean) = kernel::overlapping_sums_stream(data, &ms)?;
     let cum = Cumulative {
         c: Cow::Borrowed(&[]),
         factor: 1.0,
-        mean: ck.mean,
+        mean,
         t,
     };
     finish(cum, rate_hz, config, &ms, &sums)
