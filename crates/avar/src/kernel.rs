@@ -686,26 +686,30 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
     batch: &[u64],
     i: usize,
     next: Option<usize>,
-) -> Vec<f64> {
+    states: &mut Vec<(usize, SegState)>,
+    out: &mut [f64],
+) {
     let t = x.len();
     let a = i * (NSEG * SEG);
     // misalignment (elements) of x[a] and of every row start (SEG is a multiple of 8)
     let mis = (x.as_ptr().wrapping_add(a) as usize % 64) / 8;
     let shift = |m: usize| if m.is_multiple_of(8) { mis } else { 0 };
     let full = |m: usize| a >= 2 * m + shift(m) && a + (NSEG * SEG) + tail_reach(shift(m)) <= t;
-    let mut states: Vec<(usize, SegState)> = batch
-        .iter()
-        .map(|&m| m as usize)
-        .filter(|&m| full(m))
-        .map(|m| {
-            let mut d = [0.0f64; NSEG];
-            for (l, dl) in d.iter_mut().enumerate() {
-                *dl = d_start(x, ck, m, a + l * SEG);
-            }
-            let acc = [0.0f64; NSEG];
-            (m, SegState { d, acc })
-        })
-        .collect();
+    states.clear();
+    states.extend(
+        batch
+            .iter()
+            .map(|&m| m as usize)
+            .filter(|&m| full(m))
+            .map(|m| {
+                let mut d = [0.0f64; NSEG];
+                for (l, dl) in d.iter_mut().enumerate() {
+                    *dl = d_start(x, ck, m, a + l * SEG);
+                }
+                let acc = [0.0f64; NSEG];
+                (m, SegState { d, acc })
+            }),
+    );
     // the samples of `next`, in one slice per column block (a hint only: no effect on values)
     let per_blk = NSEG * BLK;
     for j0 in (0..SEG).step_by(BLK) {
@@ -724,19 +728,16 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
             unsafe { block_avx512::<SEG>(x, *m, a, shift(*m), j0, j0 + BLK, st) };
         }
     }
-    let mut done = states.into_iter();
-    batch
-        .iter()
-        .map(|&m| {
-            let m = m as usize;
-            if full(m) {
-                let (_, st) = done.next().expect("one state per full scale");
-                reduce_lanes(&st.acc)
-            } else {
-                stream_chunk::<SEG>(x, ck, m, i, Simd::None, &mut [])
-            }
-        })
-        .collect()
+    let mut done = states.iter();
+    for (o, &m) in out.iter_mut().zip(batch) {
+        let m = m as usize;
+        *o = if full(m) {
+            let (_, st) = done.next().expect("one state per full scale");
+            reduce_lanes(&st.acc)
+        } else {
+            stream_chunk::<SEG>(x, ck, m, i, Simd::None, &mut [])
+        };
+    }
 }
 
 /// Which vector kernel [`stream_chunk`] uses for full chunks.
@@ -860,7 +861,7 @@ fn overlapping_sums_stream_split(
         return Err(AvarError::Overflow);
     }
     drop(jobs);
-    stream_group::<SEG_FAR>(x, &ck, ms, &far, Some(far_m), simd, &mut out);
+    stream_group::<SEG_FAR>(x, &ck, ms, &far, far_m, simd, &mut out);
     Ok((out, pivot + total / x.len() as f64))
 }
 
@@ -880,11 +881,12 @@ struct NearJob {
     bad: bool,
 }
 
-/// Starts the local checkpoints of a job at sample `a` (a multiple of G): entries from
-/// (a − warm) / G up to a / G, summed backwards from C_a = 0.
-fn job_checkpoints(x: &[f64], pivot: f64, a: usize, warm: usize) -> NearJob {
+/// Starts the local checkpoints of a job at sample `a` (a multiple of G) and of `len` samples:
+/// entries from (a − warm) / G up to a / G, summed backwards from C_a = 0.
+fn job_checkpoints(x: &[f64], pivot: f64, a: usize, warm: usize, len: usize) -> NearJob {
     let (g_w, g_a) = (a.saturating_sub(warm) / G, a / G);
-    let mut ck = vec![(0.0f64, 0.0f64); g_a - g_w + 1];
+    let mut ck = Vec::with_capacity(g_a - g_w + 2 + len.min(x.len() - a) / G);
+    ck.resize(g_a - g_w + 1, (0.0f64, 0.0f64));
     let mut bad = false;
     let mut run = Neumaier::default();
     for g in (g_w..g_a).rev() {
@@ -948,47 +950,40 @@ fn stream_near(
     let first = scales(batches.first().map_or(&[], |b| b));
     let range = |j: usize| j * job_chunks..((j + 1) * job_chunks).min(n_chunks);
     // the first batch of scales runs while the checkpoints are built
-    let (jobs, mut parts): (Vec<NearJob>, Vec<Vec<Vec<f64>>>) = (0..n_jobs)
+    let w = first.len();
+    let (jobs, parts): (Vec<NearJob>, Vec<Vec<f64>>) = (0..n_jobs)
         .into_par_iter()
-        .map_init(
-            || vec![0.0f64; NSEG * (SEG_NEAR + 8)],
-            |yb, j| {
-                let mut job = job_checkpoints(x, pivot, range(j).start * schunk, warm);
-                let parts: Vec<Vec<f64>> = range(j)
-                    .map(|i| {
-                        job_extend(x, &mut job, (i + 1) * schunk);
-                        chunk_run::<SEG_NEAR>(x, &job.ck, &first, i, simd, yb, None)
-                    })
-                    .collect();
-                (job, parts)
-            },
-        )
+        .map_init(Scratch::new::<SEG_NEAR>, |scratch, j| {
+            let mut job =
+                job_checkpoints(x, pivot, range(j).start * schunk, warm, job_chunks * schunk);
+            let c0 = range(j).start;
+            let mut parts = vec![0.0f64; range(j).len() * w];
+            for i in range(j) {
+                job_extend(x, &mut job, (i + 1) * schunk);
+                let out = &mut parts[(i - c0) * w..(i - c0 + 1) * w];
+                chunk_run::<SEG_NEAR>(x, &job.ck, &first, i, simd, scratch, None, out);
+            }
+            (job, parts)
+        })
         .unzip();
+    let mut parts = parts.concat();
     for (b, idx) in batches.iter().enumerate() {
         let batch = scales(idx);
+        let w = batch.len();
         if b > 0 {
             parts = (0..n_jobs)
                 .into_par_iter()
-                .map_init(
-                    || vec![0.0f64; NSEG * (SEG_NEAR + 8)],
-                    |yb, j| {
-                        range(j)
-                            .map(|i| {
-                                chunk_run::<SEG_NEAR>(x, &jobs[j].ck, &batch, i, simd, yb, None)
-                            })
-                            .collect()
-                    },
-                )
-                .collect();
+                .map_init(Scratch::new::<SEG_NEAR>, |scratch, j| {
+                    let mut parts = vec![0.0f64; range(j).len() * w];
+                    for (i, out) in range(j).zip(parts.chunks_exact_mut(w)) {
+                        chunk_run::<SEG_NEAR>(x, &jobs[j].ck, &batch, i, simd, scratch, None, out);
+                    }
+                    parts
+                })
+                .collect::<Vec<_>>()
+                .concat();
         }
-        let flat: Vec<&Vec<f64>> = parts.iter().flatten().collect();
-        for (s, (&o, &m)) in idx.iter().zip(&batch).enumerate() {
-            let mut acc = Neumaier::default();
-            for part in flat.iter().skip((2 * m as usize) / schunk) {
-                acc.add(part[s]);
-            }
-            out[o] = acc.value();
-        }
+        combine(&parts, &batch, schunk, idx, out);
     }
     jobs
 }
@@ -1043,28 +1038,61 @@ fn global_checkpoints(
     (ck, run.value())
 }
 
-/// Chunk partials of chunk `i` on the grid of segment length SEG for every scale of `batch`
-/// (the AVX-512 chunk walk, or [`stream_chunk`] per scale). `next`: see [`chunk_all_avx512`].
+/// Per-thread scratch of the chunk kernels (reused from chunk to chunk).
+struct Scratch {
+    /// The y rows of the AVX2 path.
+    yb: Vec<f64>,
+    /// The segment states of the AVX-512 chunk walk.
+    states: Vec<(usize, SegState)>,
+}
+
+impl Scratch {
+    fn new<const SEG: usize>() -> Scratch {
+        Scratch {
+            yb: vec![0.0f64; NSEG * (SEG + 8)],
+            states: Vec::with_capacity(SCALE_BATCH),
+        }
+    }
+}
+
+/// Chunk partials of chunk `i` on the grid of segment length SEG for every scale of `batch`,
+/// written to `out` (the AVX-512 chunk walk, or [`stream_chunk`] per scale). `next`: see
+/// [`chunk_all_avx512`].
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn chunk_run<const SEG: usize>(
     x: &[f64],
     ck: &Checkpoints,
     batch: &[u64],
     i: usize,
     simd: Simd,
-    yb: &mut [f64],
+    scratch: &mut Scratch,
     next: Option<usize>,
-) -> Vec<f64> {
+    out: &mut [f64],
+) {
     #[cfg(target_arch = "x86_64")]
     if simd == Simd::Avx512 {
         // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present).
-        return unsafe { chunk_all_avx512::<SEG>(x, ck, batch, i, next) };
+        unsafe { chunk_all_avx512::<SEG>(x, ck, batch, i, next, &mut scratch.states, out) };
+        return;
     }
     let _ = next;
-    batch
-        .iter()
-        .map(|&m| stream_chunk::<SEG>(x, ck, m as usize, i, simd, yb))
-        .collect()
+    for (o, &m) in out.iter_mut().zip(batch) {
+        *o = stream_chunk::<SEG>(x, ck, m as usize, i, simd, &mut scratch.yb);
+    }
+}
+
+/// out[s] = Neumaier sum, in chunk order, of the chunk partials `parts[i·w + s]` (w = batch
+/// width) over the chunks i ≥ 2m / schunk (those that hold terms of scale m = `batch[s]`).
+fn combine(parts: &[f64], batch: &[u64], schunk: usize, idx: &[usize], out: &mut [f64]) {
+    let w = batch.len();
+    for (s, (&o, &m)) in idx.iter().zip(batch).enumerate() {
+        let mut acc = Neumaier::default();
+        for part in parts.chunks_exact(w).skip((2 * m as usize) / schunk) {
+            acc.add(part[s]);
+        }
+        out[o] = acc.value();
+    }
 }
 
 /// Asks the cache hierarchy for what the chunk [a, a + len) of the far grid will read first:
@@ -1117,53 +1145,37 @@ fn stream_group<const SEG: usize>(
     ck: &Checkpoints,
     ms: &[u64],
     group: &[usize],
-    residue_step: Option<usize>,
+    residue_step: usize,
     simd: Simd,
     out: &mut [f64],
 ) {
     let schunk = NSEG * SEG;
-    let row = SEG + 8;
     let n_chunks = (x.len() + 1).div_ceil(schunk);
+    let n_cls = (residue_step / schunk).clamp(1, n_chunks);
     for idx in group.chunks(SCALE_BATCH) {
         let batch: Vec<u64> = idx.iter().map(|&s| ms[s]).collect();
-        let run = |yb: &mut Vec<f64>, i: usize| -> Vec<f64> {
-            // far grid: the next chunk of this residue class (see `prefetch_next`)
-            let nx = residue_step.map(|step| (i + (step / schunk).clamp(1, n_chunks)) * schunk);
-            chunk_run::<SEG>(x, ck, &batch, i, simd, yb, nx)
-        };
-        let parts: Vec<Vec<f64>> = if let Some(step) = residue_step {
-            let n_cls = (step / schunk).clamp(1, n_chunks.max(1));
-            let mut by_class: Vec<(usize, Vec<f64>)> = (0..n_cls)
-                .into_par_iter()
-                .map_init(
-                    || vec![0.0f64; NSEG * row],
-                    |yb, r| {
-                        (r..n_chunks)
-                            .step_by(n_cls)
-                            .map(|i| {
-                                prefetch_next(x, ck, (i + n_cls) * schunk, schunk, &batch);
-                                (i, run(yb, i))
-                            })
-                            .collect::<Vec<_>>()
-                    },
-                )
-                .flatten_iter()
-                .collect();
-            by_class.sort_unstable_by_key(|(i, _)| *i);
-            by_class.into_iter().map(|(_, p)| p).collect()
-        } else {
-            (0..n_chunks)
-                .into_par_iter()
-                .map_init(|| vec![0.0f64; NSEG * row], |yb, i| run(yb, i))
-                .collect()
-        };
-        for (s, (&o, &m)) in idx.iter().zip(&batch).enumerate() {
-            let mut acc = Neumaier::default();
-            for part in parts.iter().skip((2 * m as usize) / schunk) {
-                acc.add(part[s]);
+        let w = batch.len();
+        // each class walks its chunks in order, writing their partials to its own buffer
+        let by_class: Vec<Vec<f64>> = (0..n_cls)
+            .into_par_iter()
+            .map_init(Scratch::new::<SEG>, |scratch, r| {
+                let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
+                for (i, out) in (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w)) {
+                    let next = (i + n_cls) * schunk;
+                    prefetch_next(x, ck, next, schunk, &batch);
+                    chunk_run::<SEG>(x, ck, &batch, i, simd, scratch, Some(next), out);
+                }
+                parts
+            })
+            .collect();
+        let mut parts = vec![0.0f64; n_chunks * w];
+        for (r, cls) in by_class.iter().enumerate() {
+            for (k, p) in cls.chunks_exact(w).enumerate() {
+                let i = r + k * n_cls;
+                parts[i * w..(i + 1) * w].copy_from_slice(p);
             }
-            out[o] = acc.value();
         }
+        combine(&parts, &batch, schunk, idx, out);
     }
 }
 
@@ -1376,7 +1388,9 @@ mod tests {
                     // SAFETY: AVX-512F detected above.
                     // (prefetching the following chunk, past the end for the last one)
                     let nx = Some((i + 1) * NSEG * SEG);
-                    let q = unsafe { chunk_all_avx512::<SEG>(xo, &cko, ms, i, nx) };
+                    let mut q = vec![0.0; ms.len()];
+                    let mut states = Vec::new();
+                    unsafe { chunk_all_avx512::<SEG>(xo, &cko, ms, i, nx, &mut states, &mut q) };
                     for (&m, qm) in ms.iter().zip(&q) {
                         let p = stream_chunk::<SEG>(xo, &cko, m as usize, i, Simd::None, &mut yb);
                         assert_eq!(
