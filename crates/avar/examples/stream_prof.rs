@@ -52,6 +52,19 @@ fn main() {
     let sets: Vec<(&str, Scales)> = vec![
         ("dyadic", Scales::Dyadic),
         ("m=2", Scales::Explicit(vec![2])),
+        ("lo", Scales::Explicit((1..=9).map(|j| 1u64 << j).collect())),
+        (
+            "mid",
+            Scales::Explicit((10..=14).map(|j| 1u64 << j).collect()),
+        ),
+        (
+            "hi",
+            Scales::Explicit((15..=19).map(|j| 1u64 << j).collect()),
+        ),
+        (
+            "near",
+            Scales::Explicit((1..=19).map(|j| 1u64 << j).collect()),
+        ),
         ("m=2^10", Scales::Explicit(vec![1 << 10])),
         ("m=2^15", Scales::Explicit(vec![1 << 15])),
         ("m=2^24", Scales::Explicit(vec![1 << 24])),

@@ -16,7 +16,10 @@
 //! d_{k+1} = d_k + (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (SIMD across segments, the same
 //! operations in the same order as the portable code). The segment length depends only on m
 //! ([`SEG_NEAR`] for near scales, the power of two [`SEG_FAR`] for far ones, whose chunks are
-//! walked by residue class so that their lagged blocks are still cached).
+//! walked by residue class so that their lagged blocks are still cached). With AVX-512 the
+//! segments are vector lanes: the rows of x are transposed in registers per scale, except for
+//! the small scales (2m ≤ [`XH`]), which share one transposed copy of the chunk and run four at a
+//! time (independent recurrences in one instruction stream).
 
 use rayon::prelude::*;
 
@@ -547,6 +550,176 @@ struct SegState {
     acc: [f64; NSEG],
 }
 
+/// Halo (columns) of the transposed copy of a near chunk: scales with 2m ≤ XH read their lagged
+/// samples from the copy (see [`build_xt_avx512`]).
+const XH: usize = 512;
+const _: () = assert!(XH.is_multiple_of(8) && SEG_NEAR.is_multiple_of(8));
+
+/// Eight f64 on one cache line (the element of the transposed copy).
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct Line([f64; 8]);
+
+/// Transposed copy of the NSEG rows of the full chunk [a, a + NSEG·SEG) with a halo of [`XH`]
+/// columns: `xt[2c + g]` holds, in lane r, x[a + (8g + r)·SEG − XH + c] for c ∈ [0, XH + SEG), so
+/// that for any column j of the chunk and any lag λ ≤ XH the samples x_{k−λ} of the 16 segments
+/// are two aligned vectors (no transposes left in [`block_xt_avx512`]). Needs a ≥ XH.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn build_xt_avx512<const SEG: usize>(x: &[f64], a: usize, xt: &mut Vec<Line>) {
+    use std::arch::x86_64::*;
+    let cols = XH + SEG;
+    assert!(a >= XH && a + NSEG * SEG <= x.len() && NSEG == 16);
+    if xt.len() < 2 * cols {
+        xt.resize(2 * cols, Line::default());
+    }
+    // SAFETY: AVX-512F is available (caller contract); the loads read x[a − XH + (8g + r)·SEG + c]
+    // for c < cols, r < 8, g < 2, i.e. inside [a − XH, a + NSEG·SEG) (asserted); the stores
+    // write xt[2c + g] for c < cols (length ensured above; every such line is overwritten).
+    unsafe {
+        let px = x.as_ptr().add(a - XH);
+        let pt = xt.as_mut_ptr().cast::<f64>();
+        for g in 0..2 {
+            let mut c0 = 0;
+            while c0 < cols {
+                let mut v = [_mm512_setzero_pd(); 8];
+                for (r, vr) in v.iter_mut().enumerate() {
+                    *vr = _mm512_loadu_pd(px.add((8 * g + r) * SEG + c0));
+                }
+                let t0 = _mm512_unpacklo_pd(v[0], v[1]);
+                let t1 = _mm512_unpackhi_pd(v[0], v[1]);
+                let t2 = _mm512_unpacklo_pd(v[2], v[3]);
+                let t3 = _mm512_unpackhi_pd(v[2], v[3]);
+                let t4 = _mm512_unpacklo_pd(v[4], v[5]);
+                let t5 = _mm512_unpackhi_pd(v[4], v[5]);
+                let t6 = _mm512_unpacklo_pd(v[6], v[7]);
+                let t7 = _mm512_unpackhi_pd(v[6], v[7]);
+                let u0 = _mm512_shuffle_f64x2::<0x88>(t0, t2);
+                let u1 = _mm512_shuffle_f64x2::<0xDD>(t0, t2);
+                let u2 = _mm512_shuffle_f64x2::<0x88>(t1, t3);
+                let u3 = _mm512_shuffle_f64x2::<0xDD>(t1, t3);
+                let u4 = _mm512_shuffle_f64x2::<0x88>(t4, t6);
+                let u5 = _mm512_shuffle_f64x2::<0xDD>(t4, t6);
+                let u6 = _mm512_shuffle_f64x2::<0x88>(t5, t7);
+                let u7 = _mm512_shuffle_f64x2::<0xDD>(t5, t7);
+                let col = [
+                    _mm512_shuffle_f64x2::<0x88>(u0, u4),
+                    _mm512_shuffle_f64x2::<0x88>(u2, u6),
+                    _mm512_shuffle_f64x2::<0x88>(u1, u5),
+                    _mm512_shuffle_f64x2::<0x88>(u3, u7),
+                    _mm512_shuffle_f64x2::<0xDD>(u0, u4),
+                    _mm512_shuffle_f64x2::<0xDD>(u2, u6),
+                    _mm512_shuffle_f64x2::<0xDD>(u1, u5),
+                    _mm512_shuffle_f64x2::<0xDD>(u3, u7),
+                ];
+                for (cc, cv) in col.iter().enumerate() {
+                    _mm512_store_pd(pt.add(8 * (2 * (c0 + cc) + g)), *cv);
+                }
+                c0 += 8;
+            }
+        }
+    }
+}
+
+/// [`block_avx512`] for N scales with 2m ≤ [`XH`] at once, reading the transposed copy `xt` of
+/// the chunk ([`build_xt_avx512`]) over the columns [j0, j1): per scale and column, y =
+/// (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) from three aligned loads per eight segments, then
+/// acc ← fma(d, d, acc); d += y: the operations of [`seg_sum`] in the same order (bit-identical
+/// results). The scales only share the instruction stream: their 2N recurrences are independent,
+/// which hides the latency of each one's chain of adds and fused multiply-adds.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn block_xt_avx512<const SEG: usize, const N: usize>(
+    xt: &[Line],
+    ms: [usize; N],
+    j0: usize,
+    j1: usize,
+    st: &mut [SegState; N],
+) {
+    use std::arch::x86_64::*;
+    assert!(
+        ms.iter().all(|&m| 2 * m <= XH)
+            && j0 <= j1
+            && j1 <= SEG
+            && xt.len() >= 2 * (XH + SEG)
+            && NSEG == 16
+    );
+    // SAFETY: AVX-512F is available (caller contract); the loads read xt[2c + g] for
+    // c ∈ [XH + j0 − 2m, XH + j1) ⊂ [0, XH + SEG) (asserted), aligned lines.
+    unsafe {
+        let pt = xt.as_ptr().cast::<f64>();
+        let mut d = [[_mm512_setzero_pd(); 2]; N];
+        let mut acc = [[_mm512_setzero_pd(); 2]; N];
+        for q in 0..N {
+            for g in 0..2 {
+                d[q][g] = _mm512_loadu_pd(st[q].d.as_ptr().add(8 * g));
+                acc[q][g] = _mm512_loadu_pd(st[q].acc.as_ptr().add(8 * g));
+            }
+        }
+        for j in j0..j1 {
+            let c = XH + j;
+            for q in 0..N {
+                let m = ms[q];
+                for g in 0..2 {
+                    let xa = _mm512_load_pd(pt.add(16 * c + 8 * g));
+                    let xb = _mm512_load_pd(pt.add(16 * (c - m) + 8 * g));
+                    let xc = _mm512_load_pd(pt.add(16 * (c - 2 * m) + 8 * g));
+                    let y = _mm512_sub_pd(_mm512_sub_pd(xa, xb), _mm512_sub_pd(xb, xc));
+                    acc[q][g] = _mm512_fmadd_pd(d[q][g], d[q][g], acc[q][g]);
+                    d[q][g] = _mm512_add_pd(d[q][g], y);
+                }
+            }
+        }
+        for q in 0..N {
+            for g in 0..2 {
+                _mm512_storeu_pd(st[q].d.as_mut_ptr().add(8 * g), d[q][g]);
+                _mm512_storeu_pd(st[q].acc.as_mut_ptr().add(8 * g), acc[q][g]);
+            }
+        }
+    }
+}
+
+/// Runs [`block_xt_avx512`] for the scales `ms` (their states in `st`), four at a time.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn blocks_xt_avx512<const SEG: usize>(
+    xt: &[Line],
+    ms: &[usize],
+    st: &mut [SegState],
+    j0: usize,
+    j1: usize,
+) {
+    macro_rules! group {
+        ($n:literal, $ms:expr, $st:expr) => {{
+            let mut s: [SegState; $n] = std::array::from_fn(|q| $st[q]);
+            let m: [usize; $n] = std::array::from_fn(|q| $ms[q]);
+            // SAFETY: AVX-512F is available (caller contract).
+            unsafe { block_xt_avx512::<SEG, $n>(xt, m, j0, j1, &mut s) };
+            $st[..$n].copy_from_slice(&s);
+        }};
+    }
+    let mut k = 0;
+    while k < ms.len() {
+        let (m, s) = (&ms[k..], &mut st[k..]);
+        match m.len() {
+            1 => group!(1, m, s),
+            2 => group!(2, m, s),
+            3 => group!(3, m, s),
+            _ => group!(4, m, s),
+        }
+        k += 4;
+    }
+}
+
 /// Advances the NSEG segment recurrences of a full chunk [a, a + NSEG·SEG) of scale m over the
 /// columns of every segment (k = a + l·SEG + j) read in the windows j ∈ [jb − s, jb − s + 8) for
 /// jb = j0, j0 + 8, … < j1 (plus the window at jb = SEG when j1 = SEG), skipping columns outside
@@ -686,15 +859,25 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
     batch: &[u64],
     i: usize,
     next: Option<usize>,
-    states: &mut Vec<(usize, SegState)>,
+    scratch: &mut Scratch,
     out: &mut [f64],
 ) {
+    let Scratch {
+        states,
+        xt,
+        small_ms,
+        small_st,
+        ..
+    } = scratch;
     let t = x.len();
     let a = i * (NSEG * SEG);
     // misalignment (elements) of x[a] and of every row start (SEG is a multiple of 8)
     let mis = (x.as_ptr().wrapping_add(a) as usize % 64) / 8;
     let shift = |m: usize| if m.is_multiple_of(8) { mis } else { 0 };
     let full = |m: usize| a >= 2 * m + shift(m) && a + (NSEG * SEG) + tail_reach(shift(m)) <= t;
+    // scales with 2m ≤ XH read the transposed copy of the chunk, built once for all of them
+    let xt_ok = a >= XH && a + NSEG * SEG <= t;
+    let small = |m: usize| xt_ok && 2 * m <= XH;
     states.clear();
     states.extend(
         batch
@@ -707,9 +890,21 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
                     *dl = d_start(x, ck, m, a + l * SEG);
                 }
                 let acc = [0.0f64; NSEG];
-                (m, SegState { d, acc })
+                (m, small(m), SegState { d, acc })
             }),
     );
+    small_ms.clear();
+    small_st.clear();
+    for (m, sm, st) in states.iter() {
+        if *sm {
+            small_ms.push(*m);
+            small_st.push(*st);
+        }
+    }
+    if !small_ms.is_empty() {
+        // SAFETY: AVX-512F is available (caller contract); a ≥ XH and the chunk is full.
+        unsafe { build_xt_avx512::<SEG>(x, a, xt) };
+    }
     // the samples of `next`, in one slice per column block (a hint only: no effect on values)
     let per_blk = NSEG * BLK;
     for j0 in (0..SEG).step_by(BLK) {
@@ -723,16 +918,30 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
                 p += 8;
             }
         }
-        for (m, st) in states.iter_mut() {
-            // SAFETY: AVX-512F is available (caller contract); the chunk is full for m.
-            unsafe { block_avx512::<SEG>(x, *m, a, shift(*m), j0, j0 + BLK, st) };
+        if !small_ms.is_empty() {
+            // SAFETY: AVX-512F is available (caller contract); 2m ≤ XH and `xt` was built.
+            unsafe { blocks_xt_avx512::<SEG>(xt, small_ms, small_st, j0, j0 + BLK) };
         }
+        for (m, sm, st) in states.iter_mut() {
+            if !*sm {
+                // SAFETY: AVX-512F is available (caller contract); the chunk is full for m.
+                unsafe { block_avx512::<SEG>(x, *m, a, shift(*m), j0, j0 + BLK, st) };
+            }
+        }
+    }
+    for ((_, sm, st), s) in states
+        .iter_mut()
+        .filter(|(_, sm, _)| *sm)
+        .zip(small_st.iter())
+    {
+        debug_assert!(*sm);
+        *st = *s;
     }
     let mut done = states.iter();
     for (o, &m) in out.iter_mut().zip(batch) {
         let m = m as usize;
         *o = if full(m) {
-            let (_, st) = done.next().expect("one state per full scale");
+            let (_, _, st) = done.next().expect("one state per full scale");
             reduce_lanes(&st.acc)
         } else {
             stream_chunk::<SEG>(x, ck, m, i, Simd::None, &mut [])
@@ -1042,8 +1251,13 @@ fn global_checkpoints(
 struct Scratch {
     /// The y rows of the AVX2 path.
     yb: Vec<f64>,
-    /// The segment states of the AVX-512 chunk walk.
-    states: Vec<(usize, SegState)>,
+    /// The segment states of the AVX-512 chunk walk (scale, reads `xt`, state).
+    states: Vec<(usize, bool, SegState)>,
+    /// The transposed copy of the chunk ([`build_xt_avx512`]).
+    xt: Vec<Line>,
+    /// The scales that read `xt`, and their states.
+    small_ms: Vec<usize>,
+    small_st: Vec<SegState>,
 }
 
 impl Scratch {
@@ -1051,6 +1265,9 @@ impl Scratch {
         Scratch {
             yb: vec![0.0f64; NSEG * (SEG + 8)],
             states: Vec::with_capacity(SCALE_BATCH),
+            xt: Vec::new(),
+            small_ms: Vec::new(),
+            small_st: Vec::new(),
         }
     }
 }
@@ -1073,7 +1290,7 @@ fn chunk_run<const SEG: usize>(
     #[cfg(target_arch = "x86_64")]
     if simd == Simd::Avx512 {
         // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present).
-        unsafe { chunk_all_avx512::<SEG>(x, ck, batch, i, next, &mut scratch.states, out) };
+        unsafe { chunk_all_avx512::<SEG>(x, ck, batch, i, next, scratch, out) };
         return;
     }
     let _ = next;
@@ -1350,8 +1567,8 @@ mod tests {
 
     /// On the chunk grid of segment length SEG: every chunk partial is bit-identical between the
     /// portable, AVX2 and AVX-512 paths, and between the AVX-512 chunk walk (all scales per
-    /// column block, aligned windows) and the portable path at every misalignment of the data
-    /// within a cache line.
+    /// column block, aligned windows, transposed copy for small scales) and the portable path at
+    /// every misalignment of the data within a cache line.
     fn check_paths<const SEG: usize>(n: usize, ms: &[u64]) {
         let x = series(n, 0.0);
         let ck = checkpoints(&x).unwrap();
@@ -1384,13 +1601,14 @@ mod tests {
             for o in 0..8 {
                 let xo = &big[o..o + n];
                 let cko = checkpoints(xo).unwrap();
-                for i in 0..n_chunks {
-                    // SAFETY: AVX-512F detected above.
+                // all scales, and the first 1 and 3 (groups of every size in the xt walk)
+                for (i, ms) in (0..n_chunks).flat_map(|i| [(i, ms), (i, &ms[..1]), (i, &ms[..3])]) {
                     // (prefetching the following chunk, past the end for the last one)
                     let nx = Some((i + 1) * NSEG * SEG);
                     let mut q = vec![0.0; ms.len()];
-                    let mut states = Vec::new();
-                    unsafe { chunk_all_avx512::<SEG>(xo, &cko, ms, i, nx, &mut states, &mut q) };
+                    let mut scratch = Scratch::new::<SEG>();
+                    // SAFETY: AVX-512F detected above.
+                    unsafe { chunk_all_avx512::<SEG>(xo, &cko, ms, i, nx, &mut scratch, &mut q) };
                     for (&m, qm) in ms.iter().zip(&q) {
                         let p = stream_chunk::<SEG>(xo, &cko, m as usize, i, Simd::None, &mut yb);
                         assert_eq!(
