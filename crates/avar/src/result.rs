@@ -46,7 +46,7 @@ pub struct AvarPoint {
     /// Power-law exponent α (S_y ∝ f^α: 2 WPM, 1 FPM, 0 WFM/white rate noise, −1 flicker FM,
     /// −2 random walk) identified at this scale by the lag-1 ACF method (Riley & Greenhall
     /// rounding), when a chi-square CI was computed. The EDF uses the conservative variant
-    /// [`crate::ci::NoiseId::alpha`], which differs only when the identification is uncertain.
+    /// [`crate::ci::NoiseId::alpha_edf`], which differs only when the identification is uncertain.
     #[serde(default)]
     pub noise_alpha: Option<i32>,
     /// True when the Gaussian lower bound was negative (book Remark 4.7); `avar_lo` then keeps the
