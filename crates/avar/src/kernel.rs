@@ -18,8 +18,10 @@
 //! ([`SEG_NEAR`] for near scales, the power of two [`SEG_FAR`] for far ones, whose chunks are
 //! walked by residue class so that their lagged blocks are still cached). With AVX-512 the
 //! segments are vector lanes: the rows of x are transposed in registers per scale, except for
-//! the small scales (2m ≤ [`XH`]), which share one transposed copy of the chunk and run four at a
-//! time (independent recurrences in one instruction stream).
+//! the small scales (2m ≤ [`XH`]), which share one transposed copy of the chunk, and the far
+//! scales that are whole steps of the residue-class walk, which read the transposed copies of
+//! the chunks the walk visited (a ring per thread); those run four scales at a time
+//! (independent recurrences in one instruction stream).
 
 use rayon::prelude::*;
 
@@ -551,7 +553,7 @@ struct SegState {
 }
 
 /// Halo (columns) of the transposed copy of a near chunk: scales with 2m ≤ XH read their lagged
-/// samples from the copy (see [`build_xt_avx512`]).
+/// samples from the copy (see [`build_lanes_avx512`]).
 const XH: usize = 512;
 const _: () = assert!(XH.is_multiple_of(8) && SEG_NEAR.is_multiple_of(8));
 
@@ -560,28 +562,32 @@ const _: () = assert!(XH.is_multiple_of(8) && SEG_NEAR.is_multiple_of(8));
 #[repr(C, align(64))]
 struct Line([f64; 8]);
 
-/// Transposed copy of the NSEG rows of the full chunk [a, a + NSEG·SEG) with a halo of [`XH`]
-/// columns: `xt[2c + g]` holds, in lane r, x[a + (8g + r)·SEG − XH + c] for c ∈ [0, XH + SEG), so
-/// that for any column j of the chunk and any lag λ ≤ XH the samples x_{k−λ} of the 16 segments
-/// are two aligned vectors (no transposes left in [`block_xt_avx512`]). Needs a ≥ XH.
+/// Transposed copy of the NSEG rows of the full chunk [a, a + NSEG·SEG) with a halo of `halo`
+/// columns, written to `dst` (2·(halo + SEG) lines): `dst[2c + g]` holds, in lane r,
+/// x[a + (8g + r)·SEG − halo + c] for c ∈ [0, halo + SEG), so that for any column j of the chunk
+/// and any lag λ ≤ halo the samples x_{k−λ} of the 16 segments are two aligned vectors (no
+/// transposes left in [`block_lanes_avx512`]). Needs a ≥ halo.
 ///
 /// # Safety
 /// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn build_xt_avx512<const SEG: usize>(x: &[f64], a: usize, xt: &mut Vec<Line>) {
+unsafe fn build_lanes_avx512<const SEG: usize>(x: &[f64], a: usize, halo: usize, dst: &mut [Line]) {
     use std::arch::x86_64::*;
-    let cols = XH + SEG;
-    assert!(a >= XH && a + NSEG * SEG <= x.len() && NSEG == 16);
-    if xt.len() < 2 * cols {
-        xt.resize(2 * cols, Line::default());
-    }
-    // SAFETY: AVX-512F is available (caller contract); the loads read x[a − XH + (8g + r)·SEG + c]
-    // for c < cols, r < 8, g < 2, i.e. inside [a − XH, a + NSEG·SEG) (asserted); the stores
-    // write xt[2c + g] for c < cols (length ensured above; every such line is overwritten).
+    let cols = halo + SEG;
+    assert!(
+        a >= halo
+            && a + NSEG * SEG <= x.len()
+            && NSEG == 16
+            && halo.is_multiple_of(8)
+            && dst.len() >= 2 * cols
+    );
+    // SAFETY: AVX-512F is available (caller contract); the loads read x[a − halo + (8g + r)·SEG + c]
+    // for c < cols, r < 8, g < 2, i.e. inside [a − halo, a + NSEG·SEG) (asserted); the stores
+    // write the aligned lines dst[2c + g] for c < cols (length asserted).
     unsafe {
-        let px = x.as_ptr().add(a - XH);
-        let pt = xt.as_mut_ptr().cast::<f64>();
+        let px = x.as_ptr().add(a - halo);
+        let pt = dst.as_mut_ptr().cast::<f64>();
         for g in 0..2 {
             let mut c0 = 0;
             while c0 < cols {
@@ -624,36 +630,31 @@ unsafe fn build_xt_avx512<const SEG: usize>(x: &[f64], a: usize, xt: &mut Vec<Li
     }
 }
 
-/// [`block_avx512`] for N scales with 2m ≤ [`XH`] at once, reading the transposed copy `xt` of
-/// the chunk ([`build_xt_avx512`]) over the columns [j0, j1): per scale and column, y =
-/// (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) from three aligned loads per eight segments, then
-/// acc ← fma(d, d, acc); d += y: the operations of [`seg_sum`] in the same order (bit-identical
-/// results). The scales only share the instruction stream: their 2N recurrences are independent,
-/// which hides the latency of each one's chain of adds and fused multiply-adds.
+/// [`block_avx512`] for N scales at once from lane-layout copies ([`build_lanes_avx512`]) in
+/// `buf`: for scale q the columns x_k, x_{k−m}, x_{k−2m} of chunk column j are the line pairs at
+/// column `offs[q][0] + j`, `offs[q][1] + j`, `offs[q][2] + j` of `buf`. Over the columns
+/// [j0, j1): per scale and column, y = (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) from aligned loads,
+/// then acc ← fma(d, d, acc); d += y: the operations of [`seg_sum`] in the same order
+/// (bit-identical results). The scales only share the instruction stream: their 2N recurrences
+/// are independent, which hides the latency of each one's chain of adds and fused multiply-adds.
 ///
 /// # Safety
 /// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn block_xt_avx512<const SEG: usize, const N: usize>(
-    xt: &[Line],
-    ms: [usize; N],
+unsafe fn block_lanes_avx512<const N: usize>(
+    buf: &[Line],
+    offs: [[usize; 3]; N],
     j0: usize,
     j1: usize,
     st: &mut [SegState; N],
 ) {
     use std::arch::x86_64::*;
-    assert!(
-        ms.iter().all(|&m| 2 * m <= XH)
-            && j0 <= j1
-            && j1 <= SEG
-            && xt.len() >= 2 * (XH + SEG)
-            && NSEG == 16
-    );
-    // SAFETY: AVX-512F is available (caller contract); the loads read xt[2c + g] for
-    // c ∈ [XH + j0 − 2m, XH + j1) ⊂ [0, XH + SEG) (asserted), aligned lines.
+    assert!(j0 <= j1 && NSEG == 16 && offs.iter().flatten().all(|&o| 2 * (o + j1) <= buf.len()));
+    // SAFETY: AVX-512F is available (caller contract); the loads read the aligned lines
+    // buf[2(o + j) + g] for j < j1, g < 2, inside `buf` (asserted).
     unsafe {
-        let pt = xt.as_ptr().cast::<f64>();
+        let pt = buf.as_ptr().cast::<f64>();
         let mut d = [[_mm512_setzero_pd(); 2]; N];
         let mut acc = [[_mm512_setzero_pd(); 2]; N];
         for q in 0..N {
@@ -663,13 +664,12 @@ unsafe fn block_xt_avx512<const SEG: usize, const N: usize>(
             }
         }
         for j in j0..j1 {
-            let c = XH + j;
             for q in 0..N {
-                let m = ms[q];
+                let [oa, ob, oc] = offs[q];
                 for g in 0..2 {
-                    let xa = _mm512_load_pd(pt.add(16 * c + 8 * g));
-                    let xb = _mm512_load_pd(pt.add(16 * (c - m) + 8 * g));
-                    let xc = _mm512_load_pd(pt.add(16 * (c - 2 * m) + 8 * g));
+                    let xa = _mm512_load_pd(pt.add(16 * (oa + j) + 8 * g));
+                    let xb = _mm512_load_pd(pt.add(16 * (ob + j) + 8 * g));
+                    let xc = _mm512_load_pd(pt.add(16 * (oc + j) + 8 * g));
                     let y = _mm512_sub_pd(_mm512_sub_pd(xa, xb), _mm512_sub_pd(xb, xc));
                     acc[q][g] = _mm512_fmadd_pd(d[q][g], d[q][g], acc[q][g]);
                     d[q][g] = _mm512_add_pd(d[q][g], y);
@@ -685,38 +685,37 @@ unsafe fn block_xt_avx512<const SEG: usize, const N: usize>(
     }
 }
 
-/// Runs [`block_xt_avx512`] for the scales `ms` (their states in `st`), four at a time.
+/// Runs [`block_lanes_avx512`] for the scales given by their column offsets and states, four
+/// at a time.
 ///
 /// # Safety
 /// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn blocks_xt_avx512<const SEG: usize>(
-    xt: &[Line],
-    ms: &[usize],
-    st: &mut [SegState],
+unsafe fn blocks_lanes_avx512(
+    buf: &[Line],
+    lanes: &mut [([usize; 3], SegState)],
     j0: usize,
     j1: usize,
 ) {
     macro_rules! group {
-        ($n:literal, $ms:expr, $st:expr) => {{
-            let mut s: [SegState; $n] = std::array::from_fn(|q| $st[q]);
-            let m: [usize; $n] = std::array::from_fn(|q| $ms[q]);
+        ($n:literal, $l:expr) => {{
+            let mut s: [SegState; $n] = std::array::from_fn(|q| $l[q].1);
+            let o: [[usize; 3]; $n] = std::array::from_fn(|q| $l[q].0);
             // SAFETY: AVX-512F is available (caller contract).
-            unsafe { block_xt_avx512::<SEG, $n>(xt, m, j0, j1, &mut s) };
-            $st[..$n].copy_from_slice(&s);
+            unsafe { block_lanes_avx512::<$n>(buf, o, j0, j1, &mut s) };
+            for (q, sq) in s.iter().enumerate() {
+                $l[q].1 = *sq;
+            }
         }};
     }
-    let mut k = 0;
-    while k < ms.len() {
-        let (m, s) = (&ms[k..], &mut st[k..]);
-        match m.len() {
-            1 => group!(1, m, s),
-            2 => group!(2, m, s),
-            3 => group!(3, m, s),
-            _ => group!(4, m, s),
+    for l in lanes.chunks_mut(4) {
+        match l.len() {
+            1 => group!(1, l),
+            2 => group!(2, l),
+            3 => group!(3, l),
+            _ => group!(4, l),
         }
-        k += 4;
     }
 }
 
@@ -862,48 +861,71 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
     scratch: &mut Scratch,
     out: &mut [f64],
 ) {
-    let Scratch {
-        states,
-        xt,
-        small_ms,
-        small_st,
-        ..
-    } = scratch;
     let t = x.len();
     let a = i * (NSEG * SEG);
     // misalignment (elements) of x[a] and of every row start (SEG is a multiple of 8)
     let mis = (x.as_ptr().wrapping_add(a) as usize % 64) / 8;
     let shift = |m: usize| if m.is_multiple_of(8) { mis } else { 0 };
     let full = |m: usize| a >= 2 * m + shift(m) && a + (NSEG * SEG) + tail_reach(shift(m)) <= t;
-    // scales with 2m ≤ XH read the transposed copy of the chunk, built once for all of them
-    let xt_ok = a >= XH && a + NSEG * SEG <= t;
-    let small = |m: usize| xt_ok && 2 * m <= XH;
-    states.clear();
-    states.extend(
-        batch
-            .iter()
-            .map(|&m| m as usize)
-            .filter(|&m| full(m))
-            .map(|m| {
-                let mut d = [0.0f64; NSEG];
-                for (l, dl) in d.iter_mut().enumerate() {
-                    *dl = d_start(x, ck, m, a + l * SEG);
-                }
-                let acc = [0.0f64; NSEG];
-                (m, small(m), SegState { d, acc })
-            }),
-    );
-    small_ms.clear();
-    small_st.clear();
-    for (m, sm, st) in states.iter() {
-        if *sm {
-            small_ms.push(*m);
-            small_st.push(*st);
+    let chunk_full = a + NSEG * SEG <= t;
+    // far walk: the lane-layout copy of this chunk goes to its ring slot (every full chunk of
+    // the class, for the later chunks that lag back to it)
+    let ring = match scratch.ring_pos {
+        Some((tc, step)) if chunk_full && scratch.ring_slots > 0 => {
+            let slot = tc % scratch.ring_slots;
+            let dst = &mut scratch.ring[2 * SEG * slot..2 * SEG * (slot + 1)];
+            // SAFETY: AVX-512F is available (caller contract); the chunk is full.
+            unsafe { build_lanes_avx512::<SEG>(x, a, 0, dst) };
+            Some((tc, step))
         }
+        _ => None,
+    };
+    // scales with 2m ≤ XH read the halo copy of the chunk, built once for all of them; far
+    // scales that are whole class steps (m = q·step) read the ring; the others transpose
+    let halo_ok = a >= XH && chunk_full;
+    let slots = scratch.ring_slots;
+    let kind = |m: usize| -> Option<[usize; 3]> {
+        if halo_ok && 2 * m <= XH {
+            return Some([XH, XH - m, XH - 2 * m]);
+        }
+        let (tc, step) = ring?;
+        let q = m / step;
+        (m.is_multiple_of(step) && 2 * q <= tc && 2 * q < slots)
+            .then(|| [tc, tc - q, tc - 2 * q].map(|v| (v % slots) * SEG))
+    };
+    let Scratch {
+        states,
+        xt,
+        halo,
+        ring_lanes,
+        ring: ring_buf,
+        ..
+    } = scratch;
+    states.clear();
+    halo.clear();
+    ring_lanes.clear();
+    for m in batch.iter().map(|&m| m as usize).filter(|&m| full(m)) {
+        let mut d = [0.0f64; NSEG];
+        for (l, dl) in d.iter_mut().enumerate() {
+            *dl = d_start(x, ck, m, a + l * SEG);
+        }
+        let st = SegState {
+            d,
+            acc: [0.0f64; NSEG],
+        };
+        match kind(m) {
+            Some(offs) if 2 * m <= XH && halo_ok => halo.push((offs, st)),
+            Some(offs) => ring_lanes.push((offs, st)),
+            None => {}
+        }
+        states.push((m, kind(m).is_some(), st));
     }
-    if !small_ms.is_empty() {
+    if !halo.is_empty() {
+        if xt.len() < 2 * (XH + SEG) {
+            xt.resize(2 * (XH + SEG), Line::default());
+        }
         // SAFETY: AVX-512F is available (caller contract); a ≥ XH and the chunk is full.
-        unsafe { build_xt_avx512::<SEG>(x, a, xt) };
+        unsafe { build_lanes_avx512::<SEG>(x, a, XH, xt) };
     }
     // the samples of `next`, in one slice per column block (a hint only: no effect on values)
     let per_blk = NSEG * BLK;
@@ -918,24 +940,29 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
                 p += 8;
             }
         }
-        if !small_ms.is_empty() {
-            // SAFETY: AVX-512F is available (caller contract); 2m ≤ XH and `xt` was built.
-            unsafe { blocks_xt_avx512::<SEG>(xt, small_ms, small_st, j0, j0 + BLK) };
-        }
-        for (m, sm, st) in states.iter_mut() {
-            if !*sm {
+        // SAFETY: AVX-512F is available (caller contract); the halo copy was built above.
+        unsafe { blocks_lanes_avx512(xt, halo, j0, j0 + BLK) };
+        // SAFETY: AVX-512F is available; this chunk's copy was built above, and the lagged ones
+        // when the walk visited their chunks (2q ≤ t, 2q < slots).
+        unsafe { blocks_lanes_avx512(ring_buf, ring_lanes, j0, j0 + BLK) };
+        for (m, lanes, st) in states.iter_mut() {
+            if !*lanes {
                 // SAFETY: AVX-512F is available (caller contract); the chunk is full for m.
                 unsafe { block_avx512::<SEG>(x, *m, a, shift(*m), j0, j0 + BLK, st) };
             }
         }
     }
-    for ((_, sm, st), s) in states
-        .iter_mut()
-        .filter(|(_, sm, _)| *sm)
-        .zip(small_st.iter())
-    {
-        debug_assert!(*sm);
-        *st = *s;
+    let mut from_halo = halo.iter();
+    let mut from_ring = ring_lanes.iter();
+    for (m, lanes, st) in states.iter_mut() {
+        if *lanes {
+            let src = if 2 * *m <= XH && halo_ok {
+                from_halo.next()
+            } else {
+                from_ring.next()
+            };
+            *st = src.expect("one lane state per lane scale").1;
+        }
     }
     let mut done = states.iter();
     for (o, &m) in out.iter_mut().zip(batch) {
@@ -1034,20 +1061,20 @@ fn stream_chunk<const SEG: usize>(
 /// segments (see [`stream_near`]). Errors on non-finite samples (naming the first) and on
 /// overflow.
 pub(crate) fn overlapping_sums_stream(x: &[f64], ms: &[u64]) -> Result<(Vec<f64>, f64), AvarError> {
-    overlapping_sums_stream_split(x, ms, FAR_M, JOB_CHUNKS)
+    overlapping_sums_stream_split(x, ms, FAR_M, JOB_CHUNKS, Simd::detect())
 }
 
 /// [`overlapping_sums_stream`] with the near/far threshold and the job length as parameters:
 /// scales with 2m > `far_m` take the far grid and the residue-class walk of step `far_m`; the
 /// near walk runs in jobs of `job_chunks` near chunks with a warm-up of `far_m` samples (tests
-/// use small values to cover those paths on short series).
+/// use small values to cover those paths on short series), and the vector kernel `simd`.
 fn overlapping_sums_stream_split(
     x: &[f64],
     ms: &[u64],
     far_m: usize,
     job_chunks: usize,
+    simd: Simd,
 ) -> Result<(Vec<f64>, f64), AvarError> {
-    let simd = Simd::detect();
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
         (0..ms.len()).partition(|&s| 2 * ms[s] as usize <= far_m);
@@ -1251,13 +1278,19 @@ fn global_checkpoints(
 struct Scratch {
     /// The y rows of the AVX2 path.
     yb: Vec<f64>,
-    /// The segment states of the AVX-512 chunk walk (scale, reads `xt`, state).
+    /// The segment states of the AVX-512 chunk walk (scale, reads a lane copy, state).
     states: Vec<(usize, bool, SegState)>,
-    /// The transposed copy of the chunk ([`build_xt_avx512`]).
+    /// The halo copy of the chunk ([`build_lanes_avx512`]).
     xt: Vec<Line>,
-    /// The scales that read `xt`, and their states.
-    small_ms: Vec<usize>,
-    small_st: Vec<SegState>,
+    /// Column offsets and states of the scales that read `xt`, and of those that read `ring`.
+    halo: Vec<([usize; 3], SegState)>,
+    ring_lanes: Vec<([usize; 3], SegState)>,
+    /// Far walk: lane copies of the chunks of the current residue class, chunk t of the class in
+    /// slot t mod `ring_slots` (0: no ring).
+    ring: Vec<Line>,
+    ring_slots: usize,
+    /// Far walk: (index t of the current chunk in its class, class step in samples).
+    ring_pos: Option<(usize, usize)>,
 }
 
 impl Scratch {
@@ -1266,9 +1299,20 @@ impl Scratch {
             yb: vec![0.0f64; NSEG * (SEG + 8)],
             states: Vec::with_capacity(SCALE_BATCH),
             xt: Vec::new(),
-            small_ms: Vec::new(),
-            small_st: Vec::new(),
+            halo: Vec::new(),
+            ring_lanes: Vec::new(),
+            ring: Vec::new(),
+            ring_slots: 0,
+            ring_pos: None,
         }
+    }
+
+    /// A ring of `slots` lane copies of SEG-grid chunks (see [`stream_group`]).
+    fn with_ring<const SEG: usize>(slots: usize) -> Scratch {
+        let mut s = Scratch::new::<SEG>();
+        s.ring = vec![Line::default(); 2 * SEG * slots];
+        s.ring_slots = slots;
+        s
     }
 }
 
@@ -1372,18 +1416,38 @@ fn stream_group<const SEG: usize>(
     for idx in group.chunks(SCALE_BATCH) {
         let batch: Vec<u64> = idx.iter().map(|&s| ms[s]).collect();
         let w = batch.len();
+        // lane copies of the class's chunks, back to the largest lag 2m = 2q·step of a scale
+        // that is a whole number q of class steps (AVX-512 only)
+        let step = n_cls * schunk;
+        let q_max = batch
+            .iter()
+            .map(|&m| m as usize)
+            .filter(|m| m.is_multiple_of(step))
+            .map(|m| m / step)
+            .max()
+            .unwrap_or(0);
+        let slots = if simd == Simd::Avx512 && q_max > 0 {
+            2 * q_max + 1
+        } else {
+            0
+        };
         // each class walks its chunks in order, writing their partials to its own buffer
         let by_class: Vec<Vec<f64>> = (0..n_cls)
             .into_par_iter()
-            .map_init(Scratch::new::<SEG>, |scratch, r| {
-                let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
-                for (i, out) in (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w)) {
-                    let next = (i + n_cls) * schunk;
-                    prefetch_next(x, ck, next, schunk, &batch);
-                    chunk_run::<SEG>(x, ck, &batch, i, simd, scratch, Some(next), out);
-                }
-                parts
-            })
+            .map_init(
+                || Scratch::with_ring::<SEG>(slots),
+                |scratch, r| {
+                    let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
+                    let walk = (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w));
+                    for (tc, (i, out)) in walk.enumerate() {
+                        scratch.ring_pos = Some((tc, step));
+                        let next = (i + n_cls) * schunk;
+                        prefetch_next(x, ck, next, schunk, &batch);
+                        chunk_run::<SEG>(x, ck, &batch, i, simd, scratch, Some(next), out);
+                    }
+                    parts
+                },
+            )
             .collect();
         let mut parts = vec![0.0f64; n_chunks * w];
         for (r, cls) in by_class.iter().enumerate() {
@@ -1494,12 +1558,30 @@ mod tests {
         // here), with one job per near chunk (local checkpoint frames with a warm-up of
         // 4096 samples): same sums as the buffered kernel
         let far_m = 4096;
-        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1).unwrap().0;
+        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1, Simd::detect())
+            .unwrap()
+            .0;
         for ((a, b), &m) in split.iter().zip(&buffered).zip(&ms) {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
         }
+        // every vector path gives the same bits as the portable one, near and far (the far
+        // scales 8192 and 16 384 are whole class steps here and read the ring of lane copies)
+        for (far_m, jobs) in [(FAR_M, JOB_CHUNKS), (far_m, 1)] {
+            let best = overlapping_sums_stream_split(&x, &ms, far_m, jobs, Simd::detect()).unwrap();
+            let mut paths = vec![Simd::None];
+            if Simd::detect() != Simd::None {
+                paths.push(Simd::Avx2);
+            }
+            for simd in paths {
+                let p = overlapping_sums_stream_split(&x, &ms, far_m, jobs, simd).unwrap();
+                for ((a, b), &m) in p.0.iter().zip(&best.0).zip(&ms) {
+                    assert_eq!(a.to_bits(), b.to_bits(), "far_m {far_m} {simd:?} m {m}");
+                }
+                assert_eq!(p.1.to_bits(), best.1.to_bits());
+            }
+        }
         // one job (the default length here): near scales bit-identical to the default split
-        let one_job = overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS)
+        let one_job = overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS, Simd::detect())
             .unwrap()
             .0;
         for ((a, d), &m) in one_job.iter().zip(&streamed).zip(&ms) {
@@ -1508,11 +1590,11 @@ mod tests {
             }
         }
         // the value for m does not depend on the other requested scales
-        let single_far = overlapping_sums_stream_split(&x, &[20_000], far_m, 1)
+        let single_far = overlapping_sums_stream_split(&x, &[20_000], far_m, 1, Simd::detect())
             .unwrap()
             .0;
         assert_eq!(single_far[0].to_bits(), split[11].to_bits());
-        let single_near = overlapping_sums_stream_split(&x, &[1000], far_m, 1)
+        let single_near = overlapping_sums_stream_split(&x, &[1000], far_m, 1, Simd::detect())
             .unwrap()
             .0;
         assert_eq!(single_near[0].to_bits(), split[6].to_bits());
@@ -1525,7 +1607,9 @@ mod tests {
         for (a, b) in off.iter().zip(&streamed) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
-        let off_split = overlapping_sums_stream_split(&y, &ms, far_m, 1).unwrap().0;
+        let off_split = overlapping_sums_stream_split(&y, &ms, far_m, 1, Simd::detect())
+            .unwrap()
+            .0;
         for (a, b) in off_split.iter().zip(&split) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
@@ -1544,7 +1628,13 @@ mod tests {
             let mut x = series(n, 0.0);
             x[index] = value;
             for job_chunks in [1, JOB_CHUNKS] {
-                match overlapping_sums_stream_split(&x, &[2, 8192], 4096, job_chunks) {
+                match overlapping_sums_stream_split(
+                    &x,
+                    &[2, 8192],
+                    4096,
+                    job_chunks,
+                    Simd::detect(),
+                ) {
                     Err(AvarError::NonFinite { index: i, .. }) => assert_eq!(i, index),
                     other => panic!("index {index}: {other:?}"),
                 }
@@ -1560,7 +1650,7 @@ mod tests {
             .map(|i| if i % 2 == 0 { 1.7e308 } else { -1.7e308 })
             .collect();
         assert!(matches!(
-            overlapping_sums_stream_split(&x, &[2], 4096, 1),
+            overlapping_sums_stream_split(&x, &[2], 4096, 1, Simd::detect()),
             Err(AvarError::Overflow)
         ));
     }
