@@ -552,6 +552,41 @@ struct SegState {
     acc: [f64; NSEG],
 }
 
+/// The 8 × 8 transpose of eight AVX-512 vectors (`[__m512d; 8]`, rows → columns): 24 shuffles.
+/// Needs `std::arch::x86_64::*` in scope and AVX-512F enabled at the use site.
+#[cfg(target_arch = "x86_64")]
+macro_rules! transpose8x8 {
+    ($v:expr) => {{
+        let v = $v;
+        let t0 = _mm512_unpacklo_pd(v[0], v[1]);
+        let t1 = _mm512_unpackhi_pd(v[0], v[1]);
+        let t2 = _mm512_unpacklo_pd(v[2], v[3]);
+        let t3 = _mm512_unpackhi_pd(v[2], v[3]);
+        let t4 = _mm512_unpacklo_pd(v[4], v[5]);
+        let t5 = _mm512_unpackhi_pd(v[4], v[5]);
+        let t6 = _mm512_unpacklo_pd(v[6], v[7]);
+        let t7 = _mm512_unpackhi_pd(v[6], v[7]);
+        let u0 = _mm512_shuffle_f64x2::<0x88>(t0, t2);
+        let u1 = _mm512_shuffle_f64x2::<0xDD>(t0, t2);
+        let u2 = _mm512_shuffle_f64x2::<0x88>(t1, t3);
+        let u3 = _mm512_shuffle_f64x2::<0xDD>(t1, t3);
+        let u4 = _mm512_shuffle_f64x2::<0x88>(t4, t6);
+        let u5 = _mm512_shuffle_f64x2::<0xDD>(t4, t6);
+        let u6 = _mm512_shuffle_f64x2::<0x88>(t5, t7);
+        let u7 = _mm512_shuffle_f64x2::<0xDD>(t5, t7);
+        [
+            _mm512_shuffle_f64x2::<0x88>(u0, u4),
+            _mm512_shuffle_f64x2::<0x88>(u2, u6),
+            _mm512_shuffle_f64x2::<0x88>(u1, u5),
+            _mm512_shuffle_f64x2::<0x88>(u3, u7),
+            _mm512_shuffle_f64x2::<0xDD>(u0, u4),
+            _mm512_shuffle_f64x2::<0xDD>(u2, u6),
+            _mm512_shuffle_f64x2::<0xDD>(u1, u5),
+            _mm512_shuffle_f64x2::<0xDD>(u3, u7),
+        ]
+    }};
+}
+
 /// Halo (columns) of the transposed copy of a near chunk: scales with 2m ≤ XH read their lagged
 /// samples from the copy (see [`build_lanes_avx512`]).
 const XH: usize = 512;
@@ -595,32 +630,7 @@ unsafe fn build_lanes_avx512<const SEG: usize>(x: &[f64], a: usize, halo: usize,
                 for (r, vr) in v.iter_mut().enumerate() {
                     *vr = _mm512_loadu_pd(px.add((8 * g + r) * SEG + c0));
                 }
-                let t0 = _mm512_unpacklo_pd(v[0], v[1]);
-                let t1 = _mm512_unpackhi_pd(v[0], v[1]);
-                let t2 = _mm512_unpacklo_pd(v[2], v[3]);
-                let t3 = _mm512_unpackhi_pd(v[2], v[3]);
-                let t4 = _mm512_unpacklo_pd(v[4], v[5]);
-                let t5 = _mm512_unpackhi_pd(v[4], v[5]);
-                let t6 = _mm512_unpacklo_pd(v[6], v[7]);
-                let t7 = _mm512_unpackhi_pd(v[6], v[7]);
-                let u0 = _mm512_shuffle_f64x2::<0x88>(t0, t2);
-                let u1 = _mm512_shuffle_f64x2::<0xDD>(t0, t2);
-                let u2 = _mm512_shuffle_f64x2::<0x88>(t1, t3);
-                let u3 = _mm512_shuffle_f64x2::<0xDD>(t1, t3);
-                let u4 = _mm512_shuffle_f64x2::<0x88>(t4, t6);
-                let u5 = _mm512_shuffle_f64x2::<0xDD>(t4, t6);
-                let u6 = _mm512_shuffle_f64x2::<0x88>(t5, t7);
-                let u7 = _mm512_shuffle_f64x2::<0xDD>(t5, t7);
-                let col = [
-                    _mm512_shuffle_f64x2::<0x88>(u0, u4),
-                    _mm512_shuffle_f64x2::<0x88>(u2, u6),
-                    _mm512_shuffle_f64x2::<0x88>(u1, u5),
-                    _mm512_shuffle_f64x2::<0x88>(u3, u7),
-                    _mm512_shuffle_f64x2::<0xDD>(u0, u4),
-                    _mm512_shuffle_f64x2::<0xDD>(u2, u6),
-                    _mm512_shuffle_f64x2::<0xDD>(u1, u5),
-                    _mm512_shuffle_f64x2::<0xDD>(u3, u7),
-                ];
+                let col = transpose8x8!(v);
                 for (cc, cv) in col.iter().enumerate() {
                     _mm512_store_pd(pt.add(8 * (2 * (c0 + cc) + g)), *cv);
                 }
@@ -776,32 +786,7 @@ unsafe fn block_avx512<const SEG: usize>(
                     let xc = _mm512_loadu_pd(px.add(k - 2 * m));
                     *yr = _mm512_sub_pd(_mm512_sub_pd(xa, xb), _mm512_sub_pd(xb, xc));
                 }
-                let t0 = _mm512_unpacklo_pd(y[0], y[1]);
-                let t1 = _mm512_unpackhi_pd(y[0], y[1]);
-                let t2 = _mm512_unpacklo_pd(y[2], y[3]);
-                let t3 = _mm512_unpackhi_pd(y[2], y[3]);
-                let t4 = _mm512_unpacklo_pd(y[4], y[5]);
-                let t5 = _mm512_unpackhi_pd(y[4], y[5]);
-                let t6 = _mm512_unpacklo_pd(y[6], y[7]);
-                let t7 = _mm512_unpackhi_pd(y[6], y[7]);
-                let u0 = _mm512_shuffle_f64x2::<0x88>(t0, t2);
-                let u1 = _mm512_shuffle_f64x2::<0xDD>(t0, t2);
-                let u2 = _mm512_shuffle_f64x2::<0x88>(t1, t3);
-                let u3 = _mm512_shuffle_f64x2::<0xDD>(t1, t3);
-                let u4 = _mm512_shuffle_f64x2::<0x88>(t4, t6);
-                let u5 = _mm512_shuffle_f64x2::<0xDD>(t4, t6);
-                let u6 = _mm512_shuffle_f64x2::<0x88>(t5, t7);
-                let u7 = _mm512_shuffle_f64x2::<0xDD>(t5, t7);
-                [
-                    _mm512_shuffle_f64x2::<0x88>(u0, u4),
-                    _mm512_shuffle_f64x2::<0x88>(u2, u6),
-                    _mm512_shuffle_f64x2::<0x88>(u1, u5),
-                    _mm512_shuffle_f64x2::<0x88>(u3, u7),
-                    _mm512_shuffle_f64x2::<0xDD>(u0, u4),
-                    _mm512_shuffle_f64x2::<0xDD>(u2, u6),
-                    _mm512_shuffle_f64x2::<0xDD>(u1, u5),
-                    _mm512_shuffle_f64x2::<0xDD>(u3, u7),
-                ]
+                transpose8x8!(y)
             }};
         }
         let mut jb = j0;

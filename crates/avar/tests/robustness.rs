@@ -19,6 +19,15 @@ fn cfg(scales: Scales) -> AvarConfig {
     }
 }
 
+/// Runs `f` on a rayon pool of `threads` threads.
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
 fn offset_check(x: &[f64], label: &str) {
     let sd = {
         let mu = x.iter().sum::<f64>() / x.len() as f64;
@@ -61,17 +70,11 @@ fn offset_does_not_change_the_av_white_plus_random_walk() {
 fn results_are_bit_identical_for_any_thread_count() {
     let x = white_noise(300_001, 1.0, 21);
     let run = |threads: usize, scales: Scales, est: Estimator| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                let c = AvarConfig {
-                    estimator: est,
-                    ..cfg(scales)
-                };
-                allan_variance(&x, 10.0, &c).unwrap()
-            })
+        let c = AvarConfig {
+            estimator: est,
+            ..cfg(scales)
+        };
+        on_threads(threads, || allan_variance(&x, 10.0, &c).unwrap())
     };
     for scales in [Scales::Dyadic, Scales::LogSpaced { per_decade: 40 }] {
         for est in [Estimator::Overlapping, Estimator::NonOverlapping] {
@@ -232,17 +235,11 @@ fn streamed_path_is_deterministic_exact_and_offset_proof() {
     let r = random_walk(n, 1e-4, 32);
     let x: Vec<f64> = w.iter().zip(&r).map(|(a, b)| a + b).collect();
     let run = |threads: usize, x: &[f64], ci: CiMethod| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                let c = AvarConfig {
-                    ci,
-                    ..cfg(Scales::DyadicWithOne)
-                };
-                allan_variance(x, 100.0, &c).unwrap()
-            })
+        let c = AvarConfig {
+            ci,
+            ..cfg(Scales::DyadicWithOne)
+        };
+        on_threads(threads, || allan_variance(x, 100.0, &c).unwrap())
     };
     let a = run(1, &x, CiMethod::None);
     for threads in [2, 3] {
