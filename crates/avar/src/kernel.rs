@@ -295,7 +295,8 @@ const _: () = assert!(
 pub(crate) struct Checkpoints {
     pivot: f64,
     delta: f64,
-    /// The mean of the samples (pivot + delta).
+    /// The mean of the samples (pivot + delta); NaN in the streamed kernel's pivot-only frames,
+    /// whose caller gets the mean from the job totals instead.
     pub(crate) mean: f64,
     /// Index (in units of G samples) of the first entry of `ck`.
     g0: usize,
