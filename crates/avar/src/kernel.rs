@@ -1107,8 +1107,7 @@ fn overlapping_sums_stream_split(
 const JOB_CHUNKS: usize = 480;
 
 /// One job of the near walk: its checkpoints in a local frame (origin at the job start A, where
-/// C = 0, and pivot-only centring), from A − warm-up to the job end B, and the near chunk
-/// partials of its chunks.
+/// C = 0, and pivot-only centring), from A − warm-up to the job end B.
 struct NearJob {
     ck: Checkpoints,
     /// Index (units of G) of the job start A.
@@ -1612,6 +1611,31 @@ mod tests {
             .0;
         for (a, b) in off_split.iter().zip(&split) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
+        }
+    }
+
+    /// More near scales than one batch ([`SCALE_BATCH`]): the later batches reuse the jobs'
+    /// checkpoints, and each value is the one the scale gets when requested alone.
+    #[test]
+    fn streamed_sums_span_several_scale_batches() {
+        let n = 3 * SCHUNK + 12_345;
+        let x = series(n, 0.0);
+        let ms: Vec<u64> = (1..=300).map(|k| 7 * k).collect();
+        let (sums, _) = overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect()).unwrap();
+        let mut c = Vec::new();
+        centred_prefix_into(&x, &mut c).unwrap();
+        let buffered = overlapping_sums(&c, &ms);
+        for ((a, b), &m) in sums.iter().zip(&buffered).zip(&ms) {
+            assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
+        }
+        for k in [0, 150, 299] {
+            let one = overlapping_sums_stream_split(&x, &ms[k..=k], FAR_M, 1, Simd::detect());
+            assert_eq!(
+                one.unwrap().0[0].to_bits(),
+                sums[k].to_bits(),
+                "m {}",
+                ms[k]
+            );
         }
     }
 
