@@ -835,3 +835,24 @@ fn fit_weighting_model_full_is_used() {
         );
     }
 }
+
+/// The text table's header names the CI family, or says that there is none.
+#[test]
+fn table_header_names_the_ci_family() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "ok.csv", good_csv(1000).as_bytes());
+    for (ci, want) in [
+        (None, "95% chi-square CI"),
+        (Some("none"), "no CI"),
+        (Some("gaussian"), "95% Gaussian CI (Lemma 4.4)"),
+    ] {
+        let mut args = vec!["avar", p.to_str().unwrap(), "-r", "100", "-q"];
+        if let Some(c) = ci {
+            args.extend(["--ci", c]);
+        }
+        let out = imunoise_ok(&args);
+        let text = String::from_utf8_lossy(&out.stdout);
+        let header = text.lines().next().unwrap_or_default();
+        assert!(header.ends_with(want), "{ci:?}: {header}");
+    }
+}

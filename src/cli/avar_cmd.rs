@@ -209,13 +209,16 @@ pub fn write_table(
         if i > 0 {
             writeln!(out)?;
         }
+        let level = 100.0 * (1.0 - alpha);
+        let ci = match av.ci {
+            CiMethod::ChiSquare => format!("{level:.0}% chi-square CI"),
+            CiMethod::Gaussian => format!("{level:.0}% Gaussian CI (Lemma 4.4)"),
+            CiMethod::None => "no CI".to_string(),
+        };
         writeln!(
             out,
-            "{name}: n = {}, rate = {} Hz, {:?} estimator, {:.0}% CI",
-            av.n,
-            av.rate_hz,
-            av.estimator,
-            100.0 * (1.0 - alpha)
+            "{name}: n = {}, rate = {} Hz, {:?} estimator, {ci}",
+            av.n, av.rate_hz, av.estimator,
         )?;
         writeln!(
             out,
