@@ -16,8 +16,8 @@
 //! * Parallel over a fixed grid (rayon) with bit-identical results for any thread count; peak
 //!   extra memory is one series-sized f64 buffer (none for angle input). Rate series of 2^22
 //!   samples or more without a CI are streamed instead: no series-sized buffer, only checkpoints
-//!   of the cumulative sum every 64 samples (about T/4 bytes); all dyadic scales of 10^8 samples
-//!   take about 0.2 s on two cores.
+//!   of the cumulative sum every 64 samples (at most about T/2 bytes); all dyadic scales of 10^8
+//!   samples take about 0.2 s on two cores.
 //! * Confidence intervals ([`CiMethod`]): chi-square with EDF (default), Gaussian from the
 //!   book's Lemma 4.4, and the Haar wavelet variance with the `wv` η interval
 //!   ([`haar_wavelet_variance`]).
