@@ -165,10 +165,18 @@ fn allan_variance_with(
     validate_rate_alpha(rate_hz, config.alpha)?;
     if matches!(config.input, InputKind::Rate)
         && matches!(config.estimator, Estimator::Overlapping)
-        && matches!(config.ci, CiMethod::None)
         && data.len() >= kernel::STREAM_MIN_T
     {
-        return allan_variance_streamed(data, rate_hz, config);
+        if matches!(config.ci, CiMethod::None) {
+            return allan_variance_streamed(data, rate_hz, config);
+        }
+        // the CI needs the cumulative sum; the AV itself comes from the streamed kernel, as
+        // without a CI (faster at this length, and more precise at small m: no rounding of a
+        // long cumulative sum enters the differences)
+        let cum = cumulative(data, rate_hz, config.input, scratch)?;
+        let ms = config.scales.cluster_sizes(data.len())?;
+        let (sums, mean) = kernel::overlapping_sums_stream(data, &ms)?;
+        return finish(Cumulative { mean, ..cum }, rate_hz, config, &ms, &sums);
     }
     let cum = cumulative(data, rate_hz, config.input, scratch)?;
     let t = cum.t();
