@@ -366,6 +366,13 @@ fn theory_psd_is_the_white_noise_level() {
     assert_eq!(psd.last().unwrap()["f"], 50.0);
 }
 
+/// The arguments of `imunoise fit` on the raw f64 file `p` sampled at 100 Hz, then `extra`.
+fn fit_f64_args<'a>(p: &'a Path, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec!["fit", p.to_str().unwrap(), "--binary", "f64", "-r", "100"];
+    args.extend_from_slice(extra);
+    args
+}
+
 /// Runs `imunoise simulate` of `model` (n samples at 100 Hz, the given seed, extra flags) into
 /// `path` and asserts success.
 fn simulate_file(path: &Path, model: &str, n: &str, seed: &str, extra: &[&str]) {
@@ -398,20 +405,10 @@ fn simulate_to(dir: &Path, model: &str, n: &str, unit_name: &str) -> PathBuf {
 fn fit_json_shape_and_white_noise_recovered() {
     let dir = tempfile::tempdir().unwrap();
     let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "65536", "x");
-    let out = imunoise_ok(&[
-        "fit",
-        p.to_str().unwrap(),
-        "--binary",
-        "f64",
-        "-r",
-        "100",
-        "--unit",
-        "deg/s",
-        "--model",
-        "WN+RW",
-        "-f",
-        "json",
-    ]);
+    let out = imunoise_ok(&fit_f64_args(
+        &p,
+        &["--unit", "deg/s", "--model", "WN+RW", "-f", "json"],
+    ));
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let ch = &doc["channels"][0];
     let mut keys: Vec<&String> = ch.as_object().unwrap().keys().collect();
@@ -513,17 +510,7 @@ fn fit_says_which_ci_method_it_used() {
     let dir = tempfile::tempdir().unwrap();
     let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "32768", "x");
     let fit = |extra: &[&str]| {
-        let mut args = vec![
-            "fit",
-            p.to_str().unwrap(),
-            "--binary",
-            "f64",
-            "-r",
-            "100",
-            "--model",
-            "WN+RW",
-            "-q",
-        ];
+        let mut args = fit_f64_args(&p, &["--model", "WN+RW", "-q"]);
         args.extend_from_slice(extra);
         let out = imunoise_ok(&args);
         String::from_utf8_lossy(&out.stdout).into_owned()
@@ -556,17 +543,7 @@ fn fit_says_which_ci_method_it_used() {
     assert_eq!(rows[n][6], "°/√h");
     assert!(rows[1..].iter().all(|r| r[7] == "delta_model_cov"), "{csv}");
     // --select compares GMWM fits: with another method it is a usage error.
-    let out = imunoise(&[
-        "fit",
-        p.to_str().unwrap(),
-        "--binary",
-        "f64",
-        "-r",
-        "100",
-        "--method",
-        "avlr",
-        "--select",
-    ]);
+    let out = imunoise(&fit_f64_args(&p, &["--method", "avlr", "--select"]));
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--select"));
     // The IEEE 952 read-off has no intervals, and says so.
@@ -703,18 +680,7 @@ fn on_terminal(args: &[&str]) -> Option<String> {
 fn progress_bars_on_a_terminal_only() {
     let dir = tempfile::tempdir().unwrap();
     let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "32768", "x");
-    let args = [
-        "fit",
-        p.to_str().unwrap(),
-        "--binary",
-        "f64",
-        "-r",
-        "100",
-        "--model",
-        "WN+RW",
-        "--bootstrap",
-        "3",
-    ];
+    let args = fit_f64_args(&p, &["--model", "WN+RW", "--bootstrap", "3"]);
     // Not a terminal: no bar on stderr.
     let out = imunoise(&args);
     assert!(out.status.success());
@@ -807,21 +773,18 @@ fn fit_weighting_model_full_is_used() {
     let dir = tempfile::tempdir().unwrap();
     let p = simulate_to(dir.path(), "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "65536", "x");
     let run = |w: &str| -> serde_json::Value {
-        let out = imunoise_ok(&[
-            "fit",
-            p.to_str().unwrap(),
-            "--binary",
-            "f64",
-            "-r",
-            "100",
-            "--model",
-            "WN+RW",
-            "--weighting",
-            w,
-            "--format",
-            "json",
-            "-q",
-        ]);
+        let out = imunoise_ok(&fit_f64_args(
+            &p,
+            &[
+                "--model",
+                "WN+RW",
+                "--weighting",
+                w,
+                "--format",
+                "json",
+                "-q",
+            ],
+        ));
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         v["channels"][0]["parameters"][0].clone()
     };
