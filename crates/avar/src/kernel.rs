@@ -867,13 +867,12 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
         _ => None,
     };
     // scales with 2m ≤ XH read the halo copy of the chunk, built once for all of them; far
-    // scales that are whole class steps (m = q·step) read the ring; the others transpose
+    // scales that are whole class steps (m = q·step) read the ring; the others transpose in
+    // registers
     let halo_ok = a >= XH && chunk_full;
     let slots = scratch.ring_slots;
-    let kind = |m: usize| -> Option<[usize; 3]> {
-        if halo_ok && 2 * m <= XH {
-            return Some([XH, XH - m, XH - 2 * m]);
-        }
+    let halo_offs = |m: usize| (halo_ok && 2 * m <= XH).then(|| [XH, XH - m, XH - 2 * m]);
+    let ring_offs = |m: usize| {
         let (tc, step) = ring?;
         let q = m / step;
         (m.is_multiple_of(step) && 2 * q <= tc && 2 * q < slots)
@@ -881,6 +880,7 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
     };
     let Scratch {
         states,
+        regs,
         xt,
         halo,
         ring_lanes,
@@ -888,6 +888,7 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
         ..
     } = scratch;
     states.clear();
+    regs.clear();
     halo.clear();
     ring_lanes.clear();
     for m in batch.iter().map(|&m| m as usize).filter(|&m| full(m)) {
@@ -899,12 +900,17 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
             d,
             acc: [0.0f64; NSEG],
         };
-        match kind(m) {
-            Some(offs) if 2 * m <= XH && halo_ok => halo.push((offs, st)),
-            Some(offs) => ring_lanes.push((offs, st)),
-            None => {}
-        }
-        states.push((m, kind(m).is_some(), st));
+        let at = if let Some(offs) = halo_offs(m) {
+            halo.push((offs, st));
+            StateAt::Halo(halo.len() - 1)
+        } else if let Some(offs) = ring_offs(m) {
+            ring_lanes.push((offs, st));
+            StateAt::Ring(ring_lanes.len() - 1)
+        } else {
+            regs.push((m, st));
+            StateAt::Regs(regs.len() - 1)
+        };
+        states.push(at);
     }
     if !halo.is_empty() {
         if xt.len() < 2 * (XH + SEG) {
@@ -931,30 +937,20 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
         // SAFETY: AVX-512F is available; this chunk's copy was built above, and the lagged ones
         // when the walk visited their chunks (2q ≤ t, 2q < slots).
         unsafe { blocks_lanes_avx512(ring_buf, ring_lanes, j0, j0 + BLK) };
-        for (m, lanes, st) in states.iter_mut() {
-            if !*lanes {
-                // SAFETY: AVX-512F is available (caller contract); the chunk is full for m.
-                unsafe { block_avx512::<SEG>(x, *m, a, shift(*m), j0, j0 + BLK, st) };
-            }
-        }
-    }
-    let mut from_halo = halo.iter();
-    let mut from_ring = ring_lanes.iter();
-    for (m, lanes, st) in states.iter_mut() {
-        if *lanes {
-            let src = if 2 * *m <= XH && halo_ok {
-                from_halo.next()
-            } else {
-                from_ring.next()
-            };
-            *st = src.expect("one lane state per lane scale").1;
+        for (m, st) in regs.iter_mut() {
+            // SAFETY: AVX-512F is available (caller contract); the chunk is full for m.
+            unsafe { block_avx512::<SEG>(x, *m, a, shift(*m), j0, j0 + BLK, st) };
         }
     }
     let mut done = states.iter();
     for (o, &m) in out.iter_mut().zip(batch) {
         let m = m as usize;
         *o = if full(m) {
-            let (_, _, st) = done.next().expect("one state per full scale");
+            let st = match done.next().expect("one state per full scale") {
+                StateAt::Regs(k) => &regs[*k].1,
+                StateAt::Halo(k) => &halo[*k].1,
+                StateAt::Ring(k) => &ring_lanes[*k].1,
+            };
             reduce_lanes(&st.acc)
         } else {
             stream_chunk::<SEG>(x, ck, m, i, Simd::None, &mut [])
@@ -1273,12 +1269,24 @@ fn global_checkpoints(
     (ck, run.value())
 }
 
+/// Where the segment state of a scale lives during the AVX-512 chunk walk.
+enum StateAt {
+    /// At this index of the scales transposing in registers ([`Scratch::regs`]).
+    Regs(usize),
+    /// At this index of the scales reading the halo copy ([`Scratch::halo`]).
+    Halo(usize),
+    /// At this index of the scales reading the ring ([`Scratch::ring_lanes`]).
+    Ring(usize),
+}
+
 /// Per-thread scratch of the chunk kernels (reused from chunk to chunk).
 struct Scratch {
     /// The y rows of the AVX2 path.
     yb: Vec<f64>,
-    /// The segment states of the AVX-512 chunk walk (scale, reads a lane copy, state).
-    states: Vec<(usize, bool, SegState)>,
+    /// Where the segment state of each full scale of the AVX-512 chunk walk lives, in batch order.
+    states: Vec<StateAt>,
+    /// Scales (and states) that transpose their rows in registers ([`block_avx512`]).
+    regs: Vec<(usize, SegState)>,
     /// The halo copy of the chunk ([`build_lanes_avx512`]).
     xt: Vec<Line>,
     /// Column offsets and states of the scales that read `xt`, and of those that read `ring`.
@@ -1297,6 +1305,7 @@ impl Scratch {
         Scratch {
             yb: vec![0.0f64; NSEG * (SEG + 8)],
             states: Vec::with_capacity(SCALE_BATCH),
+            regs: Vec::with_capacity(SCALE_BATCH),
             xt: Vec::new(),
             halo: Vec::new(),
             ring_lanes: Vec::new(),
