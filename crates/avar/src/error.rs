@@ -36,6 +36,17 @@ pub enum AvarError {
     /// The sums overflowed although every sample is finite (values near f64::MAX).
     #[error("overflow while accumulating the series (samples too large in magnitude)")]
     Overflow,
+    /// The Allan variance at a scale is beyond the range of f64 (about 1e-308 to 1e308) although
+    /// every sample is finite: the samples are too large or too small in magnitude.
+    #[error(
+        "the Allan variance at m = {m} is about 1e{log10:.0}, outside the range of f64 (1e-308 to 1e308): rescale the input (e.g. to SI units)"
+    )]
+    NotRepresentable {
+        /// The cluster size (samples).
+        m: u64,
+        /// log10 of the AV's magnitude.
+        log10: f64,
+    },
     /// The sampling rate is not a finite positive number.
     #[error("invalid sampling rate {0} Hz: must be finite and > 0")]
     InvalidRate(f64),

@@ -37,6 +37,7 @@ pub mod config;
 pub mod error;
 mod haar;
 mod kernel;
+mod range;
 pub mod result;
 
 use std::borrow::Cow;
@@ -156,6 +157,10 @@ pub fn allan_variance(
 }
 
 /// [`allan_variance`] with a caller-provided buffer for the cumulative sums (reused across calls).
+///
+/// Samples of huge or tiny magnitude are estimated on an exact power-of-two rescaled copy (see
+/// the `range` module): the result is the same as the unscaled estimate would be in exact
+/// range, and an AV beyond the range of f64 is an error instead of an infinity or a zero.
 fn allan_variance_with(
     data: &[f64],
     rate_hz: f64,
@@ -163,6 +168,27 @@ fn allan_variance_with(
     scratch: &mut Vec<f64>,
 ) -> Result<AllanVariance, AvarError> {
     validate_rate_alpha(rate_hz, config.alpha)?;
+    let first = estimate(data, rate_hz, config, scratch);
+    if !range::suspicious(&first) {
+        return first;
+    }
+    let Some(e) = range::rescale_exponent(data) else {
+        // magnitudes are ordinary: the values are what they are (e.g. AV = 0 of a square wave)
+        return first;
+    };
+    let scaled = range::scaled_copy(data, e);
+    let mut av = estimate(&scaled, rate_hz, config, scratch)?;
+    range::scale_back(&mut av, e)?;
+    Ok(av)
+}
+
+/// The estimate itself, on data of ordinary magnitude.
+fn estimate(
+    data: &[f64],
+    rate_hz: f64,
+    config: &AvarConfig,
+    scratch: &mut Vec<f64>,
+) -> Result<AllanVariance, AvarError> {
     if matches!(config.input, InputKind::Rate)
         && matches!(config.estimator, Estimator::Overlapping)
         && data.len() >= kernel::STREAM_MIN_T

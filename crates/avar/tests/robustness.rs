@@ -120,11 +120,12 @@ fn bad_input_gives_clear_errors() {
         allan_variance(&x, 1.0, &ang).unwrap_err(),
         AvarError::NonFinite { index: 99, .. }
     ));
+    // samples near f64::MAX: computed on a rescaled copy, whose AV (~1e616) is not representable
     let huge = vec![f64::MAX, -f64::MAX, f64::MAX, f64::MAX, f64::MAX];
-    assert_eq!(
+    assert!(matches!(
         allan_variance(&huge, 1.0, &d).unwrap_err(),
-        AvarError::Overflow
-    );
+        AvarError::NotRepresentable { .. }
+    ));
     let y = vec![1.0; 100];
     for r in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         assert!(matches!(
