@@ -9,10 +9,19 @@ use thiserror::Error;
 /// anything else with code 1. No input ever makes it panic.
 #[derive(Debug, Error)]
 pub enum Error {
-    /// A file could not be opened, read or written.
-    #[error("{path}: {source}")]
+    /// An input file could not be opened or read.
+    #[error("{path}: {}", plain(source))]
     Io {
         /// The file as the user named it.
+        path: String,
+        /// The operating-system error.
+        source: std::io::Error,
+    },
+    /// An output (a file, a report directory, standard output) could not be created or
+    /// written: the machine's doing (disk full, permissions, a read-only file system), exit 1.
+    #[error("cannot write {path}: {}", plain(source))]
+    Write {
+        /// The output as the user named it (`<stdout>` for standard output).
         path: String,
         /// The operating-system error.
         source: std::io::Error,
@@ -59,13 +68,24 @@ impl Error {
     pub fn is_user_error(&self) -> bool {
         match self {
             Error::Located { .. } | Error::File { .. } | Error::Usage(_) => true,
-            // Opening a missing input file is the user's doing too.
-            Error::Io { source, .. } => matches!(
-                source.kind(),
-                std::io::ErrorKind::NotFound | std::io::ErrorKind::PermissionDenied
-            ),
+            // A missing, unreadable or malformed input file is the user's doing too; a read
+            // error of the device is the machine's.
+            Error::Io { source, .. } => {
+                use std::io::ErrorKind as K;
+                matches!(
+                    source.kind(),
+                    K::NotFound
+                        | K::PermissionDenied
+                        | K::IsADirectory
+                        | K::NotADirectory
+                        | K::InvalidData
+                        | K::InvalidInput
+                        | K::UnexpectedEof
+                        | K::InvalidFilename
+                )
+            }
             Error::Process(_) | Error::Avar(_) => true,
-            Error::Json(_) => false,
+            Error::Write { .. } | Error::Json(_) => false,
         }
     }
 
@@ -74,13 +94,58 @@ impl Error {
         if self.is_user_error() { 2 } else { 1 }
     }
 
-    /// Shorthand for an [`Error::Io`].
+    /// Shorthand for an [`Error::Io`] (reading an input).
     pub fn io(path: impl Into<String>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
             source,
         }
     }
+
+    /// Shorthand for an [`Error::Write`] (writing an output).
+    pub fn write(path: impl Into<String>, source: std::io::Error) -> Self {
+        Error::Write {
+            path: path.into(),
+            source,
+        }
+    }
+
+    /// True when standard output was closed by its reader (`imunoise avar … | head`): not an
+    /// error of ours, the command stops quietly.
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, Error::Io { source, .. } | Error::Write { source, .. }
+            if source.kind() == std::io::ErrorKind::BrokenPipe)
+    }
+}
+
+/// An operating-system error in plain words, without the "(os error N)" suffix.
+///
+/// ```
+/// use std::io::{Error, ErrorKind};
+/// assert_eq!(imunoise::error::plain(&Error::from(ErrorKind::StorageFull)), "no space left on the device");
+/// ```
+pub fn plain(e: &std::io::Error) -> String {
+    use std::io::ErrorKind as K;
+    let words = match e.kind() {
+        K::NotFound => "no such file or directory",
+        K::PermissionDenied => "permission denied",
+        K::StorageFull => "no space left on the device",
+        K::QuotaExceeded => "disk quota exceeded",
+        K::ReadOnlyFilesystem => "the file system is read-only",
+        K::IsADirectory => "is a directory",
+        K::NotADirectory => "a part of the path is a file, not a directory",
+        K::AlreadyExists => "already exists",
+        K::FileTooLarge => "the file is too large for the file system",
+        K::InvalidFilename => "the file name is invalid (too long?)",
+        _ => {
+            let s = e.to_string();
+            return match s.rfind(" (os error ") {
+                Some(i) => s[..i].to_string(),
+                None => s,
+            };
+        }
+    };
+    words.to_string()
 }
 
 /// Shorthand for results of the umbrella crate.

@@ -161,10 +161,58 @@ impl std::ops::Deref for Bytes {
     }
 }
 
-/// Opens `path`, memory-maps it, and decompresses it when it starts with the gzip magic
-/// bytes (whatever its extension).
+/// What kind of thing a path names, as far as reading it goes.
+enum Source {
+    /// A regular file: memory-mapped.
+    File(std::fs::File),
+    /// A pipe, a FIFO or standard input (`-`): read once into memory.
+    Stream(Box<dyn Read>),
+}
+
+/// Opens `path` for reading, refusing directories and devices with a message in plain words.
+fn open(path: &Path, file: &str) -> Result<Source> {
+    if path.as_os_str() == "-" {
+        return Ok(Source::Stream(Box::new(std::io::stdin())));
+    }
+    let md = std::fs::metadata(path).map_err(|e| Error::io(file, e))?;
+    let what = |kind: &str| Error::File {
+        file: file.to_string(),
+        message: format!("is {kind}, not a log file; name a file to read"),
+    };
+    if md.is_dir() {
+        return Err(what("a directory"));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let ft = md.file_type();
+        if ft.is_block_device() || ft.is_char_device() {
+            return Err(what("a device"));
+        }
+        if ft.is_fifo() || ft.is_socket() {
+            let f = std::fs::File::open(path).map_err(|e| Error::io(file, e))?;
+            return Ok(Source::Stream(Box::new(f)));
+        }
+    }
+    if !md.is_file() {
+        return Err(what("neither a regular file nor a pipe"));
+    }
+    Ok(Source::File(
+        std::fs::File::open(path).map_err(|e| Error::io(file, e))?,
+    ))
+}
+
+/// Opens `path`, memory-maps it (or reads a pipe or standard input into memory), and
+/// decompresses it when it starts with the gzip magic bytes (whatever its extension).
 fn load(path: &Path, file: &str) -> Result<Bytes> {
-    let f = std::fs::File::open(path).map_err(|e| Error::io(file, e))?;
+    let f = match open(path, file)? {
+        Source::File(f) => f,
+        Source::Stream(mut r) => {
+            let mut buf = Vec::new();
+            r.read_to_end(&mut buf).map_err(|e| Error::io(file, e))?;
+            return decompress(Bytes::Owned(buf), file);
+        }
+    };
     let len = f.metadata().map_err(|e| Error::io(file, e))?.len();
     if len == 0 {
         return Err(Error::File {
@@ -176,6 +224,17 @@ fn load(path: &Path, file: &str) -> Result<Bytes> {
     // file must not be truncated by another process while it is read (documented in
     // the command's help).
     let map = unsafe { memmap2::Mmap::map(&f) }.map_err(|e| Error::io(file, e))?;
+    decompress(Bytes::Mapped(map), file)
+}
+
+/// Decompresses `map` when it starts with the gzip magic bytes; errors on empty input.
+fn decompress(map: Bytes, file: &str) -> Result<Bytes> {
+    if map.is_empty() {
+        return Err(Error::File {
+            file: file.to_string(),
+            message: "the input is empty".to_string(),
+        });
+    }
     if map.len() >= 2 && map[0] == 0x1f && map[1] == 0x8b {
         // The gzip trailer holds the uncompressed size mod 2^32: a capacity hint only.
         let hint = if map.len() >= 4 {
@@ -199,7 +258,7 @@ fn load(path: &Path, file: &str) -> Result<Bytes> {
         }
         Ok(Bytes::Owned(out))
     } else {
-        Ok(Bytes::Mapped(map))
+        Ok(map)
     }
 }
 

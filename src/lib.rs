@@ -19,6 +19,7 @@ pub use spectral;
 pub mod cli;
 pub mod error;
 pub mod io;
+pub mod output;
 pub mod plot;
 pub mod units;
 

@@ -6,9 +6,7 @@ fn main() {
     let cli = imunoise::cli::Cli::parse();
     if let Err(e) = imunoise::cli::run(cli) {
         // A closed pipe (`imunoise avar … | head`) is not an error of ours.
-        if let imunoise::Error::Io { source, .. } = &e
-            && source.kind() == std::io::ErrorKind::BrokenPipe
-        {
+        if e.is_broken_pipe() {
             return;
         }
         eprintln!("error: {e}");

@@ -218,7 +218,7 @@ pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    std::fs::write(path, bytes).map_err(|e| Error::io(path.display().to_string(), e))
+    crate::output::write_file(path, bytes)
 }
 
 /// Writes an SVG and (with the `png` feature) its PNG rendering.
@@ -235,11 +235,11 @@ fn write_plot(dir: &Path, stem: &str, svg: &str) -> Result<()> {
 
 /// Writes the whole report into `dir`.
 pub fn write_report(dir: &Path, inp: &ReportInput<'_>, ui: &Ui) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display().to_string(), e))?;
+    crate::output::create_dir(dir, "--out")?;
     let pb = ui.bar(inp.names.len() as u64, "plots");
     // avar.csv
     let mut csv = Vec::new();
-    super::avar_cmd::write_csv(&mut csv, inp.curves).map_err(|e| Error::io("avar.csv", e))?;
+    super::avar_cmd::write_csv(&mut csv, inp.curves).map_err(|e| Error::write("avar.csv", e))?;
     write_file(&dir.join("avar.csv"), &csv)?;
     // results.json
     let json = super::avar_cmd::to_json(inp.curves);
@@ -435,6 +435,8 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
 
 /// Runs `imunoise analyze`.
 pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
+    // a bad --out fails before the work, not after it
+    crate::output::create_dir(&args.out, "--out")?;
     let (table, units, curves) = super::fit::read_curves(&args.input, args.fit.alpha, ui)?;
     let mut settings = args.fit.clone();
     settings.select = !args.no_select && settings.method == super::fit::Method::Gmwm;
@@ -463,5 +465,5 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
             )?;
             out.flush()
         })
-        .map_err(|e| Error::io("<stdout>", e))
+        .map_err(|e| Error::write("<stdout>", e))
 }

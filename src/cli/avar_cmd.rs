@@ -289,5 +289,5 @@ pub fn run(args: &AvarArgs, ui: &Ui) -> Result<()> {
         Format::Table => write_table(&mut out, &curves, args.alpha),
     };
     res.and_then(|_| out.flush())
-        .map_err(|e| crate::Error::io("<stdout>", e))
+        .map_err(|e| crate::Error::write("<stdout>", e))
 }

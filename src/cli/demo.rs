@@ -406,6 +406,7 @@ pub fn estimate(n: usize, seed: u64, bootstrap: usize, ui: &Ui) -> Result<DemoRu
 
 /// Runs `imunoise demo`.
 pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
+    crate::output::create_dir(&args.out, "--out")?;
     let t0 = std::time::Instant::now();
     let r = estimate(args.n, args.seed, args.bootstrap, ui)?;
     let (alpha, k, alpha_sim, ci_method) = (r.alpha, r.k, r.alpha_sim(), r.ci_method);
@@ -416,7 +417,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     let sim_level = super::fit::percent(1.0 - alpha_sim);
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
-    let mut w = |s: String| writeln!(out, "{s}").map_err(|e| Error::io("<stdout>", e));
+    let mut w = |s: String| writeln!(out, "{s}").map_err(|e| Error::write("<stdout>", e));
     w(format!(
         "imunoise demo: simulated 6-axis MEMS IMU, {} samples per channel at {} Hz ({:.1} h), seed {}",
         args.n,
@@ -499,7 +500,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         "{ic} of {inn} IEEE terms within their simultaneous {level} intervals; {imc} of {imn} within their marginal {level} CIs."
     ))?;
     // The report: demo.json, and the truth table in report.html.
-    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(args.out.display().to_string(), e))?;
+    crate::output::create_dir(&args.out, "--out")?;
     let dj = DemoJson {
         alpha,
         k,
@@ -510,8 +511,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         ieee,
     };
     let path = args.out.join("demo.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&dj)?)
-        .map_err(|e| Error::io(path.display().to_string(), e))?;
+    crate::output::write_file(&path, serde_json::to_string_pretty(&dj)?.as_bytes())?;
     let mut extra = format!(
         "<h2>Demo: true against estimated parameters</h2><p>Simultaneous intervals: Bonferroni over K = {k} parameters (each at {sim_level}), jointly ≥ {level}. {sc} of {sn} true parameters lie within their simultaneous intervals, {mc} of {mn} within their marginal {level} CIs.</p><table><tr><th class=l>channel</th><th class=l>parameter</th><th>true</th><th>estimate</th><th>{level} CI</th><th>simultaneous {sim_level}</th><th>covered (simultaneous)</th><th>covered (marginal)</th></tr>\n"
     );
@@ -546,7 +546,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         "report (plots, results.json, demo.json, avar.csv, imu.yaml) written to {}",
         args.out.join("report.html").display()
     ))?;
-    out.flush().map_err(|e| Error::io("<stdout>", e))?;
+    out.flush().map_err(|e| Error::write("<stdout>", e))?;
     ui.note(format!("done in {:.2} s", t0.elapsed().as_secs_f64()));
     Ok(())
 }

@@ -732,5 +732,5 @@ pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
         super::Format::Table => write_table(&mut out, &fits, args.fit.alpha, args.fit.bootstrap),
     };
     r.and_then(|_| out.flush())
-        .map_err(|e| Error::io("<stdout>", e))
+        .map_err(|e| Error::write("<stdout>", e))
 }

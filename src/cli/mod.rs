@@ -17,12 +17,21 @@ pub mod fit;
 pub mod simulate;
 pub mod theory;
 
+macro_rules! exit_codes {
+    () => {
+        "Exit codes: 0 success; 2 bad input or arguments (the message names the file and the line and column, or the option); 1 a failure of the machine (disk full, no permission to write an output, a read error of the device). No input makes imunoise panic: a panic is a bug."
+    };
+}
+
+/// The exit-code policy, shown by `imunoise --help` (and stated in the README).
+pub const EXIT_CODES: &str = exit_codes!();
+
 /// Stochastic calibration of inertial sensors: Allan variance with confidence intervals,
 /// theoretical curves of noise models, simulation.
 #[derive(Debug, Parser)]
 #[command(name = "imunoise", version, about, long_about = None)]
 #[command(
-    after_help = "Examples:\n  imunoise demo\n  imunoise avar log.csv.gz --rate 100 --format json\n  imunoise simulate --model \"WN(sigma2=1e-4)+RW(gamma2=1e-10)\" -n 100000 --rate 100 --seed 1 -o sim.csv"
+    after_help = concat!("Examples:\n  imunoise demo\n  imunoise avar log.csv.gz --rate 100 --format json\n  imunoise simulate --model \"WN(sigma2=1e-4)+RW(gamma2=1e-10)\" -n 100000 --rate 100 --seed 1 -o sim.csv\n\n", exit_codes!())
 )]
 pub struct Cli {
     /// No progress bars or notes on stderr (errors are still printed).
@@ -164,6 +173,8 @@ pub fn parse_factor(s: &str) -> std::result::Result<f64, String> {
 pub struct InputArgs {
     /// Input log: CSV, TSV or whitespace-separated text with or without a header line
     /// (gzip-compressed is read transparently), or raw little-endian binary with --binary.
+    /// `-` reads standard input; standard input, pipes and FIFOs are read into memory first
+    /// (regular files are memory-mapped).
     pub file: PathBuf,
     /// Sampling rate in Hz (required, > 0).
     #[arg(long, short = 'r', value_name = "HZ", value_parser = parse_rate, allow_negative_numbers = true)]
@@ -256,8 +267,12 @@ pub fn parse_scales(s: &str) -> std::result::Result<avar::Scales, String> {
 
 /// Maps an `avar` error of one channel to a message naming the file and channel.
 pub fn avar_error(file: &str, channel: &str, e: avar::AvarError) -> Error {
+    let hint = match e {
+        avar::AvarError::NotRepresentable { .. } => " (--scale F multiplies every sample by F)",
+        _ => "",
+    };
     Error::File {
         file: file.to_string(),
-        message: format!("channel {channel:?}: {e}"),
+        message: format!("channel {channel:?}: {e}{hint}"),
     }
 }

@@ -104,7 +104,8 @@ pub fn run(args: &SimulateArgs, ui: &Ui) -> Result<()> {
     match &args.output {
         Some(path) if path.as_os_str() != "-" => {
             let name = path.display().to_string();
-            let f = std::fs::File::create(path).map_err(|e| Error::io(&name, e))?;
+            crate::output::check_file(path, "-o")?;
+            let f = std::fs::File::create(path).map_err(|e| Error::write(&name, e))?;
             let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
             let binary = path.extension().is_some_and(|e| e == "f64");
             if binary {
@@ -113,7 +114,7 @@ pub fn run(args: &SimulateArgs, ui: &Ui) -> Result<()> {
                 write_csv(&mut w, &names, &cols)
             }
             .and_then(|_| w.flush())
-            .map_err(|e| Error::io(&name, e))?;
+            .map_err(|e| Error::write(&name, e))?;
             ui.note(format!(
                 "wrote {} channel(s) × {} samples of {model} at {} Hz to {name}{}",
                 args.channels,
@@ -127,7 +128,7 @@ pub fn run(args: &SimulateArgs, ui: &Ui) -> Result<()> {
             let mut w = std::io::BufWriter::new(stdout.lock());
             write_csv(&mut w, &names, &cols)
                 .and_then(|_| w.flush())
-                .map_err(|e| Error::io("<stdout>", e))?;
+                .map_err(|e| Error::write("<stdout>", e))?;
         }
     }
     Ok(())

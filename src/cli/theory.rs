@@ -207,5 +207,5 @@ pub fn run(args: &TheoryArgs, _ui: &Ui) -> Result<()> {
         }
     };
     res.and_then(|_| out.flush())
-        .map_err(|e| Error::io("<stdout>", e))
+        .map_err(|e| Error::write("<stdout>", e))
 }
