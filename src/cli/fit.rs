@@ -244,6 +244,10 @@ pub struct ChannelFit {
     /// WIC of the selected model (with --select).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wic: Option<f64>,
+    /// What the user should know about this fit in words: components the data do not
+    /// determine, data-quality findings (level shifts, trends, spikes). Empty: omitted.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub warnings: Vec<String>,
     /// The fitted curve.
     pub fitted: Vec<FittedJson>,
     /// Each component's fitted curve (for plots; not in the JSON).
@@ -337,6 +341,7 @@ fn from_report(
             })
             .collect(),
         ieee: r.ieee.clone(),
+        warnings: Vec::new(),
         j_test: r.j_test.map(|j| JTestJson {
             statistic: j.statistic,
             p_value: j.p_value,
@@ -406,12 +411,15 @@ pub fn fit_channel(
             let inf = delta_method(&f, &v, settings.alpha).map_err(e)?;
             let r = FitReport::from_gmwm(&f, Some(&inf), unit);
             let kinds = f.kinds.clone();
+            let warnings = undetermined(&f);
             let ci = CiInfo {
                 method,
                 alpha: settings.alpha,
                 inference: Some(GmwmInference { fit: f, v }),
             };
-            Ok(from_report(name, &r, wic, &kinds, ci))
+            let mut out = from_report(name, &r, wic, &kinds, ci);
+            out.warnings = warnings;
+            Ok(out)
         }
         Method::Avlr => {
             let w = gmwm_prep::avlr::AvlrWindows::auto(&curve).map_err(e)?;
@@ -435,6 +443,22 @@ pub fn fit_channel(
         }
         Method::Ieee952 => ieee952(name, av, unit),
     }
+}
+
+/// Warnings for the components of a GMWM fit that the data do not determine.
+fn undetermined(f: &gmwm_prep::gmwm::GmwmFit) -> Vec<String> {
+    let (lo, hi) = (
+        f.tau.first().copied().unwrap_or(f64::NAN),
+        f.tau.last().copied().unwrap_or(f64::NAN),
+    );
+    gmwm_prep::diagnose::negligible_components(f)
+        .into_iter()
+        .map(|(code, share)| {
+            format!(
+                "{code} contributes at most {share:.1e} of the fitted AV at any scale (τ = {lo} … {hi} s): the data do not determine its parameters, whatever their CIs say; try --select or a model without {code}"
+            )
+        })
+        .collect()
 }
 
 /// The IEEE 952 read-off as a fit: N, K, Q, R mapped to per-sample WN, RW, QN, DR
@@ -507,6 +531,7 @@ pub fn ieee952(name: &str, av: &AllanVariance, unit: &Unit) -> Result<ChannelFit
             })
             .collect(),
         ieee,
+        warnings: Vec::new(),
         j_test: None,
         ci_method: CiMethod::None,
         ci_level: None,
@@ -649,6 +674,9 @@ pub fn write_table(
         }
         if let Some(w) = f.wic {
             writeln!(out, "  WIC of the selected model: {w:.4}")?;
+        }
+        for w in &f.warnings {
+            writeln!(out, "  note: {w}")?;
         }
     }
     Ok(())

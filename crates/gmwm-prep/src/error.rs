@@ -34,6 +34,25 @@ pub enum FitError {
     /// A model that cannot be fitted by this method (e.g. not identifiable from the AV).
     #[error("model cannot be fitted: {0}")]
     Unidentifiable(String),
+    /// Parameters that the fitted scales cannot determine (AᵀΩA singular at θ̂), in the
+    /// user's terms: which components, over which scales, why, and what to try.
+    #[error(
+        "{} cannot be identified from the scales τ = {tau_lo} … {tau_hi} s: {reason}. Try selecting a sub-model by WIC (--select){}, or a longer record (more scales at long τ)",
+        if components.is_empty() { "the model".to_string() } else { components.join(" and ") },
+        smaller_model.as_ref().map_or(String::new(), |s| format!(", a smaller model such as \"{s}\""))
+    )]
+    NotIdentifiable {
+        /// Codes of the components concerned (e.g. `["RW"]`), empty when none stands out.
+        components: Vec<String>,
+        /// Shortest averaging time of the fitted scales (s).
+        tau_lo: f64,
+        /// Longest averaging time of the fitted scales (s).
+        tau_hi: f64,
+        /// Why, in words.
+        reason: String,
+        /// The template without the first component concerned, when that leaves a model.
+        smaller_model: Option<String>,
+    },
     /// A scale window (AVLR) that is empty or out of the curve's range.
     #[error("invalid scale window for {process}: {message}")]
     InvalidWindow {

@@ -251,7 +251,10 @@ pub fn delta_method(fit: &GmwmFit, v: &CovMatrix, alpha: f64) -> Result<Inferenc
     let a = fit.jacobian();
     let omega = fit.omega().to_mat();
     let vm = v.to_mat();
-    let b = b_matrix(&a, &omega)?;
+    let b = b_matrix(&a, &omega).map_err(|e| match e {
+        FitError::Unidentifiable(_) => crate::diagnose::unidentifiable(fit),
+        e => e,
+    })?;
     let cov = &(&b * &vm) * b.transpose();
     let se: Vec<f64> = (0..p).map(|k| cov[(k, k)].max(0.0).sqrt()).collect();
     let z = z_two_sided(alpha);
@@ -404,7 +407,7 @@ pub fn select_by_wic(
         };
         let inf = match delta_method(&f, v, 0.05) {
             Ok(inf) => inf,
-            Err(FitError::Unidentifiable(_)) => continue,
+            Err(FitError::Unidentifiable(_) | FitError::NotIdentifiable { .. }) => continue,
             Err(e) => return Err(e),
         };
         out.push(Candidate {

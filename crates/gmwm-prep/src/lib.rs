@@ -31,6 +31,7 @@ mod avcov;
 pub mod avlr;
 pub mod bootstrap;
 pub mod curve;
+pub mod diagnose;
 pub mod error;
 pub mod gmwm;
 pub mod ieee;
