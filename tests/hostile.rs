@@ -21,7 +21,7 @@ fn fails_with(out: &Output, code: i32) -> String {
     let err = stderr(out);
     assert_eq!(out.status.code(), Some(code), "stderr: {err}");
     assert!(!err.contains("panicked"), "{err}");
-    assert!(err.starts_with("error: "), "{err}");
+    assert!(err.lines().any(|l| l.starts_with("error: ")), "{err}");
     err
 }
 
@@ -289,4 +289,107 @@ fn help_states_the_exit_code_policy() {
     let out = imunoise(&["--help"]);
     let s = String::from_utf8_lossy(&out.stdout);
     assert!(s.contains("Exit codes: 0 success; 2 bad input"), "{s}");
+}
+
+/// A one-column CSV `gyro_x_dps` at 100 Hz: white noise of SD 0.05 °/s plus `extra(i)`.
+fn gyro_csv(dir: &Path, name: &str, n: usize, extra: impl Fn(usize) -> f64) -> PathBuf {
+    let p = noise_csv(dir, "base.csv", n, 0.05);
+    let text = std::fs::read_to_string(&p).unwrap();
+    let mut s = String::from("gyro_x_dps\n");
+    for (i, l) in text.lines().skip(1).enumerate() {
+        let v: f64 = l.parse().unwrap();
+        s.push_str(&format!("{}\n", v + extra(i)));
+    }
+    let q = dir.join(name);
+    std::fs::write(&q, s).unwrap();
+    q
+}
+
+/// Issue 16, case 4a: a level shift (a bump of the mount) used to end in "AᵀΩA is singular at
+/// θ̂: the parameters are not identifiable from these scales". Now the data-quality pass names
+/// the shift and its time before fitting, and the fit failure names the component, the scales
+/// and what to try.
+#[test]
+fn a_level_shift_is_named_and_the_fit_failure_says_what_to_try() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = gyro_csv(dir.path(), "shift.csv", 200_000, |i| {
+        if i >= 120_000 { 0.2 } else { 0.0 }
+    });
+    let out = imunoise(&["fit", p.to_str().unwrap(), "--rate", "100"]);
+    let err = stderr(&out);
+    assert!(
+        err.contains("at t = 1200.000 s") && err.contains("like a rate random walk"),
+        "{err}"
+    );
+    // the size: 0.2 within 5 standard errors of a difference of two means of 4 blocks of
+    // 781 samples of SD 0.05 (√(2·0.05²/3124) = 0.0013)
+    let size: f64 = err
+        .split("a level shift of ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .expect("the size is printed");
+    assert!((size - 0.2).abs() < 5.0 * 0.0013, "{size}");
+    // with this (fixed) noise the default QN + WN + RW + AR1 fit is singular
+    let err = fails_with(&out, 2);
+    assert!(!err.contains("singular"), "{err}");
+    assert!(
+        err.contains("cannot be identified from the scales τ = 0.02 … 655.36 s"),
+        "{err}"
+    );
+    assert!(
+        err.contains("--select")
+            && err.contains("a smaller model such as")
+            && err.contains("longer record"),
+        "{err}"
+    );
+}
+
+/// Issue 16, case 4b: periodic 50σ spikes used to be fitted with full confidence and no remark.
+/// Now `fit` lists them (count, period, times, share of the AV) in its JSON warnings, and the
+/// report of `analyze` has a Remarks section.
+#[test]
+fn periodic_spikes_are_remarked_in_fit_and_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = gyro_csv(dir.path(), "spikes.csv", 200_000, |i| {
+        if i % 5000 == 2500 { 2.5 } else { 0.0 }
+    });
+    let out = imunoise(&[
+        "fit",
+        p.to_str().unwrap(),
+        "--rate",
+        "100",
+        "--model",
+        "WN",
+        "--format",
+        "json",
+        "-q",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let w = v["channels"][0]["warnings"][0].as_str().unwrap();
+    assert!(
+        w.contains("40 spikes")
+            && w.contains("periodic every 50.0000 s")
+            && w.contains("t = 25.000, 75.000"),
+        "{w}"
+    );
+    let rep = dir.path().join("rep");
+    let out = imunoise(&[
+        "analyze",
+        p.to_str().unwrap(),
+        "--rate",
+        "100",
+        "--out",
+        rep.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
+    assert!(
+        html.contains("<h2>Remarks</h2>") && html.contains("40 spikes"),
+        "no remark"
+    );
+    let json = std::fs::read_to_string(rep.join("results.json")).unwrap();
+    assert!(json.contains("periodic every 50.0000 s"));
 }

@@ -322,6 +322,21 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         );
     }
     html.push_str("</table>\n");
+    // What the user should know before trusting the numbers: data quality, undetermined terms.
+    let remarks: Vec<String> = inp
+        .fits
+        .iter()
+        .flat_map(|f| {
+            f.warnings
+                .iter()
+                .map(move |w| format!("<li><b>{}</b>: {}</li>", html_esc(&f.name), html_esc(w)))
+        })
+        .collect();
+    if !remarks.is_empty() {
+        html.push_str("<h2>Remarks</h2><ul>\n");
+        html.push_str(&remarks.join("\n"));
+        html.push_str("</ul>\n");
+    }
     html.push_str(&inp.extra_html);
     // Parameter table.
     let level = inp
@@ -438,9 +453,11 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
     // a bad --out fails before the work, not after it
     crate::output::create_dir(&args.out, "--out")?;
     let (table, units, curves) = super::fit::read_curves(&args.input, args.fit.alpha, ui)?;
+    let quality = super::fit::check_quality(&table, args.input.rate, ui)?;
     let mut settings = args.fit.clone();
     settings.select = !args.no_select && settings.method == super::fit::Method::Gmwm;
-    let fits = fit_all(&curves, &units, &settings, ui)?;
+    let mut fits = fit_all(&curves, &units, &settings, ui)?;
+    super::fit::attach_quality(&mut fits, quality);
     let inp = ReportInput {
         source: &table.file,
         rate_hz: args.input.rate,

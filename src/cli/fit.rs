@@ -746,10 +746,50 @@ pub(super) fn read_curves(
     Ok((table, units, curves))
 }
 
+/// The data-quality pass ([`avar::quality`]) of every channel of `table` at `rate` Hz: one list
+/// of findings per channel (spikes, level shifts, a dominant trend, each with its times and how
+/// it biases the AV), printed as notes before any fitting. Channels shorter than 64 samples are
+/// not examined.
+pub fn check_quality(table: &crate::io::Table, rate: f64, ui: &Ui) -> Result<Vec<Vec<String>>> {
+    use rayon::prelude::*;
+    let out = table
+        .names
+        .par_iter()
+        .zip(&table.columns)
+        .map(|(name, x)| {
+            if x.len() < 64 {
+                return Ok(Vec::new());
+            }
+            let q = avar::quality::data_quality(x, rate, &Default::default())
+                .map_err(|e| super::avar_error(&table.file, name, e))?;
+            Ok(q.findings
+                .iter()
+                .map(|f| format!("data quality: {f}"))
+                .collect())
+        })
+        .collect::<Result<Vec<Vec<String>>>>()?;
+    for (name, f) in table.names.iter().zip(&out) {
+        for w in f {
+            ui.note(format!("note: channel {name:?}: {w}"));
+        }
+    }
+    Ok(out)
+}
+
+/// Prepends each channel's data-quality findings to its fit's warnings.
+pub fn attach_quality(fits: &mut [ChannelFit], quality: Vec<Vec<String>>) {
+    for (f, mut q) in fits.iter_mut().zip(quality) {
+        q.append(&mut f.warnings);
+        f.warnings = q;
+    }
+}
+
 /// Runs `imunoise fit`.
 pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
-    let (_, units, curves) = read_curves(&args.input, args.fit.alpha, ui)?;
-    let fits = fit_all(&curves, &units, &args.fit, ui)?;
+    let (table, units, curves) = read_curves(&args.input, args.fit.alpha, ui)?;
+    let quality = check_quality(&table, args.input.rate, ui)?;
+    let mut fits = fit_all(&curves, &units, &args.fit, ui)?;
+    attach_quality(&mut fits, quality);
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let r = match args.format {

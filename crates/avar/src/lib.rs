@@ -37,6 +37,7 @@ pub mod config;
 pub mod error;
 mod haar;
 mod kernel;
+pub mod quality;
 mod range;
 pub mod result;
 
