@@ -248,7 +248,7 @@ fn find_spikes(x: &[f64], rate_hz: f64, z: f64) -> Vec<Spike> {
     let t = x.len();
     let e = |i: usize| x[i] - 0.5 * (x[i - 1] + x[i + 1]);
     let scale = robust_scale((1..t - 1).map(e));
-    if !(scale > 0.0) {
+    if scale.is_nan() || scale <= 0.0 {
         return Vec::new();
     }
     let mut out = Vec::new();
@@ -319,7 +319,7 @@ fn find_shifts(
     let mid = sorted.len() / 2;
     let med = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
     let scale = robust_scale(d.iter().copied());
-    if !(scale > 0.0) {
+    if scale.is_nan() || scale <= 0.0 {
         return Vec::new();
     }
     let zs: Vec<f64> = d.iter().map(|v| (v - med).abs() / scale).collect();

@@ -96,7 +96,7 @@ pub(crate) fn unidentifiable(fit: &GmwmFit) -> FitError {
     let smaller: Vec<&str> = codes
         .iter()
         .enumerate()
-        .filter(|(c, _)| !culprits.first().is_some_and(|&d| d == *c))
+        .filter(|(c, _)| culprits.first().is_none_or(|&d| d != *c))
         .map(|(_, s)| *s)
         .collect();
     let what: Vec<&str> = culprits.iter().map(|&c| codes[c]).collect();
