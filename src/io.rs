@@ -202,15 +202,14 @@ fn open(path: &Path, file: &str) -> Result<Source> {
     ))
 }
 
-/// Opens `path`, memory-maps it (or reads a pipe or standard input into memory), and
-/// decompresses it when it starts with the gzip magic bytes (whatever its extension).
+/// Opens `path` and memory-maps it (or reads a pipe or standard input into memory).
 fn load(path: &Path, file: &str) -> Result<Bytes> {
     let f = match open(path, file)? {
         Source::File(f) => f,
         Source::Stream(mut r) => {
             let mut buf = Vec::new();
             r.read_to_end(&mut buf).map_err(|e| Error::io(file, e))?;
-            return decompress(Bytes::Owned(buf), file);
+            return Ok(Bytes::Owned(buf));
         }
     };
     let len = f.metadata().map_err(|e| Error::io(file, e))?.len();
@@ -224,11 +223,12 @@ fn load(path: &Path, file: &str) -> Result<Bytes> {
     // file must not be truncated by another process while it is read (documented in
     // the command's help).
     let map = unsafe { memmap2::Mmap::map(&f) }.map_err(|e| Error::io(file, e))?;
-    decompress(Bytes::Mapped(map), file)
+    Ok(Bytes::Mapped(map))
 }
 
-/// Decompresses `map` when it starts with the gzip magic bytes; errors on empty input.
-fn decompress(map: Bytes, file: &str) -> Result<Bytes> {
+/// Decompresses `map` when it starts with the gzip magic bytes (whatever the file's name);
+/// errors on empty input.
+fn gunzip<'a>(map: &'a [u8], file: &str) -> Result<std::borrow::Cow<'a, [u8]>> {
     if map.is_empty() {
         return Err(Error::File {
             file: file.to_string(),
@@ -256,9 +256,9 @@ fn decompress(map: Bytes, file: &str) -> Result<Bytes> {
                 message: "the file is empty (after decompression)".to_string(),
             });
         }
-        Ok(Bytes::Owned(out))
+        Ok(std::borrow::Cow::Owned(out))
     } else {
-        Ok(map)
+        Ok(std::borrow::Cow::Borrowed(map))
     }
 }
 
@@ -266,6 +266,24 @@ fn decompress(map: Bytes, file: &str) -> Result<Bytes> {
 pub fn read_table(path: &Path, opts: &ReadOptions) -> Result<Table> {
     let file = path.display().to_string();
     let bytes = load(path, &file)?;
+    read_bytes(&bytes, &file, opts)
+}
+
+/// Reads the bytes of a log (text, or raw binary with `opts.binary`; gzip-compressed data are
+/// decompressed first) into a [`Table`] as `opts` says. `file` is the name used in messages.
+/// Any bytes give either a table of finite values or an error naming `file` (and the line and
+/// column where there is one): never a panic.
+///
+/// ```
+/// use imunoise::io::{read_bytes, ReadOptions};
+/// let t = read_bytes(b"gyro_x,gyro_y\n1,2\n3,4\n", "mem.csv", &ReadOptions::default()).unwrap();
+/// assert_eq!(t.columns, vec![vec![1.0, 3.0], vec![2.0, 4.0]]);
+/// let e = read_bytes(b"x\n1\nabc\n", "mem.csv", &ReadOptions::default()).unwrap_err();
+/// assert!(e.to_string().starts_with("mem.csv:3:1:"));
+/// ```
+pub fn read_bytes(bytes: &[u8], file: &str, opts: &ReadOptions) -> Result<Table> {
+    let bytes = gunzip(bytes, file)?;
+    let file = file.to_string();
     let mut table = match opts.binary {
         Some(kind) => parse_binary(&bytes, &file, kind, opts.channels.unwrap_or(1))?,
         None => {
@@ -299,8 +317,16 @@ pub fn read_table(path: &Path, opts: &ReadOptions) -> Result<Table> {
                 "--scale must be finite and non-zero, got {scale}"
             )));
         }
-        for c in &mut table.columns {
+        for (k, c) in table.columns.iter_mut().enumerate() {
             c.iter_mut().for_each(|v| *v *= scale);
+            // a scale that takes a value beyond f64 is named, not turned into inf/0 silently
+            if let Some(row) = c.iter().position(|v| !v.is_finite()) {
+                return Err(Error::Usage(format!(
+                    "--scale {scale:e} takes the value of channel {:?} at row {} beyond the range of f64",
+                    table.names[k],
+                    row + 1
+                )));
+            }
         }
     }
     if let Some(names) = &opts.names {
