@@ -244,7 +244,7 @@ fn gunzip<'a>(map: &'a [u8], file: &str) -> Result<std::borrow::Cow<'a, [u8]>> {
             0
         };
         let mut out = Vec::with_capacity(hint.max(map.len()));
-        flate2::read::MultiGzDecoder::new(&map[..])
+        flate2::read::MultiGzDecoder::new(map)
             .read_to_end(&mut out)
             .map_err(|e| Error::File {
                 file: file.to_string(),

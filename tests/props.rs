@@ -234,12 +234,12 @@ proptest! {
     /// yields valid cluster sizes (1 ≤ m, 2m ≤ T, increasing) or an error.
     #[test]
     fn option_values(s in prop_oneof!["[0-9a-z,.\\-/ ]{0,24}", "\\PC{0,24}"], t in 4usize..100_000) {
-        if let Ok(scales) = imunoise::cli::parse_scales(&s) {
-            if let Ok(ms) = scales.cluster_sizes(t) {
-                prop_assert!(!ms.is_empty());
-                prop_assert!(ms.windows(2).all(|w| w[0] < w[1]));
-                prop_assert!(ms.iter().all(|&m| m >= 1 && 2 * m <= t as u64));
-            }
+        if let Ok(scales) = imunoise::cli::parse_scales(&s)
+            && let Ok(ms) = scales.cluster_sizes(t)
+        {
+            prop_assert!(!ms.is_empty());
+            prop_assert!(ms.windows(2).all(|w| w[0] < w[1]));
+            prop_assert!(ms.iter().all(|&m| m >= 1 && 2 * m <= t as u64));
         }
         let _ = imunoise::io::parse_columns(&s);
         if let Ok(f) = imunoise::cli::parse_factor(&s) {
