@@ -8,6 +8,7 @@ use std::process::ExitCode;
 mod args;
 mod avar_coverage;
 mod avar_speed;
+mod fuzz;
 mod gmwm_report;
 mod sim_scaling;
 mod spectral_report;
@@ -20,6 +21,7 @@ fn main() -> ExitCode {
         // tasks: one arm each (keep this list sorted)
         "avar-coverage" => avar_coverage::run(rest),
         "avar-speed" => avar_speed::run(rest),
+        "fuzz" => fuzz::run(rest),
         "gmwm-mc" => gmwm_report::run(rest),
         "sim-scaling" => sim_scaling::run(rest),
         "spectral-table" => spectral_report::run(rest),
@@ -52,6 +54,10 @@ const TASKS: &[(&str, &str)] = &[
     (
         "avar-speed",
         "MOAV speed: avar vs one pass vs allantools oadev (venv in target/venv)",
+    ),
+    (
+        "fuzz",
+        "property suites (tests/props.rs) with fresh seeds for --minutes N; cases per property",
     ),
     (
         "gmwm-mc",
