@@ -393,3 +393,27 @@ fn periodic_spikes_are_remarked_in_fit_and_report() {
     let json = std::fs::read_to_string(rep.join("results.json")).unwrap();
     assert!(json.contains("periodic every 50.0000 s"));
 }
+
+/// Samples near 1e150 (AV near 1e300) are estimated exactly, but a fit of such a curve is
+/// refused with a message about the magnitude (it used to blame the model as "not identifiable").
+#[test]
+fn a_fit_far_from_unit_magnitude_names_the_magnitude() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = noise_csv(dir.path(), "huge.csv", 5000, 2f64.powi(500));
+    let out = imunoise(&["fit", p.to_str().unwrap(), "--rate", "100", "-q"]);
+    let err = fails_with(&out, 2);
+    assert!(err.contains("too far from unit magnitude"), "{err}");
+    assert!(err.contains("--scale"), "{err}");
+    // the same data at unit scale fit
+    let q = noise_csv(dir.path(), "unit.csv", 5000, 1.0);
+    let out = imunoise(&[
+        "fit",
+        q.to_str().unwrap(),
+        "--rate",
+        "100",
+        "--model",
+        "WN",
+        "-q",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+}

@@ -53,6 +53,14 @@ pub enum FitError {
         /// The template without the first component concerned, when that leaves a model.
         smaller_model: Option<String>,
     },
+    /// AV values too far from unit magnitude for the fit's arithmetic (samples near 1e±150).
+    #[error(
+        "the AV values (median {median_avar:.1e}) are too far from unit magnitude for the fit and its intervals (supported: about 1e-132 to 1e132); rescale the data (e.g. to SI units, or with --scale)"
+    )]
+    MagnitudeOutOfRange {
+        /// The median AV of the curve.
+        median_avar: f64,
+    },
     /// A scale window (AVLR) that is empty or out of the curve's range.
     #[error("invalid scale window for {process}: {message}")]
     InvalidWindow {

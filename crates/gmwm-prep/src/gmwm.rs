@@ -1007,6 +1007,7 @@ fn problem_with_whitening(
 /// # Ok::<(), gmwm_prep::FitError>(())
 /// ```
 pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<GmwmFit> {
+    crate::magnitude::check(curve)?;
     if matches!(
         opts.weighting,
         Weighting::ModelDiagonal | Weighting::ModelFull

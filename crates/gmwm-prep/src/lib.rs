@@ -36,6 +36,7 @@ pub mod error;
 pub mod gmwm;
 pub mod ieee;
 pub mod inference;
+mod magnitude;
 pub mod report;
 pub mod stats;
 pub mod theory;
