@@ -59,15 +59,15 @@ mod tests {
             let f = fit(&c, &template, &GmwmOptions::default()).unwrap();
             let i = delta_method(&f, &fit_covariance(&f).unwrap(), 0.05).unwrap();
             let unit = [s, s, 1.0, s]; // WN σ², RW γ², AR1 φ, AR1 σ²
-            for p in 0..4 {
-                let rel = (f.theta[p] / unit[p] / f0.theta[p] - 1.0).abs();
+            for (p, u) in unit.iter().enumerate() {
+                let rel = (f.theta[p] / u / f0.theta[p] - 1.0).abs();
                 assert!(
                     rel < 1e-9,
                     "k={k} p={p} {} vs {}",
-                    f.theta[p] / unit[p],
+                    f.theta[p] / u,
                     f0.theta[p]
                 );
-                let rel_ci = (i.ci[p].1 / unit[p] / i0.ci[p].1 - 1.0).abs();
+                let rel_ci = (i.ci[p].1 / u / i0.ci[p].1 - 1.0).abs();
                 assert!(rel_ci < 1e-6, "k={k} p={p} CI");
             }
         }
