@@ -417,3 +417,23 @@ fn a_fit_far_from_unit_magnitude_names_the_magnitude() {
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
 }
+
+/// A bootstrap of a billion replicates used to abort on a failed allocation; now it is refused.
+#[test]
+fn an_absurd_bootstrap_count_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = noise_csv(dir.path(), "d.csv", 3000, 1.0);
+    let out = imunoise(&[
+        "fit",
+        p.to_str().unwrap(),
+        "--rate",
+        "100",
+        "--model",
+        "WN",
+        "--bootstrap",
+        "1000000000",
+        "-q",
+    ]);
+    let err = fails_with(&out, 2);
+    assert!(err.contains("more than the 100000 this runs"), "{err}");
+}

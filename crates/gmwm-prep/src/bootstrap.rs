@@ -58,12 +58,22 @@ impl BootstrapOptions {
                 "a bootstrap needs at least 2 replications".into(),
             ));
         }
+        if self.replications > MAX_REPLICATIONS {
+            return Err(FitError::InvalidArgument(format!(
+                "{} bootstrap replications is more than the {MAX_REPLICATIONS} this runs (each one simulates and refits a whole record)",
+                self.replications
+            )));
+        }
         if !(self.alpha > 0.0 && self.alpha < 1.0) {
             return Err(FitError::InvalidAlpha(self.alpha));
         }
         Ok(())
     }
 }
+
+/// The most replications a bootstrap runs (a larger request is an error, not an attempt to
+/// allocate and simulate it).
+pub const MAX_REPLICATIONS: usize = 100_000;
 
 /// Result of [`parametric_bootstrap`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
