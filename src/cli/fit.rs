@@ -942,7 +942,12 @@ pub fn write_joint_table(
     alpha: f64,
 ) -> std::io::Result<()> {
     for j in joint {
-        writeln!(out, "{}: one model for {} recordings", j.name, j.files.len())?;
+        writeln!(
+            out,
+            "{}: one model for {} recordings",
+            j.name,
+            j.files.len()
+        )?;
         write_table(out, std::slice::from_ref(&j.fit), alpha, 0)?;
         for (f, s) in j.files.iter().zip(&j.single) {
             writeln!(out, "  alone, {f}:")?;
