@@ -590,12 +590,7 @@ fn robust_section(
         let nan = f64::NAN;
         let mut components = vec![Series {
             label: "classical AD".into(),
-            points: r
-                .classical
-                .points
-                .iter()
-                .map(|p| (p.tau, p.adev))
-                .collect(),
+            points: r.classical.points.iter().map(|p| (p.tau, p.adev)).collect(),
         }];
         components.push(adev_series(
             "classical fit",
@@ -663,12 +658,17 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
                 .iter()
                 .map(|(n, r)| (n.clone(), r.robust.clone()))
                 .collect();
-            Some(super::fit::fit_all_robust(&rc, &units, &settings, Some(e), ui)?)
+            Some(super::fit::fit_all_robust(
+                &rc,
+                &units,
+                &settings,
+                Some(e),
+                ui,
+            )?)
         }
         None => None,
     };
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| Error::io(args.out.display().to_string(), e))?;
+    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(args.out.display().to_string(), e))?;
     let extra_html = robust_section(
         &args.out,
         &table.names,
@@ -732,7 +732,11 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
                 writeln!(out, "{n}: {}", c.message)?;
             }
             if let Some(rf) = &robust_fits {
-                writeln!(out, "\nrobust fits (efficiency {}):", args.robust.efficiency)?;
+                writeln!(
+                    out,
+                    "\nrobust fits (efficiency {}):",
+                    args.robust.efficiency
+                )?;
                 super::fit::write_table(&mut out, rf, settings.alpha, 0)?;
             }
             writeln!(
