@@ -9,6 +9,7 @@ mod args;
 mod avar_coverage;
 mod avar_speed;
 mod gmwm_report;
+mod robust_report;
 mod sim_scaling;
 mod spectral_report;
 
@@ -21,6 +22,7 @@ fn main() -> ExitCode {
         "avar-coverage" => avar_coverage::run(rest),
         "avar-speed" => avar_speed::run(rest),
         "gmwm-mc" => gmwm_report::run(rest),
+        "robust-mc" => robust_report::run(rest),
         "sim-scaling" => sim_scaling::run(rest),
         "spectral-table" => spectral_report::run(rest),
         "help" | "--help" | "-h" => {
@@ -56,6 +58,10 @@ const TASKS: &[(&str, &str)] = &[
     (
         "gmwm-mc",
         "Monte Carlo bias/RMSE/coverage of the GMWM vs AVLR (issue 5) and bootstrap speed",
+    ),
+    (
+        "robust-mc",
+        "Monte Carlo of the robust GMWM (clean / 0.5 % outliers) and the two-recording equality test (issue 15)",
     ),
     (
         "spectral-table",
