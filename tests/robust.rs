@@ -280,3 +280,49 @@ fn adis16405_two_recordings_joint_fit() {
         }
     }
 }
+
+/// `analyze --robust` on a WN + RW record with a burst of spikes at t = 300–301 s: the check
+/// flags contamination and names a window containing the burst; the report has the robust
+/// plot and both fits; results.json has the robust entry.
+#[test]
+fn cli_analyze_robust_names_the_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("s.f64");
+    simulate(&p, "WN(sigma2=1e-4)+RW(gamma2=1e-10)", "65536", "4");
+    let mut x = read_f64(&p);
+    for i in (30_000..30_100).step_by(5) {
+        x[i] += 0.3; // 30σ
+    }
+    let bytes: Vec<u8> = x.iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(&p, bytes).unwrap();
+    let out_dir = dir.path().join("rep");
+    imunoise_ok(&[
+        "analyze",
+        p.to_str().unwrap(),
+        "--binary",
+        "f64",
+        "--channels",
+        "1",
+        "--rate",
+        "100",
+        "--model",
+        "WN+RW",
+        "--no-select",
+        "--robust",
+        "-q",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    let res: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out_dir.join("results.json")).unwrap()).unwrap();
+    let rob = &res["channels"][0]["robust"];
+    assert_eq!(rob["check"]["contaminated"], true, "{rob}");
+    let w = &rob["check"]["windows"][0];
+    let (a, b) = (w["start_s"].as_f64().unwrap(), w["end_s"].as_f64().unwrap());
+    assert!(a <= 300.5 && 300.5 <= b, "{w}");
+    assert_eq!(rob["fit"]["method"], "gmwm");
+    let html = std::fs::read_to_string(out_dir.join("report.html")).unwrap();
+    assert!(html.contains("Classical vs robust"));
+    assert!(html.contains("robust fit"));
+    assert!(out_dir.join("adev_robust_ch1.svg").exists());
+}

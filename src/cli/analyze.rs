@@ -587,6 +587,9 @@ fn robust_section(
                 jp(q)
             );
         }
+        if robust_fits.is_none() {
+            continue;
+        }
         let nan = f64::NAN;
         let mut components = vec![Series {
             label: "classical AD".into(),

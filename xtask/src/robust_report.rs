@@ -1,5 +1,5 @@
 //! `cargo xtask robust-mc [--reps R] [--n T] [--seed S] [--eq-reps R2] [--eq-n T2]
-//! [--weighting diag|model-full] [--part all|contam|equality]`: Monte Carlo report of the
+//! [--weighting diag|model-full] [--efficiency E] [--part all|contam|equality]`: Monte Carlo report of the
 //! robust GMWM and of the two-recording equality test (issue 15 acceptance). The report in the
 //! crate is `crates/gmwm-prep/robust-mc-report.md` (this task's stdout).
 //!
@@ -30,7 +30,13 @@ use std::time::Instant;
 
 const RATE: f64 = 100.0;
 const ALPHA: f64 = 0.05;
-const EFF: f64 = 0.6;
+/// `--efficiency E` (default 0.6), stored as f64 bits.
+static EFF_BITS: std::sync::atomic::AtomicU64 =
+    std::sync::atomic::AtomicU64::new(0x3FE3_3333_3333_3333);
+
+fn eff() -> f64 {
+    f64::from_bits(EFF_BITS.load(std::sync::atomic::Ordering::Relaxed))
+}
 const TRUTH: &str = "WN(sigma2=1e-4) + RW(gamma2=1e-10) + AR1(phi=0.995, sigma2=1e-7)";
 const TEMPLATE: &str = "WN + RW + AR1";
 const NAMES: [&str; 4] = ["WN.sigma2", "RW.gamma2", "AR1.phi", "AR1.sigma2"];
@@ -72,7 +78,7 @@ fn classical(x: &[f64], t: &Model, opts: &GmwmOptions, want: &[f64]) -> Result<E
 
 fn robust(x: &[f64], t: &Model, opts: &GmwmOptions, want: &[f64]) -> Result<Est, String> {
     let o = GmwmOptions {
-        robust: Some(EFF),
+        robust: Some(eff()),
         ..opts.clone()
     };
     let r = fit_robust(x, RATE, &AvarConfig::default(), t, &o).map_err(|e| e.to_string())?;
@@ -159,8 +165,9 @@ fn contamination(reps: usize, n: usize, seed: u64, opts: &GmwmOptions) -> Result
     let secs = t0.elapsed().as_secs_f64();
     let hits: f64 = out.iter().map(|o| o.4 as f64).sum::<f64>() / (reps * n) as f64;
     println!(
-        "## Robust vs classical GMWM: truth {TRUTH}; fitted {TEMPLATE}\n\nR = {reps}, T = {n}, seed {seed}, weighting {:?}, efficiency {EFF}; outliers ±{size} (20σ_WN) at {:.3} % of the samples; {secs:.0} s.\n",
+        "## Robust vs classical GMWM: truth {TRUTH}; fitted {TEMPLATE}\n\nR = {reps}, T = {n}, seed {seed}, weighting {:?}, efficiency {}; outliers ±{size} (20σ_WN) at {:.3} % of the samples; {secs:.0} s.\n",
         opts.weighting,
+        eff(),
         100.0 * hits
     );
     let mut ok = true;
@@ -299,6 +306,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let eq_reps: usize = parsed(args, "--eq-reps", 100)?;
     let eq_n: usize = parsed(args, "--eq-n", 1_000_000)?;
     let part: String = parsed(args, "--part", "all".to_string())?;
+    let e: f64 = parsed(args, "--efficiency", 0.6)?;
+    EFF_BITS.store(e.to_bits(), std::sync::atomic::Ordering::Relaxed);
     let w: String = parsed(args, "--weighting", "diag".to_string())?;
     let weighting = match w.as_str() {
         "diag" => Weighting::Diagonal,
