@@ -17,9 +17,27 @@ pub const EXAMPLES: &str = "Examples:
   imunoise analyze imu.csv.gz --rate 100 --out report/
   imunoise analyze log.f64 --binary f64 --channels 6 --rate 200 --unit deg/s,deg/s,deg/s,g,g,g --bootstrap 40
 
+  imunoise analyze mtig.f64 --binary f64 --channels 1 --rate 100 --robust --out report/
+
 Writes into DIR: report.html (self-contained), results.json, avar.csv, imu.yaml (Kalibr:
 continuous-time noise density and random walk, SI units), adev_<channel>.svg/.png,
-series_<channel>.svg/.png and acf_<channel>.svg/.png.";
+series_<channel>.svg/.png and acf_<channel>.svg/.png.
+
+Model selection: with the default --model the candidates are the sub-models of
+QN+WN+RW+2*AR1 (two AR1s: real MEMS gyros often show a short correlation and a slow bias
+drift at once), ranked by WIC.
+
+Contamination check (always): the robust Allan variance (Tukey biweight, --efficiency) is
+compared with the classical one at every scale; when the classical one is larger beyond the
+Gaussian sampling noise (one-sided, 1 % level, Bonferroni over the scales) the report says the
+data look contaminated and names the time windows that drive the difference. With --robust the
+robust curve is fitted too, and the report shows both curves and both fits
+(adev_robust_<channel>.svg); results.json gets a \"robust\" entry per channel.";
+
+/// The default `--model` of the fit settings, replaced in `analyze` by [`ANALYZE_MODEL`].
+const FIT_DEFAULT_MODEL: &str = "QN+WN+RW+AR1";
+/// The full model whose sub-models `analyze` selects from by default.
+pub const ANALYZE_MODEL: &str = "QN+WN+RW+2*AR1";
 
 /// Arguments of `imunoise analyze`.
 #[derive(Debug, Clone, clap::Args)]
@@ -37,6 +55,9 @@ pub struct AnalyzeArgs {
     /// Output directory (created if needed).
     #[arg(long, short, default_value = "imunoise-report")]
     pub out: PathBuf,
+    /// Robust fitting (the contamination check runs in any case, at --efficiency).
+    #[command(flatten)]
+    pub robust: super::fit::RobustArgs,
 }
 
 /// One channel in `results.json`.
@@ -448,6 +469,180 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
     Ok(())
 }
 
+/// One channel's robust entry in `results.json` (with `--robust` or when contaminated).
+#[derive(Debug, Serialize)]
+pub struct RobustResult<'a> {
+    /// Gaussian efficiency of the robust AV.
+    pub efficiency: f64,
+    /// The classical-vs-robust comparison.
+    pub check: &'a gmwm_prep::robust::ContaminationCheck,
+    /// The robust AV (τ, AV, CI).
+    pub avar: Vec<super::avar_cmd::PointJson>,
+    /// Scales where the robust estimating equation had no root (fallback used).
+    pub no_root_m: Vec<u64>,
+    /// The fit of the robust curve (with --robust).
+    pub fit: Option<&'a ChannelFit>,
+}
+
+fn adev_series(label: &str, rate: f64, fitted: &[super::fit::FittedJson]) -> Series {
+    Series {
+        label: label.to_string(),
+        points: fitted
+            .iter()
+            .map(|p| (p.m as f64 / rate, p.avar.max(0.0).sqrt()))
+            .collect(),
+    }
+}
+
+fn fmt_ci(lo: Option<f64>, hi: Option<f64>) -> String {
+    match (lo, hi) {
+        (Some(a), Some(b)) => format!("[{a:.4e}, {b:.4e}]"),
+        _ => "-".into(),
+    }
+}
+
+/// The "classical vs robust" section of the report, writing the robust plots.
+#[allow(clippy::too_many_arguments)]
+fn robust_section(
+    dir: &Path,
+    names: &[String],
+    units: &[Unit],
+    rate: f64,
+    robust: &[(String, avar::robust::RobustAllanVariance)],
+    checks: &[gmwm_prep::robust::ContaminationCheck],
+    classical_fits: &[ChannelFit],
+    robust_fits: Option<&[ChannelFit]>,
+) -> Result<String> {
+    let mut h = String::from("<h2>Classical vs robust Allan variance (contamination check)</h2>\n");
+    let _ = writeln!(
+        h,
+        "<p>Robust AV: Tukey biweight M-estimator of scale per scale at Gaussian efficiency {} (c = {:.3}); its CIs are the chi-square ones with EDF × efficiency. A scale is flagged when z = (classical − robust)/sd exceeds the one-sided 1 % threshold with Bonferroni over the scales (sd from the classical EDF and the 1/e variance bound: conservative).</p>",
+        robust.first().map_or(0.0, |r| r.1.efficiency),
+        robust.first().map_or(0.0, |r| r.1.biweight.c),
+    );
+    for (k, name) in names.iter().enumerate() {
+        let (_, r) = &robust[k];
+        let chk = &checks[k];
+        let cls = if chk.contaminated { " class=no" } else { "" };
+        let _ = writeln!(
+            h,
+            "<h3>{}</h3><p{cls}>{}</p>",
+            html_esc(name),
+            html_esc(&chk.message)
+        );
+        if !chk.windows.is_empty() {
+            h.push_str("<table><tr><th>window start (s)</th><th>end (s)</th><th>share of the excess</th><th>largest |D|/σ̂</th></tr>\n");
+            for w in &chk.windows {
+                let _ = writeln!(
+                    h,
+                    "<tr><td>{:.2}</td><td>{:.2}</td><td>{:.1} %</td><td>{:.1}</td></tr>",
+                    w.start_s,
+                    w.end_s,
+                    100.0 * w.share,
+                    w.max_z
+                );
+            }
+            h.push_str("</table>\n");
+        }
+        h.push_str("<table><tr><th>m</th><th>τ (s)</th><th>classical AV</th><th>robust AV</th><th>robust CI</th><th>ratio</th><th>z</th><th>rejected</th></tr>\n");
+        for (i, s) in chk.scales.iter().enumerate() {
+            let p = &r.robust.points[i];
+            let flag = if s.z > chk.threshold { " class=no" } else { "" };
+            let _ = writeln!(
+                h,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td{flag}>{:.2}</td><td>{}</td></tr>",
+                s.m,
+                num(s.tau),
+                num(s.classical),
+                num(s.robust),
+                fmt_ci(p.avar_lo, p.avar_hi),
+                s.ratio,
+                s.z,
+                r.rejected[i]
+            );
+        }
+        h.push_str("</table>\n");
+        if let Some(rf) = robust_fits {
+            let (c, q) = (&classical_fits[k], &rf[k]);
+            let _ = writeln!(
+                h,
+                "<table><tr><th class=l></th><th class=l>classical fit</th><th class=l>robust fit</th></tr><tr><td class=l>model</td><td class=l><small>{}</small></td><td class=l><small>{}</small></td></tr>",
+                html_esc(&c.model),
+                html_esc(&q.model)
+            );
+            let rows = c.parameters.len().max(q.parameters.len());
+            for i in 0..rows {
+                let cell = |f: &ChannelFit| {
+                    f.parameters.get(i).map_or("".to_string(), |p| {
+                        format!(
+                            "{} {} = {:.4e} {}",
+                            p.process,
+                            p.name,
+                            p.value,
+                            fmt_ci(p.ci_lo, p.ci_hi)
+                        )
+                    })
+                };
+                let _ = writeln!(
+                    h,
+                    "<tr><td></td><td class=l>{}</td><td class=l>{}</td></tr>",
+                    cell(c),
+                    cell(q)
+                );
+            }
+            let jp = |f: &ChannelFit| {
+                f.j_test
+                    .as_ref()
+                    .map_or("-".into(), |j| format!("{:.3}", j.p_value))
+            };
+            let _ = writeln!(
+                h,
+                "<tr><td class=l>J-test p</td><td class=l>{}</td><td class=l>{}</td></tr></table>",
+                jp(c),
+                jp(q)
+            );
+        }
+        if robust_fits.is_none() {
+            continue;
+        }
+        let nan = f64::NAN;
+        let mut components = vec![Series {
+            label: "classical AD".into(),
+            points: r.classical.points.iter().map(|p| (p.tau, p.adev)).collect(),
+        }];
+        components.push(adev_series(
+            "classical fit",
+            rate,
+            &classical_fits[k].fitted,
+        ));
+        let plot = AdevPlot {
+            title: format!("{name}: robust (band) vs classical Allan deviation"),
+            unit: units[k].symbol().to_string(),
+            observed: r
+                .robust
+                .points
+                .iter()
+                .map(|p| {
+                    (
+                        p.tau,
+                        p.adev,
+                        p.adev_lo.unwrap_or(nan),
+                        p.adev_hi.unwrap_or(nan),
+                    )
+                })
+                .collect(),
+            fitted: robust_fits.map(|rf| adev_series("robust fit", rate, &rf[k].fitted)),
+            components,
+        };
+        let svg = adev_svg(&plot, &format!("rob{k}"));
+        write_plot(dir, &format!("adev_robust_{}", file_safe(name)), &svg)?;
+        h.push_str("<div class=plots>");
+        h.push_str(&svg);
+        h.push_str("</div>\n");
+    }
+    Ok(h)
+}
+
 /// Runs `imunoise analyze`.
 pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
     // a bad --out fails before the work, not after it
@@ -456,8 +651,55 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
     let quality = super::fit::check_quality(&table, args.input.rate, ui)?;
     let mut settings = args.fit.clone();
     settings.select = !args.no_select && settings.method == super::fit::Method::Gmwm;
+    if settings.select && settings.model.replace(' ', "") == FIT_DEFAULT_MODEL {
+        settings.model = ANALYZE_MODEL.to_string();
+    }
+    let robust = args.robust.efficiency()?;
     let mut fits = fit_all(&curves, &units, &settings, ui)?;
     super::fit::attach_quality(&mut fits, quality);
+    // the contamination check, always
+    let pb = ui.spinner("robust Allan variance");
+    let rcurves = super::fit::robust_curves(
+        &table,
+        args.input.rate,
+        args.fit.alpha,
+        args.robust.efficiency,
+    )?;
+    let checks = rcurves
+        .iter()
+        .zip(&table.columns)
+        .map(|((n, r), x)| {
+            gmwm_prep::robust::contamination_check(x, r, 0.01, 5)
+                .map_err(|e| Error::Usage(format!("channel {n:?}: contamination check: {e}")))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    pb.finish_and_clear();
+    let robust_fits = match robust {
+        Some(e) => {
+            let rc: Vec<(String, AllanVariance)> = rcurves
+                .iter()
+                .map(|(n, r)| (n.clone(), r.robust.clone()))
+                .collect();
+            Some(super::fit::fit_all_robust(
+                &rc,
+                &units,
+                &settings,
+                Some(e),
+                ui,
+            )?)
+        }
+        None => None,
+    };
+    let extra_html = robust_section(
+        &args.out,
+        &table.names,
+        &units,
+        args.input.rate,
+        &rcurves,
+        &checks,
+        &fits,
+        robust_fits.as_deref(),
+    )?;
     let inp = ReportInput {
         source: &table.file,
         rate_hz: args.input.rate,
@@ -466,15 +708,58 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         units: &units,
         curves: &curves,
         fits: &fits,
-        extra_html: String::new(),
+        extra_html,
         bootstrap: settings.bootstrap,
     };
     write_report(&args.out, &inp, ui)?;
+    // the robust entries of results.json
+    let path = args.out.join("results.json");
+    let mut doc: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(&path).map_err(|e| Error::write(path.display().to_string(), e))?,
+    )?;
+    let rjson = super::avar_cmd::to_json(
+        &rcurves
+            .iter()
+            .map(|(n, r)| (n.clone(), r.robust.clone()))
+            .collect::<Vec<_>>(),
+    );
+    if let Some(chs) = doc["channels"].as_array_mut() {
+        for (k, (ch, pts)) in chs.iter_mut().zip(rjson.channels).enumerate() {
+            let (_, r) = &rcurves[k];
+            let entry = RobustResult {
+                efficiency: r.efficiency,
+                check: &checks[k],
+                avar: pts.points,
+                no_root_m: r
+                    .robust
+                    .points
+                    .iter()
+                    .zip(&r.root_found)
+                    .filter(|(_, ok)| !**ok)
+                    .map(|(p, _)| p.m)
+                    .collect(),
+                fit: robust_fits.as_ref().map(|f| &f[k]),
+            };
+            ch["robust"] = serde_json::to_value(&entry)?;
+        }
+    }
+    write_file(&path, serde_json::to_string_pretty(&doc)?.as_bytes())?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     super::fit::write_table(&mut out, &fits, settings.alpha, settings.bootstrap)
         .and_then(|_| {
             use std::io::Write;
+            for (n, c) in table.names.iter().zip(&checks) {
+                writeln!(out, "{n}: {}", c.message)?;
+            }
+            if let Some(rf) = &robust_fits {
+                writeln!(
+                    out,
+                    "\nrobust fits (efficiency {}):",
+                    args.robust.efficiency
+                )?;
+                super::fit::write_table(&mut out, rf, settings.alpha, 0)?;
+            }
             writeln!(
                 out,
                 "\nreport written to {}",

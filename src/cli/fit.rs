@@ -20,6 +20,21 @@ pub const EXAMPLES: &str = "Examples:
   imunoise fit imu.csv.gz --rate 100 --columns gyro_x_dps --model \"WN+RW+AR1\" --bootstrap 50 --format json
   imunoise fit imu.csv.gz --rate 100 --select          # best sub-model of QN+WN+RW+AR1 by WIC
   imunoise fit imu.csv.gz --rate 100 --method avlr
+  imunoise fit imu.csv.gz --rate 100 --robust          # robust AV (biweight, 60 % efficiency): outliers
+  imunoise fit day1.csv.gz day2.csv.gz --rate 100 --model \"WN+RW+AR1\" --format json   # one model, two recordings
+
+--robust fits the robust Allan variance (Tukey biweight M-estimator of scale per scale at
+Gaussian efficiency --efficiency, 0.6 by default, as the R package gmwm): differences beyond
+about 4.4 standard deviations get no weight, so spikes and short disturbances do not inflate
+the small scales. Its intervals are the chi-square ones with the EDF times the efficiency.
+
+Several files: the same channels are read from each (same columns and rate), one model is
+fitted to all recordings (their Allan variances pooled with the inverse of their covariance
+matrices, CIs from the pooled covariance), each recording is also fitted alone, and two tests
+of equality are reported per channel: \"wald\" (equal parameters, χ² with (R−1)·p degrees of
+freedom, on the log scale of the CIs) and \"moment_test\" (equal Allan variance curves, χ² with
+(R−1)·J degrees of freedom). JSON: {\"joint\":[{\"name\",\"files\",\"fit\":{…as one channel…},
+\"single\":[…],\"wald\":{\"statistic\",\"dof\",\"p_value\"},\"moment_test\":{…}}]}.
 
 Parameters are per sample (Δt = 1/rate), in the parameterization of the model string and in
 the channel's unit u: WN sigma2 [u²], RW gamma2 [u² per sample], QN q2 [u²], DR omega
@@ -173,15 +188,48 @@ pub struct FitSettings {
     pub alpha: f64,
 }
 
+/// The robust options of `fit` and `analyze`.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct RobustArgs {
+    /// Fit the robust Allan variance (Tukey biweight M-estimator of scale per scale) instead
+    /// of the classical one: resistant to outliers and short disturbances.
+    #[arg(long)]
+    pub robust: bool,
+    /// Gaussian efficiency of the robust estimator, in [0.05, 0.99] (lower: more resistant).
+    #[arg(long, default_value_t = avar::robust::DEFAULT_EFFICIENCY, value_name = "E")]
+    pub efficiency: f64,
+}
+
+impl RobustArgs {
+    /// `Some(efficiency)` with --robust (checked), else `None`.
+    pub fn efficiency(&self) -> Result<Option<f64>> {
+        let (lo, hi) = avar::robust::EFFICIENCY_RANGE;
+        if !(self.efficiency.is_finite() && (lo..=hi).contains(&self.efficiency)) {
+            return Err(Error::Usage(format!(
+                "--efficiency must lie in [{lo}, {hi}], got {}",
+                self.efficiency
+            )));
+        }
+        Ok(self.robust.then_some(self.efficiency))
+    }
+}
+
 /// Arguments of `imunoise fit`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct FitArgs {
     /// The input file and how to read it.
     #[command(flatten)]
     pub input: InputArgs,
+    /// More recordings of the same sensor (same columns, rate and format): one model is
+    /// fitted to all of them, with tests of equality.
+    #[arg(value_name = "MORE_FILES")]
+    pub more: Vec<std::path::PathBuf>,
     /// Fit settings.
     #[command(flatten)]
     pub fit: FitSettings,
+    /// Robust fitting.
+    #[command(flatten)]
+    pub robust: RobustArgs,
     /// Output format: table, json or csv.
     #[arg(long, short, value_enum, default_value = "table")]
     pub format: super::Format,
@@ -372,13 +420,34 @@ pub fn fit_channel(
     settings: &FitSettings,
     on_replicate: &(dyn Fn() + Sync),
 ) -> Result<ChannelFit> {
+    fit_channel_robust(name, av, unit, settings, None, on_replicate)
+}
+
+/// [`fit_channel`] on a robust AV curve of Gaussian efficiency `robust` (None: classical):
+/// the model covariance behind the CIs is inflated by 1/e. No bootstrap with a robust AV.
+pub fn fit_channel_robust(
+    name: &str,
+    av: &AllanVariance,
+    unit: &Unit,
+    settings: &FitSettings,
+    robust: Option<f64>,
+    on_replicate: &(dyn Fn() + Sync),
+) -> Result<ChannelFit> {
     let e = |x| fit_err(name, x);
     let curve = AvCurve::from_avar(av).map_err(e)?;
     let template: Model = settings.model.parse()?;
+    if robust.is_some() && settings.bootstrap > 0 {
+        return Err(Error::Usage(
+            "--bootstrap cannot be combined with --robust (the bootstrap replicates would use \
+             the classical AV); the robust CIs use the model covariance"
+                .into(),
+        ));
+    }
     match settings.method {
         Method::Gmwm => {
             let opts = GmwmOptions {
                 weighting: settings.weighting.weighting(),
+                robust,
                 ..GmwmOptions::default()
             };
             let v0 = diagonal_covariance(&curve);
@@ -554,6 +623,17 @@ pub fn fit_all(
     settings: &FitSettings,
     ui: &Ui,
 ) -> Result<Vec<ChannelFit>> {
+    fit_all_robust(curves, units, settings, None, ui)
+}
+
+/// [`fit_all`] on robust AV curves of Gaussian efficiency `robust` (None: classical).
+pub fn fit_all_robust(
+    curves: &[(String, AllanVariance)],
+    units: &[Unit],
+    settings: &FitSettings,
+    robust: Option<f64>,
+    ui: &Ui,
+) -> Result<Vec<ChannelFit>> {
     use rayon::prelude::*;
     if !(settings.alpha > 0.0 && settings.alpha < 1.0) {
         return Err(Error::Usage(format!(
@@ -583,7 +663,7 @@ pub fn fit_all(
         .par_iter()
         .zip(units)
         .map(|((name, av), unit)| {
-            let r = fit_channel(name, av, unit, settings, &tick);
+            let r = fit_channel_robust(name, av, unit, settings, robust, &tick);
             pb.inc(1);
             r
         })
@@ -776,6 +856,143 @@ pub fn check_quality(table: &crate::io::Table, rate: f64, ui: &Ui) -> Result<Vec
     Ok(out)
 }
 
+/// Each channel's robust AV (beside the classical one), on the default dyadic scales with
+/// chi-square CIs at level 1 − `alpha` and EDF × efficiency.
+pub fn robust_curves(
+    table: &crate::io::Table,
+    rate: f64,
+    alpha: f64,
+    efficiency: f64,
+) -> Result<Vec<(String, avar::robust::RobustAllanVariance)>> {
+    let cfg = AvarConfig {
+        alpha,
+        ..AvarConfig::default()
+    };
+    table
+        .names
+        .iter()
+        .zip(&table.columns)
+        .map(|(n, x)| {
+            avar::robust::robust_allan_variance(x, rate, &cfg, efficiency)
+                .map(|r| (n.clone(), r))
+                .map_err(|e| Error::Usage(format!("channel {n:?}: robust AV: {e}")))
+        })
+        .collect()
+}
+
+/// One channel of a joint fit of several recordings (`imunoise fit A B …`).
+#[derive(Debug, Clone, Serialize)]
+pub struct JointChannel {
+    /// Channel name.
+    pub name: String,
+    /// The recordings, in order.
+    pub files: Vec<String>,
+    /// The joint fit (same shape as one channel of a single-file fit).
+    pub fit: ChannelFit,
+    /// Each recording fitted alone.
+    pub single: Vec<ChannelFit>,
+    /// Wald test of equal parameters across recordings.
+    pub wald: gmwm_prep::multi::ChiSquareTest,
+    /// J-type test of equal Allan variance curves across recordings.
+    pub moment_test: gmwm_prep::multi::ChiSquareTest,
+}
+
+/// The JSON document of `imunoise fit A B …`.
+#[derive(Debug, Clone, Serialize)]
+pub struct JointJson {
+    /// One entry per channel.
+    pub joint: Vec<JointChannel>,
+}
+
+/// Reads every recording and fits each channel jointly (GMWM only; no --select, no
+/// --bootstrap).
+pub fn run_joint(args: &FitArgs, ui: &Ui) -> Result<Vec<JointChannel>> {
+    if args.fit.method != Method::Gmwm || args.fit.select || args.fit.bootstrap > 0 {
+        return Err(Error::Usage(
+            "several files: the joint fit works with --method gmwm, without --select and \
+             without --bootstrap"
+                .into(),
+        ));
+    }
+    if !(args.fit.alpha > 0.0 && args.fit.alpha < 1.0) {
+        return Err(Error::Usage(format!(
+            "--alpha must lie in (0, 1), got {}",
+            args.fit.alpha
+        )));
+    }
+    let robust = args.robust.efficiency()?;
+    let mut files = vec![args.input.file.clone()];
+    files.extend(args.more.iter().cloned());
+    let mut per_file: Vec<(Vec<String>, Vec<Unit>, ChannelCurves)> = Vec::new();
+    for f in &files {
+        let input = InputArgs {
+            file: f.clone(),
+            ..args.input.clone()
+        };
+        let (table, units, mut curves) = read_curves(&input, args.fit.alpha, ui)?;
+        if let Some(e) = robust {
+            let r = robust_curves(&table, input.rate, args.fit.alpha, e)?;
+            curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
+        }
+        if let Some((names0, _, _)) = per_file.first()
+            && *names0 != table.names
+        {
+            return Err(Error::Usage(format!(
+                "{}: channels {:?} differ from those of {} ({:?})",
+                f.display(),
+                table.names,
+                files[0].display(),
+                names0
+            )));
+        }
+        per_file.push((table.names.clone(), units, curves));
+    }
+    let template: Model = args.fit.model.parse()?;
+    let opts = GmwmOptions {
+        weighting: args.fit.weighting.weighting(),
+        robust,
+        ..GmwmOptions::default()
+    };
+    let (names, units, _) = &per_file[0];
+    let mut out = Vec::new();
+    for (k, name) in names.iter().enumerate() {
+        let e = |x| fit_err(name, x);
+        let cs: Vec<AvCurve> = per_file
+            .iter()
+            .map(|(_, _, c)| AvCurve::from_avar(&c[k].1))
+            .collect::<std::result::Result<_, _>>()
+            .map_err(e)?;
+        let j = gmwm_prep::multi::fit_joint(&cs, &template, &opts, args.fit.alpha).map_err(e)?;
+        let mk = |f: &GmwmFit, inf: &gmwm_prep::inference::Inference, v: CovMatrix| {
+            let r = FitReport::from_gmwm(f, Some(inf), &units[k]);
+            let ci = CiInfo {
+                method: CiMethod::DeltaModelCov,
+                alpha: args.fit.alpha,
+                inference: Some(GmwmInference { fit: f.clone(), v }),
+            };
+            from_report(name, &r, None, &f.kinds, ci)
+        };
+        let joint = mk(&j.fit, &j.inference, j.pooled_cov.clone());
+        let single = j
+            .single
+            .iter()
+            .map(|s| {
+                let v = fit_covariance(&s.fit).map_err(e)?;
+                Ok(mk(&s.fit, &s.inference, v))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        out.push(JointChannel {
+            name: name.clone(),
+            files: files.iter().map(|f| f.display().to_string()).collect(),
+            fit: joint,
+            single,
+            wald: j.wald,
+            moment_test: j.moments,
+        });
+    }
+    Ok(out)
+}
+
 /// Prepends each channel's data-quality findings to its fit's warnings.
 pub fn attach_quality(fits: &mut [ChannelFit], quality: Vec<Vec<String>>) {
     for (f, mut q) in fits.iter_mut().zip(quality) {
@@ -784,11 +1001,75 @@ pub fn attach_quality(fits: &mut [ChannelFit], quality: Vec<Vec<String>>) {
     }
 }
 
+/// Writes joint fits as text tables.
+pub fn write_joint_table(
+    out: &mut impl Write,
+    joint: &[JointChannel],
+    alpha: f64,
+) -> std::io::Result<()> {
+    for j in joint {
+        writeln!(
+            out,
+            "{}: one model for {} recordings",
+            j.name,
+            j.files.len()
+        )?;
+        write_table(out, std::slice::from_ref(&j.fit), alpha, 0)?;
+        for (f, s) in j.files.iter().zip(&j.single) {
+            writeln!(out, "  alone, {f}:")?;
+            for p in &s.parameters {
+                writeln!(
+                    out,
+                    "    {:<5} {:<7} {:>12.4e}  {}",
+                    p.process,
+                    p.name,
+                    p.value,
+                    ci(p.ci_lo, p.ci_hi)
+                )?;
+            }
+        }
+        writeln!(
+            out,
+            "  equal parameters (Wald): W = {:.3}, dof = {}, p = {:.4}",
+            j.wald.statistic, j.wald.dof, j.wald.p_value
+        )?;
+        writeln!(
+            out,
+            "  equal AV curves (J-type): J = {:.3}, dof = {}, p = {:.4}\n",
+            j.moment_test.statistic, j.moment_test.dof, j.moment_test.p_value
+        )?;
+    }
+    Ok(())
+}
+
 /// Runs `imunoise fit`.
 pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
-    let (table, units, curves) = read_curves(&args.input, args.fit.alpha, ui)?;
+    if !args.more.is_empty() {
+        let joint = run_joint(args, ui)?;
+        let stdout = std::io::stdout();
+        let mut out = std::io::BufWriter::new(stdout.lock());
+        let r = match args.format {
+            super::Format::Json => serde_json::to_writer(&mut out, &JointJson { joint })
+                .map_err(std::io::Error::other)
+                .and_then(|_| writeln!(out)),
+            super::Format::Csv => {
+                let all: Vec<ChannelFit> = joint.into_iter().map(|j| j.fit).collect();
+                write_csv(&mut out, &all)
+            }
+            super::Format::Table => write_joint_table(&mut out, &joint, args.fit.alpha),
+        };
+        return r
+            .and_then(|_| out.flush())
+            .map_err(|e| Error::write("<stdout>", e));
+    }
+    let robust = args.robust.efficiency()?;
+    let (table, units, mut curves) = read_curves(&args.input, args.fit.alpha, ui)?;
+    if let Some(e) = robust {
+        let r = robust_curves(&table, args.input.rate, args.fit.alpha, e)?;
+        curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
+    }
     let quality = check_quality(&table, args.input.rate, ui)?;
-    let mut fits = fit_all(&curves, &units, &args.fit, ui)?;
+    let mut fits = fit_all_robust(&curves, &units, &args.fit, robust, ui)?;
     attach_quality(&mut fits, quality);
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());

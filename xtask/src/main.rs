@@ -10,6 +10,7 @@ mod avar_coverage;
 mod avar_speed;
 mod fuzz;
 mod gmwm_report;
+mod robust_report;
 mod sim_scaling;
 mod spectral_report;
 
@@ -23,6 +24,7 @@ fn main() -> ExitCode {
         "avar-speed" => avar_speed::run(rest),
         "fuzz" => fuzz::run(rest),
         "gmwm-mc" => gmwm_report::run(rest),
+        "robust-mc" => robust_report::run(rest),
         "sim-scaling" => sim_scaling::run(rest),
         "spectral-table" => spectral_report::run(rest),
         "help" | "--help" | "-h" => {
@@ -62,6 +64,10 @@ const TASKS: &[(&str, &str)] = &[
     (
         "gmwm-mc",
         "Monte Carlo bias/RMSE/coverage of the GMWM vs AVLR (issue 5) and bootstrap speed",
+    ),
+    (
+        "robust-mc",
+        "Monte Carlo of the robust GMWM (clean / 0.5 % outliers) and the two-recording equality test (issue 15)",
     ),
     (
         "spectral-table",

@@ -71,6 +71,9 @@ pub enum AvarError {
     /// The scale grid is malformed (e.g. a non-positive step) or yields no scale for this length.
     #[error("invalid scale grid: {0}")]
     InvalidScales(String),
+    /// A robust estimator's Gaussian efficiency or tuning constant out of its range.
+    #[error("invalid robust efficiency: {0}")]
+    InvalidEfficiency(String),
     /// An error in one channel of a multi-channel call.
     #[error("channel {channel}: {source}")]
     Channel {

@@ -175,6 +175,12 @@ pub struct GmwmOptions {
     /// Diagonal weighting: number of reweighting steps after the first fit (weights from the
     /// fitted curve; 0 keeps Ω = diag(1/(r_j ν̂_j²))). Stops early at a 1e-8 fixed point.
     pub reweight_iterations: usize,
+    /// `Some(e)`: the curve holds the robust AV of Gaussian efficiency e
+    /// ([`crate::robust::robust_curve`]); the model covariance of the moments (model-based
+    /// weighting, [`crate::inference::fit_covariance`]) is then inflated by 1/e, the upper
+    /// bound of `avar::robust`. `None` (default): the classical AV.
+    #[serde(default)]
+    pub robust: Option<f64>,
 }
 
 impl Default for GmwmOptions {
@@ -187,6 +193,7 @@ impl Default for GmwmOptions {
             max_iter: 300,
             drift_sign: 1.0,
             reweight_iterations: 8,
+            robust: None,
         }
     }
 }
@@ -237,6 +244,9 @@ pub struct GmwmFit {
     pub whitening: CovMatrix,
     /// Series length of the curve, if known.
     pub n: Option<u64>,
+    /// Gaussian efficiency of the robust AV the fit was made on (None: classical AV).
+    #[serde(default)]
+    pub robust: Option<f64>,
 }
 
 impl GmwmFit {
@@ -1098,7 +1108,8 @@ fn fit_model_weighted(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> 
     for step in 0..opts.reweight_iterations.max(1) {
         let model = template.with_params(&theta)?;
         let mut v = crate::inference::model_covariance(&model, &m, curve.rate_hz, n)?;
-        v.data.iter_mut().for_each(|x| *x *= f2);
+        let infl = crate::robust::inflation(opts.robust)?;
+        v.data.iter_mut().for_each(|x| *x *= f2 * infl);
         let w = if full {
             full_whitening(&v)?
         } else {
@@ -1167,6 +1178,7 @@ fn finish(
         components,
         whitening: CovMatrix::from_mat(&prob.w),
         n: curve.n,
+        robust: opts.robust,
     })
 }
 

@@ -153,7 +153,8 @@ pub fn model_covariance(model: &Model, m: &[u64], rate_hz: f64, n: u64) -> Resul
 }
 
 /// [`model_covariance`] at a fit: the covariance (J×J) of its moments ν̂ under the fitted
-/// model, at its scales and series length (Haar WV moments: ×¼). With [`delta_method`] this
+/// model, at its scales and series length (Haar WV moments: ×¼; robust AV of efficiency e:
+/// ×1/e, see [`crate::robust`]). With [`delta_method`] this
 /// gives asymptotic standard errors that account for the correlation between scales without
 /// a bootstrap — the honest default (unlike [`diagonal_covariance`]).
 ///
@@ -180,6 +181,10 @@ pub fn fit_covariance(fit: &GmwmFit) -> Result<CovMatrix> {
     let mut v = model_covariance(&fit.model, &fit.m, fit.rate_hz, n)?;
     if fit.moments == crate::gmwm::Moments::HaarWaveletVariance {
         v.data.iter_mut().for_each(|x| *x *= 0.25);
+    }
+    let infl = crate::robust::inflation(fit.robust)?;
+    if infl != 1.0 {
+        v.data.iter_mut().for_each(|x| *x *= infl);
     }
     Ok(v)
 }

@@ -11,6 +11,10 @@
 //!   selection), a reproducible parallel parametric [`bootstrap`] and serializable
 //!   [`report`]s.
 //!
+//! Beside them: [`robust`] (the RGMWM: the GMWM on the robust AV of `avar::robust`, and a
+//! check comparing the classical and robust curves) and [`multi`] (one model for several
+//! recordings, with Wald and J-type tests of equality).
+//!
 //! The input is a plain [`AvCurve`] (cluster sizes, AV values, optional CIs/variances,
 //! sampling rate), so published curves can be fitted as well as curves from the `avar` crate.
 //! Parameters are per sample (as in `processes`); [`units`] gives the per-second and IEEE
@@ -37,7 +41,9 @@ pub mod gmwm;
 pub mod ieee;
 pub mod inference;
 mod magnitude;
+pub mod multi;
 pub mod report;
+pub mod robust;
 pub mod stats;
 pub mod theory;
 pub mod units;
