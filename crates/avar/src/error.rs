@@ -57,6 +57,24 @@ pub enum AvarError {
         /// Largest admissible cluster size.
         max: u64,
     },
+    /// A cluster size too large for a statistic of the stability family (see
+    /// [`crate::stability::Statistic::max_m`]).
+    #[error(
+        "cluster size m = {m} is too large for {statistic} with T = {t} rate samples (m <= {max})"
+    )]
+    ScaleTooLargeFor {
+        /// The statistic (`"mdev"`, …).
+        statistic: &'static str,
+        /// The requested cluster size (samples).
+        m: u64,
+        /// Number of rate samples.
+        t: usize,
+        /// Largest admissible cluster size.
+        max: u64,
+    },
+    /// An unknown statistic name or a request the statistic does not support.
+    #[error("{0}")]
+    InvalidStatistic(String),
     /// The scale grid is malformed (e.g. a non-positive step) or yields no scale for this length.
     #[error("invalid scale grid: {0}")]
     InvalidScales(String),

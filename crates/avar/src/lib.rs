@@ -38,6 +38,7 @@ pub mod error;
 mod haar;
 mod kernel;
 pub mod result;
+pub mod stability;
 
 use std::borrow::Cow;
 
