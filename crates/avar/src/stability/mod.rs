@@ -519,17 +519,18 @@ pub(crate) fn apply_chi_square(
 pub(crate) const BLOCK: usize = 1 << 14;
 
 /// Σ over the terms 0..n of a statistic, summed block by block: `block(lo, hi)` returns the
-/// plain sum of terms lo..hi; blocks run in parallel and their sums are added in block order
-/// with Neumaier compensation.
-pub(crate) fn sum_in_blocks<F>(n: usize, block: F) -> f64
+/// plain sum of terms lo..hi; blocks of `len` terms (a grid fixed by the caller from n and m,
+/// never by the thread count) run in parallel and their sums are added in block order with
+/// Neumaier compensation.
+pub(crate) fn sum_in_blocks<F>(n: usize, len: usize, block: F) -> f64
 where
     F: Fn(usize, usize) -> f64 + Sync,
 {
     use rayon::prelude::*;
-    let nb = n.div_ceil(BLOCK);
+    let nb = n.div_ceil(len);
     let parts: Vec<f64> = (0..nb)
         .into_par_iter()
-        .map(|b| block(b * BLOCK, ((b + 1) * BLOCK).min(n)))
+        .map(|b| block(b * len, ((b + 1) * len).min(n)))
         .collect();
     let mut acc = crate::kernel::Neumaier::default();
     for p in parts {
