@@ -105,10 +105,10 @@ fn mid_sumsq(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
     let mut acc = [0.0f64; 4];
     let mut t = 0;
     while t + 4 <= k {
-        for l in 0..4 {
+        for (l, al) in acc.iter_mut().enumerate() {
             let i = t + l;
             let v = (x2[i] - x1[i]) - (x1[i] - x0[i]);
-            acc[l] += v * v;
+            *al += v * v;
         }
         t += 4;
     }
