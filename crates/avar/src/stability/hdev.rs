@@ -89,25 +89,32 @@ pub(crate) fn third_diff_sumsq(c: &[f64], m: usize, lo: usize, hi: usize) -> f64
     let x2 = &c[lo + 2 * m..lo + 2 * m + k];
     let x3 = &c[lo + 3 * m..lo + 3 * m + k];
     let mut acc = [0.0f64; 4];
-    let mut t = 0;
-    while t + 4 <= k {
-        for (l, al) in acc.iter_mut().enumerate() {
-            let i = t + l;
-            let a = x1[i] - x0[i];
-            let b = x2[i] - x1[i];
-            let e = x3[i] - x2[i];
-            let v = (e - b) - (b - a);
-            *al += v * v;
-        }
-        t += 4;
-    }
-    while t < k {
-        let a = x1[t] - x0[t];
-        let b = x2[t] - x1[t];
-        let e = x3[t] - x2[t];
+    let term = |p: f64, q: f64, r: f64, u: f64| {
+        let a = q - p;
+        let b = r - q;
+        let e = u - r;
         let v = (e - b) - (b - a);
-        acc[0] += v * v;
-        t += 1;
+        v * v
+    };
+    let (c0, c1, c2, c3) = (
+        x0.chunks_exact(4),
+        x1.chunks_exact(4),
+        x2.chunks_exact(4),
+        x3.chunks_exact(4),
+    );
+    let tail = (
+        c0.remainder(),
+        c1.remainder(),
+        c2.remainder(),
+        c3.remainder(),
+    );
+    for (((p, q), r), u) in c0.zip(c1).zip(c2).zip(c3) {
+        for l in 0..4 {
+            acc[l] += term(p[l], q[l], r[l], u[l]);
+        }
+    }
+    for (((p, q), r), u) in tail.0.iter().zip(tail.1).zip(tail.2).zip(tail.3) {
+        acc[0] += term(*p, *q, *r, *u);
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }

@@ -103,19 +103,19 @@ fn mid_sumsq(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
     let x1 = &c[lo..lo + k];
     let x2 = &c[lo + m..lo + m + k];
     let mut acc = [0.0f64; 4];
-    let mut t = 0;
-    while t + 4 <= k {
-        for (l, al) in acc.iter_mut().enumerate() {
-            let i = t + l;
-            let v = (x2[i] - x1[i]) - (x1[i] - x0[i]);
-            *al += v * v;
+    let term = |p: f64, q: f64, r: f64| {
+        let v = (r - q) - (q - p);
+        v * v
+    };
+    let (c0, c1, c2) = (x0.chunks_exact(4), x1.chunks_exact(4), x2.chunks_exact(4));
+    let tail = (c0.remainder(), c1.remainder(), c2.remainder());
+    for ((p, q), r) in c0.zip(c1).zip(c2) {
+        for l in 0..4 {
+            acc[l] += term(p[l], q[l], r[l]);
         }
-        t += 4;
     }
-    while t < k {
-        let v = (x2[t] - x1[t]) - (x1[t] - x0[t]);
-        acc[0] += v * v;
-        t += 1;
+    for ((p, q), r) in tail.0.iter().zip(tail.1).zip(tail.2) {
+        acc[0] += term(*p, *q, *r);
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
