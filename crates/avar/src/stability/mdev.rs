@@ -103,9 +103,38 @@ fn mvar_block(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
         let kd = k.min(hi - 1 - j);
         second_diffs(c, m, j, &mut da[..kd]);
         second_diffs(c, m, j + m, &mut db[..kd]);
-        for t in 0..kd {
-            acc[t & 1] += w * w;
-            w += db[t] - da[t];
+        if kd == SUB {
+            // the slide w_{t+1} = w_t + e_t as LANES interleaved prefix sums over segments,
+            // each started from w plus the sums of the segments before it (no serial chain
+            // through all SUB terms)
+            const LANES: usize = 8;
+            const SEG: usize = SUB / LANES;
+            for (a, &b) in da.iter_mut().zip(db.iter()) {
+                *a = b - *a;
+            }
+            let e = &da;
+            let mut base = [0.0f64; LANES];
+            base[0] = w;
+            for l in 1..LANES {
+                base[l] = base[l - 1] + e[(l - 1) * SEG..l * SEG].iter().sum::<f64>();
+            }
+            let mut p = [0.0f64; LANES];
+            let mut lane_acc = [0.0f64; LANES];
+            for t in 0..SEG {
+                for l in 0..LANES {
+                    let v = base[l] + p[l];
+                    lane_acc[l] += v * v;
+                    p[l] += e[l * SEG + t];
+                }
+            }
+            w = base[LANES - 1] + p[LANES - 1];
+            acc[0] += lane_acc[..LANES / 2].iter().sum::<f64>();
+            acc[1] += lane_acc[LANES / 2..].iter().sum::<f64>();
+        } else {
+            for t in 0..kd {
+                acc[t & 1] += w * w;
+                w += db[t] - da[t];
+            }
         }
         if kd < k {
             acc[0] += w * w;
