@@ -21,6 +21,9 @@
 //! * Confidence intervals ([`CiMethod`]): chi-square with EDF (default), Gaussian from the
 //!   book's Lemma 4.4, and the Haar wavelet variance with the `wv` η interval
 //!   ([`haar_wavelet_variance`]).
+//! * The rest of the frequency-stability family in [`stability`]: modified Allan (MDEV), time
+//!   (TDEV), Hadamard (HDEV, OHDEV) and total (TOTDEV) deviations with Stable32's noise
+//!   identification and EDFs, each with a plain reference function.
 //!
 //! ```
 //! use avar::{allan_variance, AvarConfig};

@@ -171,10 +171,7 @@ fn check_table(x: &[f64], input: InputKind, dir: &str, file: &str, octave: bool)
         } else if compare_alpha && p.alpha != Some(r.alpha) {
             alpha_mismatch.push((r.af, r.alpha, p.alpha));
         }
-        // Stable32's TOTDEV EDF for white and flicker PM is not published (SP 1065 gives
-        // b·T/τ − c for the FM noises only); our Greenhall overlapping-AV EDF is used there
-        let known_edf = !(st == Statistic::Totdev && r.alpha > 0);
-        if has_ci && p.alpha == Some(r.alpha) && known_edf {
+        if has_ci && p.alpha == Some(r.alpha) {
             for (ours, theirs) in [
                 (p.dev_lo.unwrap() / p.dev, r.min / r.sigma),
                 (p.dev_hi.unwrap() / p.dev, r.max / r.sigma),
