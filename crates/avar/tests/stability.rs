@@ -15,7 +15,7 @@ const TOL_BOUNDS: f64 = 1e-3;
 /// The OCXO octave tables were computed by Stable32 from ocxo_frequency.001, a differently
 /// digitised copy of the recording (normalised frequency ≈ 1 + y, see tests/exactness.rs):
 /// its ADEVs differ from those of our f64 column by up to 1.2e-3 relative, its TOTDEVs (whose
-/// reflected ends weigh the first and last samples more) by up to 9.7e-3 (at AF = 512; the all-τ
+/// reflected ends weigh the first and last samples more) by up to 1.2e-2 (the all-τ
 /// TOTDEV table, computed from our column, agrees to 1.3e-5 at every τ, so the gap is the
 /// input file, not the estimator). Sigma is compared at these tolerances there; the bounds are compared as ratios bound/sigma (which depend only on
 /// the EDF, i.e. on m, N and the identified α), at TOL_BOUNDS.

@@ -16,7 +16,7 @@
 //!
 //! Agreement with Stable32's published tables (tests/stability.rs): every row with 30 or more
 //! analysis points gets Stable32's α; below 30 (the B1 region) Stable32's exact B1 variant is
-//! not public and about 80 % of the rows agree.
+//! not public and 64–82 % of the rows of the all-τ tables agree.
 
 use rayon::prelude::*;
 
