@@ -60,7 +60,8 @@ pub struct AvarArgs {
     #[arg(long, default_value_t = 0.05)]
     pub alpha: f64,
     /// Statistics to compute (comma list or repeated; default oadev): oadev, adev, mdev,
-    /// tdev, hdev, ohdev, totdev. See "Which statistic" below.
+    /// tdev, hdev, ohdev, totdev. See "Which statistic" below. With this flag --estimator is
+    /// not used (oadev is overlapping, adev non-overlapping).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub statistic: Option<Vec<StatisticArg>>,
     /// Write a log-log plot of the deviations (all statistics overlaid, CI bands) to this
@@ -398,9 +399,9 @@ pub fn write_curves_table(
 }
 
 /// Computes every requested statistic of every channel of `table` (channels in parallel).
-/// `oadev` uses the configured estimator (overlapping by default) and CI exactly as the
-/// default output; `adev` is the non-overlapping AV; the other statistics come from
-/// [`avar::stability::stability`].
+/// `oadev` (overlapping) and `adev` (non-overlapping) are the AV with the configured CI exactly
+/// as in the default output (`config.estimator` is not used: the statistic names it); the other
+/// statistics come from [`avar::stability::stability`].
 pub fn compute_statistics(
     table: &crate::io::Table,
     rate_hz: f64,
@@ -423,7 +424,7 @@ pub fn compute_statistics(
                                 estimator: if st == Statistic::Adev {
                                     Estimator::NonOverlapping
                                 } else {
-                                    config.estimator
+                                    Estimator::Overlapping
                                 },
                                 ..config.clone()
                             };
