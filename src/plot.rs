@@ -402,7 +402,7 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
     s
 }
 
-/// One curve of the stability overlay: (τ [s], deviation, lower, upper bound); bounds may be
+/// One curve of the stability overlay: (τ in s, deviation, lower, upper bound); bounds may be
 /// NaN when absent.
 #[derive(Debug, Clone)]
 pub struct StabilitySeries {
