@@ -487,7 +487,8 @@ fn fast_paths_match_the_reference_at_every_scale() {
 fn fast_paths_match_the_reference_across_blocks() {
     // longer than several summation blocks (2^14 terms), so block restarts are exercised
     let y = mixed(50_003, 12);
-    let ms = vec![1, 2, 3, 17, 256, 1000, 4099];
+    // 16384 = 2^14: the far-scale walk by residue class (lags that are whole blocks)
+    let ms = vec![1, 2, 3, 17, 256, 1000, 4099, 16384];
     for st in FAMILY {
         let s = stability(
             &y,

@@ -8,7 +8,9 @@
 
 use rayon::prelude::*;
 
-use super::{BLOCK, Statistic, check_m, plain_phase, sum_in_blocks, sumsq_range};
+use super::{
+    BLOCK, Statistic, check_m, plain_phase, sum_in_blocks, sum_in_blocks_walk, sumsq_range,
+};
 use crate::Cumulative;
 use crate::config::InputKind;
 use crate::error::AvarError;
@@ -66,7 +68,11 @@ pub(crate) fn hvar_fast(cum: &Cumulative<'_>, ms: &[u64], overlapping: bool) -> 
                 let e = c[i + 3 * m] - c[i + 2 * m];
                 (e - b) - (b - a)
             };
-            let s = if overlapping {
+            let s = if overlapping && m >= BLOCK && m % BLOCK == 0 {
+                sum_in_blocks_walk(n_terms, BLOCK, m / BLOCK, |lo, hi| {
+                    third_diff_sumsq(c, m, lo, hi)
+                })
+            } else if overlapping {
                 sum_in_blocks(n_terms, BLOCK, |lo, hi| third_diff_sumsq(c, m, lo, hi))
             } else {
                 sum_in_blocks(n_terms, BLOCK, |lo, hi| sumsq_range(lo, hi, d3))

@@ -7,7 +7,9 @@
 
 use rayon::prelude::*;
 
-use super::{BLOCK, Statistic, check_m, plain_phase, sum_in_blocks, sumsq_range};
+use super::{
+    BLOCK, Statistic, check_m, plain_phase, sum_in_blocks, sum_in_blocks_walk, sumsq_range,
+};
 use crate::Cumulative;
 use crate::config::InputKind;
 use crate::error::AvarError;
@@ -79,13 +81,18 @@ pub(crate) fn totvar_fast(cum: &Cumulative<'_>, ms: &[u64]) -> Vec<f64> {
             };
             // terms i = 1..=n−2 indexed k = i − 1 (0..n−2)
             let n_terms = n - 2;
-            let s = sum_in_blocks(n_terms, BLOCK, |lo, hi| {
+            let one_block = |lo: usize, hi: usize| {
                 let (lo, hi) = (lo + 1, hi + 1);
                 // middle: m <= i <= last − m
                 let a = lo.max(m).min(hi);
                 let b = (last + 1).saturating_sub(m).max(a).min(hi);
                 sumsq_range(lo, a, edge) + mid_sumsq(c, m, a, b) + sumsq_range(b, hi, edge)
-            });
+            };
+            let s = if m >= BLOCK && m % BLOCK == 0 {
+                sum_in_blocks_walk(n_terms, BLOCK, m / BLOCK, one_block)
+            } else {
+                sum_in_blocks(n_terms, BLOCK, one_block)
+            };
             let f = cum.factor / m as f64;
             s * f * f / (2.0 * n_terms as f64)
         })
