@@ -68,7 +68,7 @@ pub(crate) fn hvar_fast(cum: &Cumulative<'_>, ms: &[u64], overlapping: bool) -> 
                 let e = c[i + 3 * m] - c[i + 2 * m];
                 (e - b) - (b - a)
             };
-            let s = if overlapping && m >= BLOCK && m % BLOCK == 0 {
+            let s = if overlapping && m >= BLOCK && m.is_multiple_of(BLOCK) {
                 sum_in_blocks_walk(n_terms, BLOCK, m / BLOCK, |lo, hi| {
                     third_diff_sumsq(c, m, lo, hi)
                 })

@@ -88,7 +88,7 @@ pub(crate) fn totvar_fast(cum: &Cumulative<'_>, ms: &[u64]) -> Vec<f64> {
                 let b = (last + 1).saturating_sub(m).max(a).min(hi);
                 sumsq_range(lo, a, edge) + mid_sumsq(c, m, a, b) + sumsq_range(b, hi, edge)
             };
-            let s = if m >= BLOCK && m % BLOCK == 0 {
+            let s = if m >= BLOCK && m.is_multiple_of(BLOCK) {
                 sum_in_blocks_walk(n_terms, BLOCK, m / BLOCK, one_block)
             } else {
                 sum_in_blocks(n_terms, BLOCK, one_block)
