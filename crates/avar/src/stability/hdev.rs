@@ -9,7 +9,8 @@
 use rayon::prelude::*;
 
 use super::{
-    BLOCK, Statistic, check_m, plain_phase, sum_in_blocks, sum_in_blocks_walk, sumsq_range,
+    BLOCK, Statistic, check_m, fused_sums, plain_phase, split_near_far, sum_in_blocks,
+    sum_in_blocks_walk, sumsq_range,
 };
 use crate::Cumulative;
 use crate::config::InputKind;
@@ -56,31 +57,52 @@ pub fn hvar_reference(
 pub(crate) fn hvar_fast(cum: &Cumulative<'_>, ms: &[u64], overlapping: bool) -> Vec<f64> {
     let c: &[f64] = &cum.c;
     let n = c.len();
-    ms.par_iter()
-        .map(|&m| {
-            let m = m as usize;
-            let stride = if overlapping { 1 } else { m };
-            let n_terms = (n - 1 - 3 * m) / stride + 1;
-            let d3 = |k: usize| {
-                let i = k * stride;
-                let a = c[i + m] - c[i];
-                let b = c[i + 2 * m] - c[i + m];
-                let e = c[i + 3 * m] - c[i + 2 * m];
-                (e - b) - (b - a)
-            };
-            let s = if overlapping && m >= BLOCK && m.is_multiple_of(BLOCK) {
-                sum_in_blocks_walk(n_terms, BLOCK, m / BLOCK, |lo, hi| {
-                    third_diff_sumsq(c, m, lo, hi)
-                })
-            } else if overlapping {
-                sum_in_blocks(n_terms, BLOCK, |lo, hi| third_diff_sumsq(c, m, lo, hi))
+    let finish = |m: usize, s: f64, n_terms: usize| {
+        let f = cum.factor / m as f64;
+        s * f * f / (6.0 * n_terms as f64)
+    };
+    if !overlapping {
+        return ms
+            .par_iter()
+            .map(|&m| {
+                let m = m as usize;
+                let n_terms = (n - 1 - 3 * m) / m + 1;
+                let d3 = |k: usize| {
+                    let i = k * m;
+                    let a = c[i + m] - c[i];
+                    let b = c[i + 2 * m] - c[i + m];
+                    let e = c[i + 3 * m] - c[i + 2 * m];
+                    (e - b) - (b - a)
+                };
+                finish(
+                    m,
+                    sum_in_blocks(n_terms, BLOCK, |lo, hi| sumsq_range(lo, hi, d3)),
+                    n_terms,
+                )
+            })
+            .collect();
+    }
+    let n_terms = |m: usize| n - 3 * m;
+    split_near_far(
+        ms,
+        |near| {
+            fused_sums(near, n_terms, |m, lo, hi| third_diff_sumsq(c, m, lo, hi))
+                .into_iter()
+                .zip(near)
+                .map(|(s, &m)| finish(m, s, n_terms(m)))
+                .collect()
+        },
+        |m| {
+            let nt = n_terms(m);
+            let block = |lo, hi| third_diff_sumsq(c, m, lo, hi);
+            let s = if m >= BLOCK && m.is_multiple_of(BLOCK) {
+                sum_in_blocks_walk(nt, BLOCK, m / BLOCK, block)
             } else {
-                sum_in_blocks(n_terms, BLOCK, |lo, hi| sumsq_range(lo, hi, d3))
+                sum_in_blocks(nt, BLOCK, block)
             };
-            let f = cum.factor / m as f64;
-            s * f * f / (6.0 * n_terms as f64)
-        })
-        .collect()
+            finish(m, s, nt)
+        },
+    )
 }
 
 /// Σ_{i=lo}^{hi−1} (third difference of c at lag m, at i)², from four contiguous slices in

@@ -5,9 +5,7 @@
 //! Averaging the phase over m before differencing separates white from flicker phase noise
 //! (MDEV falls as τ^{−3/2} for white PM, τ^{−1} for flicker PM).
 
-use rayon::prelude::*;
-
-use super::{BLOCK, Statistic, check_m, plain_phase, sum_in_blocks};
+use super::{BLOCK, Statistic, check_m, fused_sums, plain_phase, split_near_far, sum_in_blocks};
 use crate::Cumulative;
 use crate::config::InputKind;
 use crate::error::AvarError;
@@ -57,16 +55,29 @@ pub fn mvar_reference(
 /// scales and blocks.
 pub(crate) fn mvar_fast(cum: &Cumulative<'_>, ms: &[u64]) -> Vec<f64> {
     let c: &[f64] = &cum.c;
-    ms.par_iter()
-        .map(|&m| {
-            let m = m as usize;
-            let n_terms = c.len() + 1 - 3 * m;
+    let n_terms = |m: usize| c.len() + 1 - 3 * m;
+    let finish = |m: usize, s: f64| {
+        let f = cum.factor / m as f64;
+        s * f * f / ((m * m) as f64 * 2.0 * n_terms(m) as f64)
+    };
+    // near scales (m ≤ 2^12) have blocks of exactly 2^14 terms: fused
+    split_near_far(
+        ms,
+        |near| {
+            fused_sums(near, n_terms, |m, lo, hi| mvar_block(c, m, lo, hi))
+                .into_iter()
+                .zip(near)
+                .map(|(s, &m)| finish(m, s))
+                .collect()
+        },
+        |m| {
             let len = BLOCK.max(4 * m);
-            let s = sum_in_blocks(n_terms, len, |lo, hi| mvar_block(c, m, lo, hi));
-            let f = cum.factor / m as f64;
-            s * f * f / ((m * m) as f64 * 2.0 * n_terms as f64)
-        })
-        .collect()
+            finish(
+                m,
+                sum_in_blocks(n_terms(m), len, |lo, hi| mvar_block(c, m, lo, hi)),
+            )
+        },
+    )
 }
 
 /// Second differences d_i for i in lo..lo + out.len() into `out` (contiguous slices).

@@ -569,6 +569,86 @@ where
     acc.value()
 }
 
+/// Largest cluster size whose scales are summed together, block by block ([`fused_sums`]):
+/// every lag of a block then stays within a few hundred kB of it, in cache.
+pub(crate) const FUSE_MAX_M: usize = BLOCK / 4;
+
+/// [`sum_in_blocks`] (blocks of [`BLOCK`] terms) for several scales at once: each parallel job
+/// takes one block index and runs every scale in `ms` over it while that stretch of the series
+/// is in cache, so the near scales read the series from memory once in all instead of once
+/// each. `n_terms(m)` is the number of terms at m, `block(m, lo, hi)` the plain sum of terms
+/// lo..hi. The block sums are the same as in [`sum_in_blocks`] and are added in the same order,
+/// so the results are bit-identical.
+pub(crate) fn fused_sums<N, F>(ms: &[usize], n_terms: N, block: F) -> Vec<f64>
+where
+    N: Fn(usize) -> usize + Sync,
+    F: Fn(usize, usize, usize) -> f64 + Sync,
+{
+    use rayon::prelude::*;
+    let ns: Vec<usize> = ms.iter().map(|&m| n_terms(m)).collect();
+    let nb = ns.iter().map(|n| n.div_ceil(BLOCK)).max().unwrap_or(0);
+    let parts: Vec<Vec<f64>> = (0..nb)
+        .into_par_iter()
+        .map(|b| {
+            let lo = b * BLOCK;
+            ms.iter()
+                .zip(&ns)
+                .map(|(&m, &n)| {
+                    if lo < n {
+                        block(m, lo, (lo + BLOCK).min(n))
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    ns.iter()
+        .enumerate()
+        .map(|(k, &n)| {
+            let mut acc = crate::kernel::Neumaier::default();
+            for part in &parts[..n.div_ceil(BLOCK)] {
+                acc.add(part[k]);
+            }
+            acc.value()
+        })
+        .collect()
+}
+
+/// Runs `near` on the cluster sizes m ≤ [`FUSE_MAX_M`] (all together) and `far(m)` on each
+/// other one (in parallel), returning the values in the order of `ms`.
+pub(crate) fn split_near_far<Near, Far>(ms: &[u64], near: Near, far: Far) -> Vec<f64>
+where
+    Near: FnOnce(&[usize]) -> Vec<f64>,
+    Far: Fn(usize) -> f64 + Sync + Send,
+{
+    use rayon::prelude::*;
+    let near_ms: Vec<usize> = ms
+        .iter()
+        .map(|&m| m as usize)
+        .filter(|&m| m <= FUSE_MAX_M)
+        .collect();
+    let near_vals = near(&near_ms);
+    let far_vals: Vec<f64> = ms
+        .par_iter()
+        .map(|&m| m as usize)
+        .filter(|&m| m > FUSE_MAX_M)
+        .map(&far)
+        .collect();
+    let (mut i, mut j) = (0, 0);
+    ms.iter()
+        .map(|&m| {
+            if m as usize <= FUSE_MAX_M {
+                i += 1;
+                near_vals[i - 1]
+            } else {
+                j += 1;
+                far_vals[j - 1]
+            }
+        })
+        .collect()
+}
+
 /// Σ of the squares of `f(i)` for i in lo..hi, in four interleaved lanes (a fixed order).
 #[inline(always)]
 pub(crate) fn sumsq_range(lo: usize, hi: usize, f: impl Fn(usize) -> f64) -> f64 {

@@ -5,10 +5,9 @@
 //! x*_{N−1+j} = 2x_{N−1} − x_{N−1−j}. Every τ uses N − 2 terms, which tightens the interval at
 //! long τ (EDF ≈ 1.5·T/τ for white FM against ≈ 1.1·T/τ for the overlapping AV).
 
-use rayon::prelude::*;
-
 use super::{
-    BLOCK, Statistic, check_m, plain_phase, sum_in_blocks, sum_in_blocks_walk, sumsq_range,
+    BLOCK, Statistic, check_m, fused_sums, plain_phase, split_near_far, sum_in_blocks,
+    sum_in_blocks_walk, sumsq_range,
 };
 use crate::Cumulative;
 use crate::config::InputKind;
@@ -58,45 +57,56 @@ pub fn totvar_reference(
 /// outside the record read the reflected values on the fly; the middle runs branch-free.
 pub(crate) fn totvar_fast(cum: &Cumulative<'_>, ms: &[u64]) -> Vec<f64> {
     let c: &[f64] = &cum.c;
-    let n = c.len();
-    let last = n - 1;
-    ms.par_iter()
-        .map(|&m| {
-            let m = m as usize;
-            let xs = |k: isize| -> f64 {
-                if k < 0 {
-                    2.0 * c[0] - c[(-k) as usize]
-                } else if k as usize > last {
-                    2.0 * c[last] - c[2 * last - k as usize]
-                } else {
-                    c[k as usize]
-                }
-            };
-            let edge = |i: usize| {
-                let i = i as isize;
-                let mi = m as isize;
-                let a = xs(i + mi) - xs(i);
-                let b = xs(i) - xs(i - mi);
-                a - b
-            };
-            // terms i = 1..=n−2 indexed k = i − 1 (0..n−2)
-            let n_terms = n - 2;
-            let one_block = |lo: usize, hi: usize| {
-                let (lo, hi) = (lo + 1, hi + 1);
-                // middle: m <= i <= last − m
-                let a = lo.max(m).min(hi);
-                let b = (last + 1).saturating_sub(m).max(a).min(hi);
-                sumsq_range(lo, a, edge) + mid_sumsq(c, m, a, b) + sumsq_range(b, hi, edge)
-            };
+    let n_terms = c.len() - 2;
+    let finish = |m: usize, s: f64| {
+        let f = cum.factor / m as f64;
+        s * f * f / (2.0 * n_terms as f64)
+    };
+    split_near_far(
+        ms,
+        |near| {
+            fused_sums(near, |_| n_terms, |m, lo, hi| totvar_block(c, m, lo, hi))
+                .into_iter()
+                .zip(near)
+                .map(|(s, &m)| finish(m, s))
+                .collect()
+        },
+        |m| {
+            let block = |lo, hi| totvar_block(c, m, lo, hi);
             let s = if m >= BLOCK && m.is_multiple_of(BLOCK) {
-                sum_in_blocks_walk(n_terms, BLOCK, m / BLOCK, one_block)
+                sum_in_blocks_walk(n_terms, BLOCK, m / BLOCK, block)
             } else {
-                sum_in_blocks(n_terms, BLOCK, one_block)
+                sum_in_blocks(n_terms, BLOCK, block)
             };
-            let f = cum.factor / m as f64;
-            s * f * f / (2.0 * n_terms as f64)
-        })
-        .collect()
+            finish(m, s)
+        },
+    )
+}
+
+/// The plain sum of the TOTVAR terms lo..hi (term k is i = k + 1, i = 1..=N−2).
+fn totvar_block(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
+    let last = c.len() - 1;
+    let xs = |k: isize| -> f64 {
+        if k < 0 {
+            2.0 * c[0] - c[(-k) as usize]
+        } else if k as usize > last {
+            2.0 * c[last] - c[2 * last - k as usize]
+        } else {
+            c[k as usize]
+        }
+    };
+    let edge = |i: usize| {
+        let i = i as isize;
+        let mi = m as isize;
+        let a = xs(i + mi) - xs(i);
+        let b = xs(i) - xs(i - mi);
+        a - b
+    };
+    let (lo, hi) = (lo + 1, hi + 1);
+    // middle: m <= i <= last − m
+    let a = lo.max(m).min(hi);
+    let b = (last + 1).saturating_sub(m).max(a).min(hi);
+    sumsq_range(lo, a, edge) + mid_sumsq(c, m, a, b) + sumsq_range(b, hi, edge)
 }
 
 /// Σ_{i=lo}^{hi−1} ((c_{i+m} − c_i) − (c_i − c_{i−m}))² for m ≤ lo, hi + m ≤ len(c), from three
