@@ -402,6 +402,98 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
     s
 }
 
+/// One curve of the stability overlay: (τ in s, deviation, lower, upper bound); bounds may be
+/// NaN when absent.
+#[derive(Debug, Clone)]
+pub struct StabilitySeries {
+    /// Legend text (e.g. `MDEV`).
+    pub label: String,
+    /// (τ, σ, σ_lo, σ_hi).
+    pub points: Vec<(f64, f64, f64, f64)>,
+}
+
+/// Several deviations (OADEV, MDEV, HDEV, …) overlaid on one log-log plot, each with its CI
+/// band (when it has bounds), in the palette's colours, as an SVG document.
+///
+/// ```
+/// use imunoise::plot::{stability_svg, StabilitySeries};
+/// let a = StabilitySeries { label: "OADEV".into(), points: vec![(1.0, 1.0, 0.9, 1.1), (10.0, 0.3, 0.25, 0.36)] };
+/// let b = StabilitySeries { label: "MDEV".into(), points: vec![(1.0, 1.0, f64::NAN, f64::NAN), (10.0, 0.2, f64::NAN, f64::NAN)] };
+/// let svg = stability_svg("clock", &[a, b], "s");
+/// assert!(svg.contains("OADEV") && svg.contains("MDEV"));
+/// assert_eq!(svg.matches("<polygon").count(), 1); // one band: MDEV has no bounds
+/// ```
+pub fn stability_svg(title: &str, series: &[StabilitySeries], id: &str) -> String {
+    let mut s = String::new();
+    header(&mut s, title, id);
+    let ok =
+        |q: &&(f64, f64, f64, f64)| q.0 > 0.0 && q.1 > 0.0 && q.0.is_finite() && q.1.is_finite();
+    let all: Vec<(f64, f64, f64, f64)> = series
+        .iter()
+        .flat_map(|c| c.points.iter().filter(ok).copied())
+        .collect();
+    if all.is_empty() {
+        s.push_str("</svg>\n");
+        return s;
+    }
+    let x0 = all.iter().map(|q| q.0).fold(f64::INFINITY, f64::min);
+    let x1 = all.iter().map(|q| q.0).fold(0.0, f64::max);
+    let ys: Vec<f64> = all
+        .iter()
+        .flat_map(|q| [q.1, q.2, q.3])
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    let ymin = ys.iter().copied().fold(f64::INFINITY, f64::min);
+    let ymax = ys.iter().copied().fold(0.0, f64::max);
+    let f = Frame {
+        x0: 10f64.powf(x0.log10().floor()),
+        x1: 10f64.powf(x1.log10().ceil()),
+        y0: 10f64.powf((ymin.log10() - 0.15).floor()),
+        y1: 10f64.powf((ymax.log10() + 0.15).ceil()),
+        logx: true,
+        logy: true,
+    };
+    axes(&mut s, &f, "averaging time τ [s]", "deviation σ(τ)");
+    let mut items = Vec::new();
+    for (i, c) in series.iter().enumerate() {
+        let colour = PALETTE[(i + 5) % PALETTE.len()];
+        let obs: Vec<(f64, f64, f64, f64)> = c.points.iter().filter(ok).copied().collect();
+        let band: Vec<&(f64, f64, f64, f64)> = obs
+            .iter()
+            .filter(|q| q.2.is_finite() && q.3.is_finite())
+            .collect();
+        if band.len() >= 2 {
+            let mut d = String::new();
+            for q in &band {
+                let _ = write!(d, "{:.2},{:.2} ", f.px(q.0), f.py(q.3));
+            }
+            for q in band.iter().rev() {
+                let lo = if q.2 > 0.0 { q.2 } else { f.y0 };
+                let _ = write!(d, "{:.2},{:.2} ", f.px(q.0), f.py(lo));
+            }
+            let _ = writeln!(
+                s,
+                r##"<polygon points="{d}" fill="{colour}" fill-opacity="0.15" stroke="none" clip-path="url(#clip-{id})"/>"##
+            );
+        }
+        let style = format!(r#"stroke="{colour}" stroke-width="2""#);
+        let pts: Vec<(f64, f64)> = obs.iter().map(|q| (q.0, q.1)).collect();
+        polyline(&mut s, &f, &pts, &style, id);
+        for q in &pts {
+            let _ = writeln!(
+                s,
+                r##"<circle cx="{:.2}" cy="{:.2}" r="2.6" fill="{colour}"/>"##,
+                f.px(q.0),
+                f.py(q.1)
+            );
+        }
+        items.push((c.label.clone(), style));
+    }
+    legend(&mut s, &items);
+    s.push_str("</svg>\n");
+    s
+}
+
 /// A time-series plot (hours on the x axis when longer than 2 h) as SVG: the min/max
 /// envelope of the samples in each of ~700 columns, so every sample is represented.
 pub fn timeseries_svg(title: &str, unit: &str, x: &[f64], rate_hz: f64, id: &str) -> String {

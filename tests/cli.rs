@@ -819,3 +819,156 @@ fn table_header_names_the_ci_family() {
         assert!(header.ends_with(want), "{ci:?}: {header}");
     }
 }
+
+/// A pseudo-random one-column CSV (header `y`) and its values.
+fn noisy_csv(dir: &Path, n: usize) -> (PathBuf, Vec<f64>) {
+    let mut s = 0x9E37_79B9_7F4A_7C15u64;
+    let mut walk = 0.0;
+    let y: Vec<f64> = (0..n)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            walk += 0.01 * u;
+            u + walk
+        })
+        .collect();
+    let mut text = String::from("y\n");
+    for v in &y {
+        text.push_str(&format!("{v:?}\n"));
+    }
+    (write(dir, "noisy.csv", text.as_bytes()), y)
+}
+
+#[test]
+fn avar_statistic_json_has_one_entry_per_statistic_with_alpha() {
+    let dir = tempfile::tempdir().unwrap();
+    let (p, y) = noisy_csv(dir.path(), 4000);
+    let run = |extra: &[&str]| {
+        let mut args = vec!["avar", p.to_str().unwrap(), "-r", "10", "-f", "json"];
+        args.extend_from_slice(extra);
+        serde_json::from_slice::<serde_json::Value>(&imunoise_ok(&args).stdout).unwrap()
+    };
+    let default = run(&[]);
+    // the default output is unchanged: no statistic field, no alpha
+    assert!(default["channels"][0].get("statistic").is_none());
+    assert!(default["channels"][0]["points"][0].get("alpha").is_none());
+    let doc = run(&["--statistic", "oadev,mdev", "--statistic", "totdev"]);
+    let ch = doc["channels"].as_array().unwrap();
+    let names: Vec<&str> = ch
+        .iter()
+        .map(|c| c["statistic"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["oadev", "mdev", "totdev"]);
+    // oadev through --statistic is the default curve, value for value
+    assert_eq!(ch[0]["points"], {
+        let mut pts = default["channels"][0]["points"].clone();
+        for q in pts.as_array_mut().unwrap() {
+            let a = ch[0]["points"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|r| r["m"] == q["m"])
+                .unwrap()["alpha"]
+                .clone();
+            q.as_object_mut().unwrap().insert("alpha".into(), a);
+        }
+        pts
+    });
+    // MDEV at m = 4 against the library's plain reference (literal double sum)
+    let mdev4 = ch[1]["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|q| q["m"] == 4)
+        .unwrap();
+    let want = imunoise::avar::stability::mdev::mvar_reference(
+        &y,
+        10.0,
+        imunoise::avar::InputKind::Rate,
+        4,
+    )
+    .unwrap();
+    let got = mdev4["avar"].as_f64().unwrap();
+    assert!((got / want - 1.0).abs() < 1e-10, "{got} vs {want}");
+    assert_eq!(mdev4["n_terms"], 4000 + 2 - 3 * 4);
+    for c in ch {
+        for q in c["points"].as_array().unwrap() {
+            let a = q["alpha"]
+                .as_i64()
+                .expect("alpha per point with a chi-square CI");
+            assert!((-2..=2).contains(&a));
+            assert!(q["avar_lo"].as_f64().unwrap() <= q["avar"].as_f64().unwrap());
+        }
+    }
+    // without a CI, alpha is null
+    let none = run(&["--statistic", "hdev", "--ci", "none"]);
+    assert!(none["channels"][0]["points"][0]["alpha"].is_null());
+    assert_eq!(none["channels"][0]["estimator"], "non_overlapping");
+}
+
+#[test]
+fn avar_statistic_csv_table_plot_and_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let (p, _) = noisy_csv(dir.path(), 3000);
+    let svg = dir.path().join("stab.svg");
+    let out = imunoise_ok(&[
+        "avar",
+        p.to_str().unwrap(),
+        "-r",
+        "1",
+        "--statistic",
+        "ohdev,tdev",
+        "--scales",
+        "octave",
+        "-f",
+        "csv",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "channel,m,tau,avar,adev,avar_lo,avar_hi,adev_lo,adev_hi,edf,n_terms,statistic,alpha"
+    );
+    let rows: Vec<&str> = lines.collect();
+    // octave grid with Stable32's stop ratio 4: m = 1..512 (3000/4 = 750) for both
+    assert_eq!(rows.len(), 2 * 10);
+    assert!(rows[0].contains(",ohdev,") && rows[19].contains(",tdev,"));
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert!(plot.contains("OHDEV") && plot.contains("TDEV") && plot.starts_with("<svg"));
+    let table = imunoise_ok(&[
+        "avar",
+        p.to_str().unwrap(),
+        "-r",
+        "1",
+        "--statistic",
+        "mdev",
+    ]);
+    let t = String::from_utf8(table.stdout).unwrap();
+    assert!(t.contains("MDEV") && t.contains("alpha"), "{t}");
+    let err = avar_fails(
+        &p,
+        &["--rate", "1", "--statistic", "mdev", "--ci", "gaussian"],
+    );
+    assert!(err.contains("Gaussian") && err.contains("mdev"), "{err}");
+    let bad = imunoise(&[
+        "avar",
+        p.to_str().unwrap(),
+        "-r",
+        "1",
+        "--statistic",
+        "allan",
+    ]);
+    assert_eq!(bad.status.code(), Some(2));
+    let help = String::from_utf8(imunoise_ok(&["avar", "--help"]).stdout).unwrap();
+    for needle in [
+        "linear frequency drift",
+        "tighter intervals at long tau",
+        "flicker phase noise",
+    ] {
+        assert!(help.contains(needle), "--help lacks {needle:?}");
+    }
+}

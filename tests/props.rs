@@ -370,6 +370,54 @@ proptest! {
         prop_assert_eq!(&runs[0], &runs[2]);
     }
 
+    /// The stability family (MDEV, TDEV, HDEV, OHDEV, TOTDEV, ADEV, OADEV): exact 2^k scaling
+    /// (or a NotRepresentable error), the same bits on 1 and 2 threads, and ordered bounds.
+    #[test]
+    fn stability_family_invariants(
+        x in series(),
+        st in prop::sample::select(avar::stability::Statistic::ALL.to_vec()),
+        input in prop::sample::select(vec![InputKind::Rate, InputKind::Angle]),
+        k in -900i32..900,
+    ) {
+        use avar::stability::stability;
+        let cfg = AvarConfig { scales: Scales::Octave, input, ..AvarConfig::default() };
+        prop_assume!(x.len() >= 40);
+        let a = on_threads(1, || stability(&x, 1.0, st, &cfg));
+        let a = match a {
+            Ok(a) => a,
+            // too short for this statistic's smallest scale
+            Err(AvarError::TooShort { .. } | AvarError::InvalidScales(_) | AvarError::ScaleTooLarge { .. }) => return Ok(()),
+            Err(e) => return Err(TestCaseError::fail(format!("{e}"))),
+        };
+        let b = on_threads(2, || stability(&x, 1.0, st, &cfg)).unwrap();
+        prop_assert_eq!(&a, &b);
+        for p in &a.points {
+            if let (Some(lo), Some(hi)) = (p.var_lo, p.var_hi) {
+                prop_assert!(0.0 <= lo && lo <= p.var && p.var <= hi, "{st:?} m={}", p.m);
+            }
+        }
+        let exact = |v: f64, e: i32| v * 2f64.powi(e / 2) * 2f64.powi(e - e / 2);
+        let y: Vec<f64> = x.iter().map(|v| exact(*v, k)).collect();
+        prop_assume!(y.iter().all(|v| v.is_finite() && (v.abs() >= f64::MIN_POSITIVE || *v == 0.0)));
+        match stability(&y, 1.0, st, &cfg) {
+            Ok(c) => {
+                for (p, q) in a.points.iter().zip(&c.points) {
+                    prop_assert_eq!(q.var, exact(p.var, 2 * k), "{:?} m={}", st, p.m);
+                    prop_assert_eq!(q.var_hi, p.var_hi.map(|v| exact(v, 2 * k)));
+                }
+            }
+            Err(AvarError::NotRepresentable { m, .. }) => {
+                let p = a.points.iter().find(|p| p.m == m).unwrap();
+                let out = |v: f64| {
+                    let s = exact(v, 2 * k);
+                    v != 0.0 && (!s.is_finite() || s.abs() < f64::MIN_POSITIVE)
+                };
+                prop_assert!(out(p.var) || p.var_lo.is_some_and(out) || p.var_hi.is_some_and(out));
+            }
+            Err(e) => prop_assert!(false, "{e}"),
+        }
+    }
+
     /// 0 ≤ lo ≤ avar ≤ hi for chi-square intervals; lo ≤ avar ≤ hi and adev_lo ≥ 0 for the
     /// Gaussian ones (whose lower bound may be negative, book Remark 4.7).
     #[test]

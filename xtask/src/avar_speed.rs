@@ -13,6 +13,12 @@
 //!
 //! Times are the best of three runs (allantools: one run at 1e8). Peak memory is the process
 //! high-water mark (VmHWM), which includes the input array.
+//!
+//! `--family [--sizes 1e7,1e8] [--py-max 1e7]`: the stability family instead (issue 14): at each
+//! size, octave τ, no CI, OADEV and each of ADEV, MDEV, TDEV, HDEV, OHDEV, TOTDEV, alternated
+//! in one run (OADEV, X, OADEV, X, … best of 3 each), the ratio X / OADEV of the same run, and
+//! allantools' function of the same name on the same data up to `--py-max` samples (one run)
+//! with the speed-up and the largest relative difference of the deviations.
 
 use crate::args::value;
 use std::io::Write;
@@ -118,6 +124,113 @@ fn run_allantools(python: &Path, file: &Path, taus: &str) -> Result<Py, String> 
     })
 }
 
+const PY_FAMILY: &str = r#"
+import sys, time, json
+import numpy as np, allantools
+x = np.fromfile(sys.argv[1], dtype='<f8')
+f = getattr(allantools, sys.argv[2])
+t = time.perf_counter()
+taus, devs, errs, ns = f(x, rate=1.0, data_type='freq', taus='octave')
+dt = time.perf_counter() - t
+print(json.dumps({"seconds": dt, "taus": list(map(float, taus)), "devs": list(map(float, devs))}))
+"#;
+
+/// The `--family` report.
+fn run_family(args: &[String], sizes: &[usize], python: &Path, dir: &Path) -> Result<(), String> {
+    use avar::stability::{Statistic, stability};
+    let py_max = value(args, "--py-max")
+        .map(|s| s.parse::<f64>().map(|v| v as usize))
+        .transpose()
+        .map_err(|_| "bad --py-max")?
+        .unwrap_or(10_000_000);
+    let have_py = python.exists();
+    let cfg = AvarConfig {
+        scales: Scales::Octave,
+        ci: CiMethod::None,
+        ..AvarConfig::default()
+    };
+    println!(
+        "# stability family speed ({} threads; octave τ, no CI; best of 3, alternated with OADEV)\n",
+        rayon::current_num_threads()
+    );
+    println!(
+        "| T | statistic | scales | time | OADEV same run | ratio to OADEV | allantools | speed-up | max rel. diff |"
+    );
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|");
+    for &n in sizes {
+        let x = data(n);
+        let file = dir.join(format!("family_{n}.f64"));
+        let use_py = have_py && n <= py_max;
+        if use_py {
+            let bytes: Vec<u8> = x.iter().flat_map(|v| v.to_le_bytes()).collect();
+            std::fs::write(&file, bytes).map_err(|e| e.to_string())?;
+        }
+        for st in Statistic::ALL {
+            let (mut t_o, mut t_s) = (f64::INFINITY, f64::INFINITY);
+            let mut res = None;
+            for _ in 0..3 {
+                let t = Instant::now();
+                let o = stability(&x, 1.0, Statistic::Oadev, &cfg).map_err(|e| e.to_string())?;
+                t_o = t_o.min(t.elapsed().as_secs_f64());
+                std::hint::black_box(o);
+                let t = Instant::now();
+                let r = stability(&x, 1.0, st, &cfg).map_err(|e| e.to_string())?;
+                t_s = t_s.min(t.elapsed().as_secs_f64());
+                res = Some(r);
+            }
+            let ours = res.expect("3 runs");
+            let (py_s, speedup, diff) = if use_py {
+                let out = Command::new(python)
+                    .arg("-c")
+                    .arg(PY_FAMILY)
+                    .arg(&file)
+                    .arg(st.name())
+                    .output()
+                    .map_err(|e| format!("running {python:?}: {e}"))?;
+                if !out.status.success() {
+                    return Err(format!(
+                        "allantools {st} failed: {}",
+                        String::from_utf8_lossy(&out.stderr)
+                    ));
+                }
+                let v: serde_json::Value = serde_json::from_slice(&out.stdout)
+                    .map_err(|e| format!("allantools output: {e}"))?;
+                let secs = v["seconds"].as_f64().unwrap_or(f64::NAN);
+                let mut worst = 0.0f64;
+                let mut matched = 0;
+                let taus = v["taus"].as_array().cloned().unwrap_or_default();
+                let devs = v["devs"].as_array().cloned().unwrap_or_default();
+                for (tau, dev) in taus.iter().zip(&devs) {
+                    let (Some(tau), Some(dev)) = (tau.as_f64(), dev.as_f64()) else {
+                        continue;
+                    };
+                    if let Some(p) = ours.points.iter().find(|p| (p.tau - tau).abs() < 1e-9) {
+                        worst = worst.max(((p.dev - dev) / dev).abs());
+                        matched += 1;
+                    }
+                }
+                (
+                    format!("{secs:.3} s"),
+                    format!("{:.0}×", secs / t_s),
+                    format!("{worst:.1e} ({matched} τ)"),
+                )
+            } else {
+                ("—".into(), "—".into(), "—".into())
+            };
+            println!(
+                "| {n:.0e} | {} | {} | {:.1} ms | {:.1} ms | {:.2}× | {py_s} | {speedup} | {diff} |",
+                st.name().to_uppercase(),
+                ours.points.len(),
+                1e3 * t_s,
+                1e3 * t_o,
+                t_s / t_o
+            );
+        }
+        let _ = std::fs::remove_file(&file);
+    }
+    Ok(())
+}
+
 /// Runs the report.
 pub fn run(args: &[String]) -> Result<(), String> {
     let sizes: Vec<usize> = value(args, "--sizes")
@@ -142,6 +255,9 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let have_py = python.exists();
     let dir = root.join("target/avar-speed");
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    if args.iter().any(|a| a == "--family") {
+        return run_family(args, &sizes, &python, &dir);
+    }
     let threads = rayon::current_num_threads();
     println!("# avar speed report ({threads} threads available; best of 3)\n");
     if !have_py {

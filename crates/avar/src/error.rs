@@ -36,10 +36,10 @@ pub enum AvarError {
     /// The sums overflowed although every sample is finite (values near f64::MAX).
     #[error("overflow while accumulating the series (samples too large in magnitude)")]
     Overflow,
-    /// The Allan variance at a scale is beyond the range of f64 (about 1e-308 to 1e308) although
+    /// The Allan variance (or another statistic of the family) at a scale is beyond the range of f64 (about 1e-308 to 1e308) although
     /// every sample is finite: the samples are too large or too small in magnitude.
     #[error(
-        "the Allan variance at m = {m} is about 1e{log10:.0}, outside the range of f64 (1e-308 to 1e308): rescale the input (e.g. to SI units)"
+        "the estimated variance (AV, or the chosen statistic) at m = {m} is about 1e{log10:.0}, outside the range of f64 (1e-308 to 1e308): rescale the input (e.g. to SI units)"
     )]
     NotRepresentable {
         /// The cluster size (samples).
@@ -68,6 +68,24 @@ pub enum AvarError {
         /// Largest admissible cluster size.
         max: u64,
     },
+    /// A cluster size too large for a statistic of the stability family (see
+    /// [`crate::stability::Statistic::max_m`]).
+    #[error(
+        "cluster size m = {m} is too large for {statistic} with T = {t} rate samples (m <= {max})"
+    )]
+    ScaleTooLargeFor {
+        /// The statistic (`"mdev"`, …).
+        statistic: &'static str,
+        /// The requested cluster size (samples).
+        m: u64,
+        /// Number of rate samples.
+        t: usize,
+        /// Largest admissible cluster size.
+        max: u64,
+    },
+    /// An unknown statistic name or a request the statistic does not support.
+    #[error("{0}")]
+    InvalidStatistic(String),
     /// The scale grid is malformed (e.g. a non-positive step) or yields no scale for this length.
     #[error("invalid scale grid: {0}")]
     InvalidScales(String),

@@ -11,7 +11,7 @@
 //! The common case pays nothing: the estimate is first computed as is, and only when its values
 //! lie outside [2^−300, 2^300] (or overflowed) is the magnitude of the data looked at.
 
-use crate::{AllanVariance, AvarError};
+use crate::AvarError;
 
 /// Values of the AV inside this range (and no overflow) prove that no intermediate of the
 /// estimate (squares, fourth powers in the Gaussian CI) left the normal range of f64.
@@ -48,16 +48,81 @@ fn max_exponent(data: &[f64]) -> Option<i32> {
     Some(((v.to_bits() >> 52) & 0x7ff) as i32 - 1023 - shift)
 }
 
+/// A point of an estimate whose values are quadratic in the data (a variance, its bounds) or
+/// linear (the deviation and its bounds): the AV and every member of the stability family.
+pub(crate) trait Quadratic {
+    /// Cluster size (samples).
+    fn m(&self) -> u64;
+    /// The variance and its bounds.
+    fn variances(&self) -> [Option<f64>; 3];
+    /// The variance and its bounds, and the deviation and its bounds, to scale.
+    fn parts(
+        &mut self,
+    ) -> (
+        [&mut Option<f64>; 2],
+        &mut f64,
+        [&mut Option<f64>; 2],
+        &mut f64,
+    );
+}
+
+impl Quadratic for crate::AvarPoint {
+    fn m(&self) -> u64 {
+        self.m
+    }
+    fn variances(&self) -> [Option<f64>; 3] {
+        [Some(self.avar), self.avar_lo, self.avar_hi]
+    }
+    fn parts(
+        &mut self,
+    ) -> (
+        [&mut Option<f64>; 2],
+        &mut f64,
+        [&mut Option<f64>; 2],
+        &mut f64,
+    ) {
+        (
+            [&mut self.avar_lo, &mut self.avar_hi],
+            &mut self.avar,
+            [&mut self.adev_lo, &mut self.adev_hi],
+            &mut self.adev,
+        )
+    }
+}
+
+impl Quadratic for crate::stability::StabilityPoint {
+    fn m(&self) -> u64 {
+        self.m
+    }
+    fn variances(&self) -> [Option<f64>; 3] {
+        [Some(self.var), self.var_lo, self.var_hi]
+    }
+    fn parts(
+        &mut self,
+    ) -> (
+        [&mut Option<f64>; 2],
+        &mut f64,
+        [&mut Option<f64>; 2],
+        &mut f64,
+    ) {
+        (
+            [&mut self.var_lo, &mut self.var_hi],
+            &mut self.var,
+            [&mut self.dev_lo, &mut self.dev_hi],
+            &mut self.dev,
+        )
+    }
+}
+
 /// Whether the first estimate may have lost digits to overflow or underflow.
-pub(crate) fn suspicious(first: &Result<AllanVariance, AvarError>) -> bool {
+pub(crate) fn suspicious<P: Quadratic>(first: Result<&[P], &AvarError>) -> bool {
     match first {
         Err(AvarError::Overflow) => true,
         Err(_) => false,
-        Ok(av) => av.points.iter().any(|p| {
+        Ok(points) => points.iter().any(|p| {
             let out = |v: f64| !v.is_finite() || v.abs() > TRUST_HI || v.abs() < TRUST_LO;
-            out(p.avar)
-                || p.avar_lo.is_some_and(|v| v != 0.0 && out(v))
-                || p.avar_hi.is_some_and(out)
+            let [v, lo, hi] = p.variances();
+            v.is_some_and(out) || lo.is_some_and(|v| v != 0.0 && out(v)) || hi.is_some_and(out)
         }),
     }
 }
@@ -73,31 +138,32 @@ pub(crate) fn scaled_copy(data: &[f64], e: i32) -> Vec<f64> {
     data.iter().map(|&x| ldexp(x, -e)).collect()
 }
 
-/// Scales an estimate of the data times 2^−e back to the data's units, checking that every value
-/// is representable: an AV beyond the range of f64 is an error that says how large it is.
-pub(crate) fn scale_back(av: &mut AllanVariance, e: i32) -> Result<(), AvarError> {
-    av.mean = ldexp(av.mean, e);
-    for p in &mut av.points {
+/// Scales the points of an estimate of the data times 2^−e back to the data's units, checking
+/// that every value is representable: a variance beyond the range of f64 is an error that says
+/// how large it is.
+pub(crate) fn scale_back<P: Quadratic>(points: &mut [P], e: i32) -> Result<(), AvarError> {
+    for p in points {
+        let m = p.m();
         let check = |scaled: f64| -> Result<f64, AvarError> {
             let v = ldexp(scaled, 2 * e);
             let lost = !v.is_finite() || (scaled != 0.0 && v.abs() < f64::MIN_POSITIVE);
             if lost {
                 return Err(AvarError::NotRepresentable {
-                    m: p.m,
+                    m,
                     log10: scaled.abs().log10() + 2.0 * e as f64 * std::f64::consts::LOG10_2,
                 });
             }
             Ok(v)
         };
-        let avar = check(p.avar)?;
-        let lo = p.avar_lo.map(check).transpose()?;
-        let hi = p.avar_hi.map(check).transpose()?;
-        p.avar = avar;
-        p.adev = ldexp(p.adev, e);
-        p.avar_lo = lo;
-        p.avar_hi = hi;
-        p.adev_lo = p.adev_lo.map(|v| ldexp(v, e));
-        p.adev_hi = p.adev_hi.map(|v| ldexp(v, e));
+        let (bounds, var, dev_bounds, dev) = p.parts();
+        *var = check(*var)?;
+        for b in bounds {
+            *b = b.map(check).transpose()?;
+        }
+        *dev = ldexp(*dev, e);
+        for b in dev_bounds {
+            *b = b.map(|v| ldexp(v, e));
+        }
     }
     Ok(())
 }

@@ -150,3 +150,43 @@ fn haar_wv_scales_exactly() {
         assert_eq!(q.wv_hi, p.wv_hi * 2f64.powi(800));
     }
 }
+
+/// Every member of the stability family scales exactly too (MDEV, TDEV, HDEV, OHDEV, TOTDEV,
+/// ADEV, OADEV; rate and angle input; chi-square intervals included), and a variance beyond
+/// f64 is an error, not NaN.
+#[test]
+fn the_stability_family_scales_exactly() {
+    use avar::stability::{Statistic, stability};
+    let x: Vec<f64> = white_noise(3000, 1.0, 12)
+        .iter()
+        .zip(random_walk(3000, 1e-3, 13))
+        .map(|(w, r)| w + r)
+        .collect();
+    for st in Statistic::ALL {
+        for input in [InputKind::Rate, InputKind::Angle] {
+            let cfg = AvarConfig {
+                scales: Scales::Octave,
+                input,
+                ..AvarConfig::default()
+            };
+            let a = stability(&x, 1.0, st, &cfg).unwrap();
+            for k in [-450, 450] {
+                let b = stability(&scaled(&x, k), 1.0, st, &cfg)
+                    .unwrap_or_else(|e| panic!("{st:?} {input:?} k={k}: {e}"));
+                for (p, q) in a.points.iter().zip(&b.points) {
+                    let f2 = |v: f64| v * 2f64.powi(2 * k);
+                    assert_eq!(q.var, f2(p.var), "{st:?} {input:?} k={k} m={}", p.m);
+                    assert_eq!(q.var_lo, p.var_lo.map(f2));
+                    assert_eq!(q.var_hi, p.var_hi.map(f2));
+                    assert_eq!(q.dev, p.dev * 2f64.powi(k));
+                    assert_eq!(q.alpha, p.alpha);
+                }
+            }
+            let e = stability(&scaled(&x, 1000), 1.0, st, &cfg).unwrap_err();
+            assert!(
+                matches!(e, AvarError::NotRepresentable { .. }),
+                "{st:?}: {e:?}"
+            );
+        }
+    }
+}

@@ -1,0 +1,218 @@
+//! Stable32's power-law noise identification at each averaging factor (W. J. Riley, *Handbook
+//! of Frequency Stability Analysis*, NIST SP 1065 §5.6; Riley & Greenhall 2004):
+//!
+//! * with at least [`MIN_ACF_POINTS`] analysis points at cluster size m: the lag-1
+//!   autocorrelation method on the m-averaged frequencies (rate input; α = p) or the phase
+//!   decimated by m (angle input; α = p + 2), differenced until δ = r1/(1 + r1) < 0.25 or
+//!   d = d_max (2 for the Allan family, 3 for Hadamard), p = −round(2δ) − 2d;
+//! * below that: the B1 ratio (standard variance over Allan variance of the m-averaged
+//!   frequencies) against its expectation B1(N, μ) (N = number of terms of the statistic)
+//!   for the power laws μ = 2..−2
+//!   (boundaries at the geometric means, the arithmetic mean between μ = 2 and 1), and, where
+//!   B1 cannot tell white from flicker PM (μ = −2), the ratio R(n) = MVAR/AVAR against
+//!   1/m (white PM) and 3.37/(1.04 + 3 ln(π m)) (flicker PM).
+//!
+//! No trend is removed (Stable32 leaves preprocessing to the user); α is clamped to −2..=2.
+//!
+//! Agreement with Stable32's published tables (tests/stability.rs): every row with 30 or more
+//! analysis points gets Stable32's α; below 30 (the B1 region) Stable32's exact B1 variant is
+//! not public and 64–82 % of the rows of the all-τ tables agree.
+
+use rayon::prelude::*;
+
+use super::{StabilityPoint, Statistic};
+use crate::Cumulative;
+use crate::config::InputKind;
+use crate::kernel::Neumaier;
+
+/// Stable32 switches from the lag-1 ACF to the B1 ratio below this many analysis points.
+pub const MIN_ACF_POINTS: usize = 30;
+
+/// Lag-1 autocorrelation as Stable32 computes it: the usual (biased) estimator times (n − 1)/n.
+fn acf1(z: &[f64]) -> f64 {
+    let n = z.len() as f64;
+    let mu = z.iter().sum::<f64>() / n;
+    let mut num = 0.0;
+    let mut den = 0.0;
+    for w in z.windows(2) {
+        num += (w[0] - mu) * (w[1] - mu);
+    }
+    for v in z {
+        den += (v - mu) * (v - mu);
+    }
+    // Stable32 scales the estimate by (n − 1)/n; without it 2 of the OCXO all-τ rows with
+    // 30+ analysis points (AF = 113, 463) come out one noise type off
+    num / den * (n - 1.0) / n
+}
+
+/// Lag-1 ACF exponent p = −round(2δ) − 2d of a series (differenced up to `dmax` times), or
+/// `None` for a constant series.
+///
+/// ```
+/// use avar::stability::noise_id::acf_exponent;
+/// // white noise (a deterministic pseudo-random sequence): p = 0; its running sum: p = −2
+/// let mut s = 1u64;
+/// let white: Vec<f64> = (0..2000).map(|_| { s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+///     (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5 }).collect();
+/// assert_eq!(acf_exponent(&white, 2), Some(0));
+/// let walk: Vec<f64> = white.iter().scan(0.0, |a, v| { *a += v; Some(*a) }).collect();
+/// assert_eq!(acf_exponent(&walk, 2), Some(-2));
+/// ```
+pub fn acf_exponent(z: &[f64], dmax: u32) -> Option<i32> {
+    let mut z = z.to_vec();
+    let mut d = 0u32;
+    loop {
+        if z.len() < 3 {
+            return None;
+        }
+        let r1 = acf1(&z);
+        if !r1.is_finite() {
+            return None;
+        }
+        let delta = r1 / (1.0 + r1);
+        if delta < 0.25 || d >= dmax {
+            return Some(-(2.0 * delta).round() as i32 - 2 * d as i32);
+        }
+        z = z.windows(2).map(|w| w[1] - w[0]).collect();
+        d += 1;
+    }
+}
+
+/// Expected B1 ratio for N frequency values and AV exponent μ (AVAR ∝ τ^μ).
+fn b1_expected(n: f64, mu: i32) -> f64 {
+    match mu {
+        2 => n * (n + 1.0) / 6.0,
+        1 => n / 2.0,
+        0 => n * n.ln() / (2.0 * (n - 1.0) * 2f64.ln()),
+        -1 => 1.0,
+        _ => (n * n - 1.0) / (1.5 * n * (n - 1.0)),
+    }
+}
+
+/// The AV exponent μ (2..−2) whose expected B1 ratio is nearest to the measured `b1` for N
+/// frequency values.
+///
+/// ```
+/// use avar::stability::noise_id::b1_mu;
+/// assert_eq!(b1_mu(1.0, 20), -1); // white FM: B1 = 1
+/// assert_eq!(b1_mu(10.0, 20), 1); // random-walk FM: B1 = N/2
+/// ```
+pub fn b1_mu(b1: f64, n: usize) -> i32 {
+    let n = n as f64;
+    for mu in [2, 1, 0, -1] {
+        let (a, b) = (b1_expected(n, mu), b1_expected(n, mu - 1));
+        let bound = if mu == 2 {
+            0.5 * (a + b)
+        } else {
+            (a * b).sqrt()
+        };
+        if b1 > bound {
+            return mu;
+        }
+    }
+    -2
+}
+
+/// White (2) or flicker (1) PM from the measured R(n) = MVAR/AVAR at cluster size m.
+///
+/// ```
+/// use avar::stability::noise_id::rn_alpha;
+/// assert_eq!(rn_alpha(1.0 / 64.0, 64), 2);
+/// assert_eq!(rn_alpha(0.2, 64), 1);
+/// ```
+pub fn rn_alpha(rn: f64, m: u64) -> i32 {
+    let m = m as f64;
+    let fpm = 3.37 / (1.04 + 3.0 * (std::f64::consts::PI * m).ln());
+    let wpm = 1.0 / m;
+    if rn > (fpm * wpm).sqrt() { 1 } else { 2 }
+}
+
+/// The identified α at every point of a curve (parallel over points).
+pub(crate) fn identify_all(
+    cum: &Cumulative<'_>,
+    statistic: Statistic,
+    input: InputKind,
+    points: &[StabilityPoint],
+) -> Vec<i32> {
+    let phase_input = input == InputKind::Angle;
+    points
+        .par_iter()
+        .map(|p| identify_one(cum, statistic, p.m as usize, p.n_terms, phase_input))
+        .collect()
+}
+
+fn identify_one(
+    cum: &Cumulative<'_>,
+    statistic: Statistic,
+    m: usize,
+    n_terms: u64,
+    phase_input: bool,
+) -> i32 {
+    let c: &[f64] = &cum.c;
+    let t = c.len() - 1;
+    let k = t / m;
+    let dmax = statistic.diff_order();
+    let acf = if phase_input {
+        // phase decimated by m: x_0, x_m, …
+        let z: Vec<f64> = c.iter().step_by(m).copied().collect();
+        (z.len() >= MIN_ACF_POINTS)
+            .then(|| acf_exponent(&z, dmax).map(|p| p + 2))
+            .flatten()
+    } else {
+        let z: Vec<f64> = (0..k).map(|i| c[(i + 1) * m] - c[i * m]).collect();
+        (z.len() >= MIN_ACF_POINTS)
+            .then(|| acf_exponent(&z, dmax))
+            .flatten()
+    };
+    let alpha = match acf {
+        Some(a) => a,
+        None => b1_alpha(c, m, n_terms, statistic),
+    };
+    alpha.clamp(-2, 2)
+}
+
+/// B1 (and R(n)) identification at cluster size m from the cumulative sums.
+fn b1_alpha(c: &[f64], m: usize, n_terms: u64, statistic: Statistic) -> i32 {
+    let t = c.len() - 1;
+    let k = t / m;
+    if k < 2 {
+        return 0;
+    }
+    let y: Vec<f64> = (0..k).map(|i| c[(i + 1) * m] - c[i * m]).collect();
+    let mean = y.iter().sum::<f64>() / k as f64;
+    let svar = y.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (k - 1) as f64;
+    let avar = y.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2 * (k - 1)) as f64;
+    if avar.is_nan() || avar <= 0.0 {
+        return 0;
+    }
+    // N of the expected ratio: the number of terms of the statistic (the choice that agrees
+    // best with Stable32's tables; with N = ⌊T/m⌋ fewer rows agree)
+    let mu = b1_mu(svar / avar, n_terms as usize);
+    if mu == -2 && statistic.modified() {
+        if 3 * m > t + 1 {
+            // MVAR undefined at this m (TOTDEV beyond T/3): B1 alone, white PM
+            return 2;
+        }
+        // R(n) = MVAR/AVAR (overlapping AV), both from the same cumulative sums
+        let mut mv = Neumaier::default();
+        let mut av = Neumaier::default();
+        let d = |i: usize| (c[i + 2 * m] - c[i + m]) - (c[i + m] - c[i]);
+        let mut w: f64 = (0..m).map(d).sum();
+        let n_mod = t + 2 - 3 * m;
+        for j in 0..n_mod {
+            mv.add(w * w);
+            if j + 1 < n_mod {
+                w += d(j + m) - d(j);
+            }
+        }
+        for i in 0..=t - 2 * m {
+            let v = d(i);
+            av.add(v * v);
+        }
+        let mvar = mv.value() / (m * m) as f64 / n_mod as f64;
+        let oavar = av.value() / (t + 1 - 2 * m) as f64;
+        return rn_alpha(mvar / oavar, m as u64);
+    }
+    // μ = −α − 1 for α ≤ 0 (μ = 2 would be α = −3, clamped)
+    -mu - 1
+}
