@@ -63,6 +63,13 @@ pub struct Results<'a> {
     pub source: &'a str,
     /// Sampling rate (Hz).
     pub rate_hz: f64,
+    /// The topic (or log message) analysed, for logs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub topic: Option<&'a str>,
+    /// What the time stamps said (rate source, reordered, duplicates, gaps, policy), for
+    /// time-stamped input.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timing: Option<&'a crate::logs::Timing>,
     /// Channels.
     pub channels: Vec<ChannelResult<'a>>,
 }
@@ -87,6 +94,10 @@ pub struct ReportInput<'a> {
     pub extra_html: String,
     /// Bootstrap replicates behind the CIs (0: none), for their description.
     pub bootstrap: usize,
+    /// The topic (or log message) analysed, for logs.
+    pub topic: Option<&'a str>,
+    /// What the time stamps said, for time-stamped input.
+    pub timing: Option<&'a crate::logs::Timing>,
 }
 
 fn file_safe(name: &str) -> String {
@@ -246,6 +257,8 @@ pub fn write_report(dir: &Path, inp: &ReportInput<'_>, ui: &Ui) -> Result<()> {
     let results = Results {
         source: inp.source,
         rate_hz: inp.rate_hz,
+        topic: inp.topic,
+        timing: inp.timing,
         channels: json
             .channels
             .into_iter()
@@ -322,6 +335,15 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         );
     }
     html.push_str("</table>\n");
+    if let Some(t) = inp.timing {
+        let _ = writeln!(
+            html,
+            "<h2>Time stamps</h2><p>{}{}</p>",
+            inp.topic
+                .map_or(String::new(), |t| format!("Topic <code>{}</code>: ", html_esc(t))),
+            html_esc(&t.summary())
+        );
+    }
     html.push_str(&inp.extra_html);
     // Parameter table.
     let level = inp
@@ -435,13 +457,23 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
 
 /// Runs `imunoise analyze`.
 pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
+    // Several topics: one report per topic, in a folder named after it.
+    if args.input.topic.len() > 1 {
+        for topic in &args.input.topic {
+            let mut one = args.clone();
+            one.input.topic = vec![topic.clone()];
+            one.out = args.out.join(file_safe(topic.trim_start_matches('/')));
+            run(&one, ui)?;
+        }
+        return Ok(());
+    }
     let (table, units, curves) = super::fit::read_curves(&args.input, args.fit.alpha, ui)?;
     let mut settings = args.fit.clone();
     settings.select = !args.no_select && settings.method == super::fit::Method::Gmwm;
     let fits = fit_all(&curves, &units, &settings, ui)?;
     let inp = ReportInput {
         source: &table.file,
-        rate_hz: args.input.rate,
+        rate_hz: table.rate()?,
         names: &table.names,
         columns: &table.columns,
         units: &units,
@@ -449,6 +481,8 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         fits: &fits,
         extra_html: String::new(),
         bootstrap: settings.bootstrap,
+        topic: table.topic.as_deref(),
+        timing: table.timing.as_ref(),
     };
     write_report(&args.out, &inp, ui)?;
     let stdout = std::io::stdout();

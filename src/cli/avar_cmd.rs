@@ -277,7 +277,7 @@ pub fn run(args: &AvarArgs, ui: &Ui) -> Result<()> {
         )));
     }
     let table = args.input.read(ui)?;
-    let curves = compute(&table, args.input.rate, &config, ui)?;
+    let curves = compute(&table, table.rate()?, &config, ui)?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let res = match args.format {

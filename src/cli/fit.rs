@@ -714,7 +714,7 @@ pub(super) fn read_curves(
         alpha,
         ..AvarConfig::default()
     };
-    let curves = super::avar_cmd::compute(&table, input.rate, &cfg, ui)?;
+    let curves = super::avar_cmd::compute(&table, table.rate()?, &cfg, ui)?;
     Ok((table, units, curves))
 }
 
