@@ -299,3 +299,263 @@ fn gap_duplicate_and_reorder_counts_are_exact() {
     let v: serde_json::Value = serde_json::from_str(&o).unwrap();
     assert_eq!(v["channels"][0]["n"], 5997);
 }
+
+// ---------------------------------------------------------------- ROS 1 bags
+
+fn bag_field(name: &str, val: &[u8]) -> Vec<u8> {
+    let mut v = ((name.len() + 1 + val.len()) as u32).to_le_bytes().to_vec();
+    v.extend_from_slice(name.as_bytes());
+    v.push(b'=');
+    v.extend_from_slice(val);
+    v
+}
+
+fn bag_record(fields: &[Vec<u8>], data: &[u8]) -> Vec<u8> {
+    let h: Vec<u8> = fields.concat();
+    let mut v = (h.len() as u32).to_le_bytes().to_vec();
+    v.extend_from_slice(&h);
+    v.extend_from_slice(&(data.len() as u32).to_le_bytes());
+    v.extend_from_slice(data);
+    v
+}
+
+fn bag_time(ns: i64) -> [u8; 8] {
+    let mut t = [0u8; 8];
+    t[..4].copy_from_slice(&((ns / 1_000_000_000) as u32).to_le_bytes());
+    t[4..].copy_from_slice(&((ns % 1_000_000_000) as u32).to_le_bytes());
+    t
+}
+
+fn bag_connection(id: u32, t: &Topic<'_>) -> Vec<u8> {
+    let data = [
+        bag_field("topic", t.name.as_bytes()),
+        bag_field("type", t.schema.as_bytes()),
+        bag_field("md5sum", b"6a62c6daae103f4ff57a132d6f95cec2"),
+        bag_field("message_definition", b"(omitted)"),
+    ]
+    .concat();
+    bag_record(
+        &[
+            bag_field("op", &[7]),
+            bag_field("conn", &id.to_le_bytes()),
+            bag_field("topic", t.name.as_bytes()),
+        ],
+        &data,
+    )
+}
+
+/// Writes a ROS 1 bag (format 2.0, one uncompressed chunk, with its index), the messages
+/// in recording order (position in each topic's vectors, topics interleaved).
+fn write_bag(path: &Path, topics: &[Topic<'_>]) {
+    use imunoise::logs::imu_msg::encode_ros1;
+    let header = |index_pos: u64, chunks: u32| {
+        bag_record(
+            &[
+                bag_field("op", &[3]),
+                bag_field("index_pos", &index_pos.to_le_bytes()),
+                bag_field("conn_count", &(topics.len() as u32).to_le_bytes()),
+                bag_field("chunk_count", &chunks.to_le_bytes()),
+            ],
+            &[b' '; 64],
+        )
+    };
+    let mut out = b"#ROSBAG V2.0\n".to_vec();
+    let hdr_at = out.len();
+    out.extend_from_slice(&header(0, 1));
+    let mut chunk = Vec::new();
+    for (k, t) in topics.iter().enumerate() {
+        chunk.extend_from_slice(&bag_connection(k as u32, t));
+    }
+    let mut events: Vec<(usize, usize)> = Vec::new();
+    for (k, t) in topics.iter().enumerate() {
+        events.extend((0..t.stamps.len()).map(|i| (i, k)));
+    }
+    events.sort();
+    let mut index: Vec<Vec<(i64, u32)>> = vec![Vec::new(); topics.len()];
+    let (mut t0, mut t1) = (i64::MAX, i64::MIN);
+    for &(i, k) in &events {
+        let t = &topics[k];
+        let st = t.stamps[i];
+        let data = if t.schema == "sensor_msgs/Imu" {
+            encode_ros1(&sample(&t.stamps, &t.cols, i), i as u32, "imu_link")
+        } else {
+            vec![1, 2, 3]
+        };
+        index[k].push((st, chunk.len() as u32));
+        t0 = t0.min(st);
+        t1 = t1.max(st);
+        chunk.extend_from_slice(&bag_record(
+            &[
+                bag_field("op", &[2]),
+                bag_field("conn", &(k as u32).to_le_bytes()),
+                bag_field("time", &bag_time(st)),
+            ],
+            &data,
+        ));
+    }
+    let chunk_pos = out.len() as u64;
+    out.extend_from_slice(&bag_record(
+        &[
+            bag_field("op", &[5]),
+            bag_field("compression", b"none"),
+            bag_field("size", &(chunk.len() as u32).to_le_bytes()),
+        ],
+        &chunk,
+    ));
+    for (k, ix) in index.iter().enumerate() {
+        let data: Vec<u8> = ix
+            .iter()
+            .flat_map(|&(st, off)| [bag_time(st).to_vec(), off.to_le_bytes().to_vec()].concat())
+            .collect();
+        out.extend_from_slice(&bag_record(
+            &[
+                bag_field("op", &[4]),
+                bag_field("ver", &1u32.to_le_bytes()),
+                bag_field("conn", &(k as u32).to_le_bytes()),
+                bag_field("count", &(ix.len() as u32).to_le_bytes()),
+            ],
+            &data,
+        ));
+    }
+    let index_pos = out.len() as u64;
+    for (k, t) in topics.iter().enumerate() {
+        out.extend_from_slice(&bag_connection(k as u32, t));
+    }
+    let entries: Vec<u8> = index
+        .iter()
+        .enumerate()
+        .flat_map(|(k, ix)| [(k as u32).to_le_bytes(), (ix.len() as u32).to_le_bytes()].concat())
+        .collect();
+    if t0 > t1 {
+        (t0, t1) = (0, 0);
+    }
+    out.extend_from_slice(&bag_record(
+        &[
+            bag_field("op", &[6]),
+            bag_field("ver", &1u32.to_le_bytes()),
+            bag_field("chunk_pos", &chunk_pos.to_le_bytes()),
+            bag_field("start_time", &bag_time(t0)),
+            bag_field("end_time", &bag_time(t1)),
+            bag_field("count", &(topics.len() as u32).to_le_bytes()),
+        ],
+        &entries,
+    ));
+    let h = header(index_pos, 1);
+    out[hdr_at..hdr_at + h.len()].copy_from_slice(&h);
+    std::fs::write(path, out).unwrap();
+}
+
+#[cfg(feature = "rosbag")]
+#[test]
+fn ros1_bag_equals_csv_and_bad_bags_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bag, csv) = (p(&dir, "run.bag"), p(&dir, "run.csv"));
+    let mut t = imu("/imu0", 12_000, 400.0);
+    t.schema = "sensor_msgs/Imu";
+    write_csv(&csv, &t.cols);
+    let cam = Topic {
+        name: "/cam",
+        schema: "sensor_msgs/Image",
+        stamps: stamps(20, 10.0),
+        cols: vec![],
+    };
+    write_bag(&bag, &[t, cam]);
+    let a = ok(&["avar", s(&bag), "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&csv), "--rate", "400", "--format", "json", "-q"]);
+    assert_eq!(a, b, "bag and CSV give the same AV JSON, byte for byte");
+    let v: serde_json::Value = serde_json::from_str(&ok(&["topics", s(&bag), "--format", "json"])).unwrap();
+    assert_eq!(v[1]["name"], "/imu0");
+    assert_eq!(v[1]["msg_type"], "sensor_msgs/Imu");
+    assert_eq!(v[1]["count"], 12_000);
+    assert_eq!(v[1]["rate_hz"], 400.0);
+    assert_eq!(v[0]["count"], 20);
+    let err = fails(&["avar", s(&bag), "--topic", "/imu"]);
+    assert!(err.contains(&format!("topic /imu not found; IMU topics in {}: /imu0 (sensor_msgs/Imu, 12000 messages, 400.0 Hz)", s(&bag))), "{err}");
+    // Truncated (index missing), unindexed (index_pos 0), and not a bag.
+    let bytes = std::fs::read(&bag).unwrap();
+    let trunc = p(&dir, "trunc.bag");
+    std::fs::write(&trunc, &bytes[..bytes.len() / 2]).unwrap();
+    let err = fails(&["avar", s(&trunc)]);
+    assert!(err.contains("truncated or corrupt bag"), "{err}");
+    let mut unidx = bytes.clone();
+    // version, header length, "op" field (4 + 4 bytes), field length, "index_pos=".
+    let at = 13 + 4 + 8 + 4 + 10;
+    unidx[at..at + 8].copy_from_slice(&0u64.to_le_bytes());
+    let u = p(&dir, "unindexed.bag");
+    std::fs::write(&u, &unidx).unwrap();
+    let err = fails(&["avar", s(&u)]);
+    assert!(err.contains("has no index"), "{err}");
+    let junk = p(&dir, "junk.bag");
+    std::fs::write(&junk, b"hello").unwrap();
+    assert!(fails(&["topics", s(&junk)]).contains("not a ROS 1 bag"));
+}
+
+// ---------------------------------------------------------------- ROS 2 .db3
+
+/// Writes a rosbag2 SQLite file (Humble's schema) with the messages in recording order.
+#[cfg(feature = "db3")]
+fn write_db3(path: &Path, topics: &[Topic<'_>]) {
+    let mut c = rusqlite::Connection::open(path).unwrap();
+    c.execute_batch(
+        "CREATE TABLE schema(schema_version INTEGER PRIMARY KEY, ros_distro TEXT NOT NULL);
+         INSERT INTO schema VALUES (3, 'humble');
+         CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL,
+           serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);
+         CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL,
+           timestamp INTEGER NOT NULL, data BLOB NOT NULL);
+         CREATE INDEX timestamp_idx ON messages (timestamp ASC);",
+    )
+    .unwrap();
+    let tx = c.transaction().unwrap();
+    for (k, t) in topics.iter().enumerate() {
+        tx.execute(
+            "INSERT INTO topics VALUES (?1, ?2, ?3, 'cdr', '')",
+            rusqlite::params![k as i64 + 1, t.name, t.schema],
+        )
+        .unwrap();
+    }
+    let mut events: Vec<(usize, usize)> = Vec::new();
+    for (k, t) in topics.iter().enumerate() {
+        events.extend((0..t.stamps.len()).map(|i| (i, k)));
+    }
+    events.sort();
+    {
+        let mut st = tx
+            .prepare("INSERT INTO messages (topic_id, timestamp, data) VALUES (?1, ?2, ?3)")
+            .unwrap();
+        for (i, k) in events {
+            let t = &topics[k];
+            let data = if t.schema == "sensor_msgs/msg/Imu" {
+                encode_cdr(&sample(&t.stamps, &t.cols, i), "imu_link")
+            } else {
+                vec![0, 1, 0, 0]
+            };
+            st.execute(rusqlite::params![k as i64 + 1, t.stamps[i], data]).unwrap();
+        }
+    }
+    tx.commit().unwrap();
+}
+
+#[cfg(feature = "db3")]
+#[test]
+fn db3_equals_csv_and_bad_files_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let (db, csv) = (p(&dir, "run.db3"), p(&dir, "run.csv"));
+    let t = imu("/imu/data", 10_000, 250.0);
+    write_csv(&csv, &t.cols);
+    write_db3(&db, &[t]);
+    let a = ok(&["avar", s(&db), "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&csv), "--rate", "250", "--format", "json", "-q"]);
+    assert_eq!(a, b, "db3 and CSV give the same AV JSON, byte for byte");
+    let v: serde_json::Value = serde_json::from_str(&ok(&["topics", s(&db), "--format", "json"])).unwrap();
+    assert_eq!(v[0]["count"], 10_000);
+    assert_eq!(v[0]["rate_hz"], 250.0);
+    let bytes = std::fs::read(&db).unwrap();
+    let trunc = p(&dir, "trunc.db3");
+    std::fs::write(&trunc, &bytes[..bytes.len() / 3]).unwrap();
+    let err = fails(&["avar", s(&trunc)]);
+    assert!(err.contains("corrupt"), "{err}");
+    let junk = p(&dir, "junk.db3");
+    std::fs::write(&junk, b"SQLite? no").unwrap();
+    assert!(fails(&["avar", s(&junk)]).contains("not an SQLite"));
+}

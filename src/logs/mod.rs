@@ -18,8 +18,12 @@ use std::path::Path;
 pub mod imu_msg;
 pub mod timing;
 
+#[cfg(feature = "db3")]
+pub mod db3;
 #[cfg(feature = "mcap")]
 pub mod mcap;
+#[cfg(feature = "rosbag")]
+pub mod rosbag1;
 
 pub use timing::{GapPolicy, Timing};
 
@@ -161,6 +165,10 @@ pub fn open(path: &Path, format: LogFormat) -> Result<Box<dyn LogReader>> {
     match format {
         #[cfg(feature = "mcap")]
         LogFormat::Mcap => Ok(Box::new(mcap::McapReader::open(path)?)),
+        #[cfg(feature = "rosbag")]
+        LogFormat::Bag => Ok(Box::new(rosbag1::BagReader::open(path)?)),
+        #[cfg(feature = "db3")]
+        LogFormat::Db3 => Ok(Box::new(db3::Db3Reader::open(path)?)),
         #[allow(unreachable_patterns)]
         other => Err(Error::Usage(format!(
             "{file}: this imunoise was built without the {:?} reader (cargo feature \"{}\")",
