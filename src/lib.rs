@@ -20,6 +20,7 @@ pub use spectral;
 
 pub mod cli;
 pub mod error;
+pub mod export;
 pub mod io;
 pub mod logs;
 pub mod plot;

@@ -37,6 +37,14 @@ pub struct AnalyzeArgs {
     /// Output directory (created if needed).
     #[arg(long, short, default_value = "imunoise-report")]
     pub out: PathBuf,
+    /// Also write estimators' config files into the output directory: a comma list of
+    /// kalibr, openvins, orbslam3, vins, basalt, or all (see `imunoise export --help`;
+    /// kalibr replaces the plain imu.yaml with the commented one).
+    #[arg(long, value_name = "LIST")]
+    pub export: Option<String>,
+    /// Aggregation and inflation for --export.
+    #[command(flatten)]
+    pub export_options: crate::export::ExportOptions,
 }
 
 /// One channel in `results.json`.
@@ -467,6 +475,11 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         }
         return Ok(());
     }
+    let targets = args
+        .export
+        .as_deref()
+        .map(crate::export::Target::parse_list)
+        .transpose()?;
     let (table, units, curves) = super::fit::read_curves(&args.input, args.fit.alpha, ui)?;
     let mut settings = args.fit.clone();
     settings.select = !args.no_select && settings.method == super::fit::Method::Gmwm;
@@ -485,6 +498,10 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         timing: table.timing.as_ref(),
     };
     write_report(&args.out, &inp, ui)?;
+    if let Some(targets) = &targets {
+        let noise = super::export::load(&args.out.join("results.json"))?;
+        crate::export::write_all(&noise, &targets, &args.export_options, &args.out)?;
+    }
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     super::fit::write_table(&mut out, &fits, settings.alpha, settings.bootstrap)

@@ -14,6 +14,7 @@ use std::path::PathBuf;
 pub mod analyze;
 pub mod avar_cmd;
 pub mod demo;
+pub mod export;
 pub mod fit;
 pub mod simulate;
 pub mod theory;
@@ -48,6 +49,10 @@ pub enum Command {
     /// results.json, avar.csv and a Kalibr imu.yaml.
     #[command(after_help = analyze::EXAMPLES)]
     Analyze(analyze::AnalyzeArgs),
+    /// Write the noise values of an analysis (results.json) into the config files of
+    /// Kalibr, OpenVINS, ORB-SLAM3, VINS-Fusion and Basalt, with their conventions in comments.
+    #[command(after_help = export::EXAMPLES)]
+    Export(export::ExportArgs),
     /// List the topics of a log (ROS bag, ULog, DataFlash): message types, counts and the
     /// rate from the stamps of IMU topics.
     #[command(after_help = topics::EXAMPLES)]
@@ -72,6 +77,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Fit(a) => fit::run(&a, &ui),
         Command::Analyze(a) => analyze::run(&a, &ui),
         Command::Topics(a) => topics::run(&a, &ui),
+        Command::Export(a) => export::run(&a, &ui),
         Command::Simulate(a) => simulate::run(&a, &ui),
         Command::Theory(a) => theory::run(&a, &ui),
         Command::Demo(a) => demo::run(&a, &ui),
