@@ -559,3 +559,159 @@ fn db3_equals_csv_and_bad_files_exit_2() {
     std::fs::write(&junk, b"SQLite? no").unwrap();
     assert!(fails(&["avar", s(&junk)]).contains("not an SQLite"));
 }
+
+// ---------------------------------------------------------------- PX4 ULog, ArduPilot DataFlash
+
+/// The columns rounded to f32, as these logs store them.
+fn as_f32(cols: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    cols.iter()
+        .map(|c| c.iter().map(|&v| v as f32 as f64).collect())
+        .collect()
+}
+
+fn ulog_msg(ty: u8, body: &[u8]) -> Vec<u8> {
+    let mut v = (body.len() as u16).to_le_bytes().to_vec();
+    v.push(ty);
+    v.extend_from_slice(body);
+    v
+}
+
+/// Writes a ULog with `sensor_combined` (µs stamps) and a `vehicle_status` topic.
+fn write_ulog(path: &Path, stamps_us: &[u64], cols: &[Vec<f64>]) {
+    let mut out = b"ULog\x01\x12\x35\x01".to_vec();
+    out.extend_from_slice(&0u64.to_le_bytes());
+    out.extend(ulog_msg(b'B', &[0u8; 40]));
+    out.extend(ulog_msg(b'F', b"sensor_combined:uint64_t timestamp;float[3] gyro_rad;uint32_t gyro_integral_dt;int32_t accelerometer_timestamp_relative;float[3] accelerometer_m_s2;uint32_t accelerometer_integral_dt;uint8_t accelerometer_clipping;uint8_t[3] _padding0;"));
+    out.extend(ulog_msg(b'F', b"vehicle_status:uint64_t timestamp;uint8_t arming_state;uint8_t[7] _padding0;"));
+    out.extend(ulog_msg(b'A', b"\x00\x00\x00sensor_combined"));
+    out.extend(ulog_msg(b'A', b"\x00\x01\x00vehicle_status"));
+    for (i, &t) in stamps_us.iter().enumerate() {
+        let mut d = vec![0u8, 0];
+        d.extend_from_slice(&t.to_le_bytes());
+        for c in &cols[..3] {
+            d.extend_from_slice(&(c[i] as f32).to_le_bytes());
+        }
+        d.extend_from_slice(&4000u32.to_le_bytes());
+        d.extend_from_slice(&0i32.to_le_bytes());
+        for c in &cols[3..] {
+            d.extend_from_slice(&(c[i] as f32).to_le_bytes());
+        }
+        d.extend_from_slice(&4000u32.to_le_bytes());
+        d.extend_from_slice(&[0, 0, 0, 0]);
+        out.extend(ulog_msg(b'D', &d));
+        if i % 100 == 0 {
+            let mut s = vec![1u8, 0];
+            s.extend_from_slice(&t.to_le_bytes());
+            s.extend_from_slice(&[2, 0, 0, 0, 0, 0, 0, 0]);
+            out.extend(ulog_msg(b'D', &s));
+        }
+    }
+    std::fs::write(path, out).unwrap();
+}
+
+#[cfg(feature = "ulog")]
+#[test]
+fn ulog_equals_csv_and_bad_files_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ul, csv) = (p(&dir, "px4.ulg"), p(&dir, "px4.csv"));
+    let n = 8000;
+    let cols = as_f32(&simulated(n, 250.0));
+    let st: Vec<u64> = (0..n as u64).map(|i| 5_000_000 + 4000 * i).collect();
+    write_csv(&csv, &cols);
+    write_ulog(&ul, &st, &cols);
+    let a = ok(&["avar", s(&ul), "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&csv), "--rate", "250", "--format", "json", "-q"]);
+    assert_eq!(a, b, "ULog and CSV give the same AV JSON, byte for byte");
+    let v: serde_json::Value = serde_json::from_str(&ok(&["topics", s(&ul), "--format", "json"])).unwrap();
+    assert_eq!(v[0]["name"], "sensor_combined");
+    assert_eq!(v[0]["count"], 8000);
+    assert_eq!(v[0]["rate_hz"], 250.0);
+    assert_eq!(v[1]["name"], "vehicle_status");
+    assert_eq!(v[1]["count"], 80);
+    let err = fails(&["avar", s(&ul), "--topic", "vehicle_status"]);
+    assert!(err.contains("has type vehicle_status, not sensor_msgs/Imu"), "{err}");
+    let bytes = std::fs::read(&ul).unwrap();
+    let trunc = p(&dir, "trunc.ulg");
+    std::fs::write(&trunc, &bytes[..bytes.len() - 7]).unwrap();
+    assert!(fails(&["avar", s(&trunc)]).contains("truncated or corrupt ULog"));
+    let junk = p(&dir, "junk.ulg");
+    std::fs::write(&junk, b"not a ulog file at all").unwrap();
+    assert!(fails(&["avar", s(&junk)]).contains("not a PX4 ULog"));
+}
+
+fn df_fmt(ty: u8, len: u8, name: &str, format: &str, labels: &str) -> Vec<u8> {
+    let pad = |s: &str, n: usize| {
+        let mut v = s.as_bytes().to_vec();
+        v.resize(n, 0);
+        v
+    };
+    let mut v = vec![0xA3, 0x95, 0x80, ty, len];
+    v.extend(pad(name, 4));
+    v.extend(pad(format, 16));
+    v.extend(pad(labels, 64));
+    v
+}
+
+/// Writes a DataFlash log with two IMU instances (the second at half the values) and BARO.
+fn write_dataflash(path: &Path, stamps_us: &[u64], cols: &[Vec<f64>]) {
+    let mut out = df_fmt(0x80, 89, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns");
+    out.extend(df_fmt(0x40, 36, "IMU", "QBffffff", "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ"));
+    out.extend(df_fmt(0x41, 16, "BARO", "QBf", "TimeUS,I,Alt"));
+    for (i, &t) in stamps_us.iter().enumerate() {
+        for inst in 0..2u8 {
+            out.extend_from_slice(&[0xA3, 0x95, 0x40]);
+            out.extend_from_slice(&t.to_le_bytes());
+            out.push(inst);
+            for c in cols {
+                let v = if inst == 0 { c[i] } else { c[i] / 2.0 };
+                out.extend_from_slice(&(v as f32).to_le_bytes());
+            }
+        }
+        if i % 40 == 0 {
+            out.extend_from_slice(&[0xA3, 0x95, 0x41]);
+            out.extend_from_slice(&t.to_le_bytes());
+            out.push(0);
+            out.extend_from_slice(&12.5f32.to_le_bytes());
+        }
+    }
+    std::fs::write(path, out).unwrap();
+}
+
+#[cfg(feature = "dataflash")]
+#[test]
+fn dataflash_equals_csv_and_bad_files_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let (df, csv) = (p(&dir, "ap.bin"), p(&dir, "ap.csv"));
+    let n = 8000;
+    let cols = as_f32(&simulated(n, 400.0));
+    let st: Vec<u64> = (0..n as u64).map(|i| 1_000_000 + 2500 * i).collect();
+    write_csv(&csv, &cols);
+    write_dataflash(&df, &st, &cols);
+    // Two IMU instances: --topic is required.
+    let err = fails(&["avar", s(&df)]);
+    assert!(err.contains("has 2 IMU topics; choose one or more with --topic: IMU[0] (IMU, 8000 messages, 400.0 Hz), IMU[1] (IMU, 8000 messages, 400.0 Hz)"), "{err}");
+    let a = ok(&["avar", s(&df), "--topic", "IMU[0]", "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&csv), "--rate", "400", "--format", "json", "-q"]);
+    assert_eq!(a, b, "DataFlash and CSV give the same AV JSON, byte for byte");
+    let v: serde_json::Value = serde_json::from_str(&ok(&["topics", s(&df), "--format", "json"])).unwrap();
+    assert_eq!(v[0]["name"], "BARO");
+    assert_eq!(v[0]["count"], 200);
+    // analyze with two topics: one report folder each.
+    let out = p(&dir, "rep");
+    ok(&["analyze", s(&df), "--topic", "IMU[0]", "--topic", "IMU[1]", "--out", s(&out), "-q", "--no-select", "--model", "WN+RW"]);
+    for t in ["IMU_0_", "IMU_1_"] {
+        let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join(t).join("results.json")).unwrap()).unwrap();
+        assert_eq!(r["rate_hz"], 400.0);
+    }
+    let bytes = std::fs::read(&df).unwrap();
+    let trunc = p(&dir, "trunc.bin");
+    std::fs::write(&trunc, &bytes[..bytes.len() - 5]).unwrap();
+    assert!(fails(&["avar", s(&trunc), "--topic", "IMU[0]"]).contains("cut short"));
+    let mut bad = bytes.clone();
+    let at = 89 * 3 + 2 * 36 + 16; // the header of the second time step's first IMU message
+    bad[at] = 0;
+    let corrupt = p(&dir, "corrupt.bin");
+    std::fs::write(&corrupt, &bad).unwrap();
+    let err = fails(&["avar", s(&corrupt), "--topic", "IMU[0]"]);
+    assert!(err.contains("expected a message header (A3 95)"), "{err}");
+}

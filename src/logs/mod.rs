@@ -18,12 +18,16 @@ use std::path::Path;
 pub mod imu_msg;
 pub mod timing;
 
+#[cfg(feature = "dataflash")]
+pub mod dataflash;
 #[cfg(feature = "db3")]
 pub mod db3;
 #[cfg(feature = "mcap")]
 pub mod mcap;
 #[cfg(feature = "rosbag")]
 pub mod rosbag1;
+#[cfg(feature = "ulog")]
+pub mod ulog;
 
 pub use timing::{GapPolicy, Timing};
 
@@ -169,6 +173,10 @@ pub fn open(path: &Path, format: LogFormat) -> Result<Box<dyn LogReader>> {
         LogFormat::Bag => Ok(Box::new(rosbag1::BagReader::open(path)?)),
         #[cfg(feature = "db3")]
         LogFormat::Db3 => Ok(Box::new(db3::Db3Reader::open(path)?)),
+        #[cfg(feature = "ulog")]
+        LogFormat::Ulog => Ok(Box::new(ulog::UlogReader::open(path)?)),
+        #[cfg(feature = "dataflash")]
+        LogFormat::Dataflash => Ok(Box::new(dataflash::DataflashReader::open(path)?)),
         #[allow(unreachable_patterns)]
         other => Err(Error::Usage(format!(
             "{file}: this imunoise was built without the {:?} reader (cargo feature \"{}\")",
