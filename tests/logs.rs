@@ -715,3 +715,42 @@ fn dataflash_equals_csv_and_bad_files_exit_2() {
     let err = fails(&["avar", s(&corrupt), "--topic", "IMU[0]"]);
     assert!(err.contains("expected a message header (A3 95)"), "{err}");
 }
+
+#[test]
+fn csv_time_column_gives_the_rate_and_the_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let cols = simulated(6000, 100.0);
+    let st = stamps(6000, 100.0);
+    // Time in seconds since start, with 3 rows swapped in recording order and one gap.
+    let mut rows: Vec<usize> = (0..6000).collect();
+    rows.swap(10, 11);
+    rows.swap(20, 21);
+    rows.swap(30, 31);
+    let mut s1 = String::from("t,gyro_x_rads,acc_x_mps2\n");
+    for &i in &rows {
+        let t = (st[i] - st[0]) as f64 * 1e-9;
+        s1.push_str(&format!("{t:?},{:?},{:?}\n", cols[0][i], cols[3][i]));
+    }
+    let timed = p(&dir, "timed.csv");
+    std::fs::write(&timed, &s1).unwrap();
+    let mut s2 = String::from("gyro_x_rads,acc_x_mps2\n");
+    for i in 0..6000 {
+        s2.push_str(&format!("{:?},{:?}\n", cols[0][i], cols[3][i]));
+    }
+    let plain = p(&dir, "plain.csv");
+    std::fs::write(&plain, &s2).unwrap();
+    let a = ok(&["avar", s(&timed), "--time-column", "t", "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&plain), "--rate", "100", "--format", "json", "-q"]);
+    assert_eq!(a, b, "sorted by stamp, rate from the time column");
+    // The same with --columns and the time column given by index, in milliseconds.
+    let mut s3 = String::from("t_ms,gyro_x_rads,acc_x_mps2\n");
+    for &i in &rows {
+        s3.push_str(&format!("{},{:?},{:?}\n", (st[i] - st[0]) / 1_000_000, cols[0][i], cols[3][i]));
+    }
+    let ms = p(&dir, "ms.csv");
+    std::fs::write(&ms, &s3).unwrap();
+    let c = ok(&["avar", s(&ms), "--time-column", "1", "--time-unit", "ms", "--columns", "gyro_x_rads,acc_x_mps2", "--format", "json", "-q"]);
+    assert_eq!(a, c);
+    let err = fails(&["avar", s(&ms), "--time-column", "1", "--time-unit", "ms", "--rate", "50"]);
+    assert!(err.contains("--rate 50 Hz disagrees"), "{err}");
+}
