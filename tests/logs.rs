@@ -293,6 +293,12 @@ fn gap_duplicate_and_reorder_counts_are_exact() {
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("4 reordered, 5 duplicates (removed), 2 gaps (23 samples missing"), "report states the counts");
     assert!(html.contains("--gaps ignore"));
+    // Read-off marks on each AD plot and the "how long to record" line.
+    let svg = std::fs::read_to_string(out.join("adev_gyro_x_rads.svg")).unwrap();
+    for m in [">N = ", ">K = ", ">B = "] {
+        assert!(svg.contains(m), "plot marks {m}");
+    }
+    assert!(html.contains("How long to record") && html.contains("±10 % needs about"));
     // --gaps longest: the longest gap-free run is samples 2000..7997 after sorting
     // (8000 − 3 = 7997 because the first gap removed 3 before it).
     let o = ok(&["avar", s(&mc), "--gaps", "longest", "--format", "json", "-q"]);

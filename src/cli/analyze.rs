@@ -252,6 +252,60 @@ fn write_plot(dir: &Path, stem: &str, svg: &str) -> Result<()> {
     Ok(())
 }
 
+/// The read-off points of a channel: N at τ = 1 s (σ(1) on the −1/2 line), K at τ = 3 s
+/// (σ(3) on the +1/2 line), from the fitted WN and RW (else the IEEE 952 read-off), and B at
+/// the minimum of the Allan deviation (B = σ_min / 0.6643).
+pub fn read_off_marks(
+    av: &AllanVariance,
+    f: &ChannelFit,
+    unit: &Unit,
+    rate_hz: f64,
+) -> Vec<crate::plot::Mark> {
+    use crate::plot::Mark;
+    let param = |p: &str, n: &str| {
+        f.parameters
+            .iter()
+            .find(|x| x.process == p && x.name == n)
+            .map(|x| x.value)
+    };
+    let ro = gmwm_prep::ieee::read_off_adev(&av.taus(), &av.adevs(), unit).ok();
+    let from_ro = |t: gmwm_prep::units::IeeeTerm| ro.as_ref().and_then(|r| r.get(t)).map(|e| e.value);
+    let n = param("WN", "sigma2")
+        .map(|s2| (s2 / rate_hz).sqrt())
+        .or_else(|| from_ro(gmwm_prep::units::IeeeTerm::N));
+    let k = param("RW", "gamma2")
+        .map(|g2| (g2 * rate_hz).sqrt())
+        .or_else(|| from_ro(gmwm_prep::units::IeeeTerm::K));
+    let mut marks = Vec::new();
+    if let Some(n) = n {
+        marks.push(Mark { label: format!("N = {}", num(n)), tau: 1.0, sigma: n });
+    }
+    if let Some(k) = k {
+        marks.push(Mark { label: format!("K = {}", num(k)), tau: 3.0, sigma: k });
+    }
+    if let Some(p) = av.points.iter().filter(|p| p.adev > 0.0).min_by(|a, b| a.adev.total_cmp(&b.adev)) {
+        marks.push(Mark {
+            label: format!("B = {}", num(p.adev / crate::export::BIAS_INSTABILITY_FACTOR)),
+            tau: p.tau,
+            sigma: p.adev,
+        });
+    }
+    marks
+}
+
+/// How long to record for a relative 95 % CI half-width `h` on the Allan deviation at the
+/// bias-instability τ (the minimum): the chi-square EDF ν there gives a half-width of about
+/// 1.96/√(2ν); ν grows in proportion to the record length when T ≫ m, so the length needed
+/// is T·ν_needed/ν with ν_needed = 1.96²/(2h²). Returns (τ_B, current half-width, hours needed).
+pub fn record_length_for(av: &AllanVariance, n: usize, rate_hz: f64, h: f64) -> Option<(f64, f64, f64)> {
+    let p = av.points.iter().filter(|p| p.adev > 0.0).min_by(|a, b| a.adev.total_cmp(&b.adev))?;
+    let edf = p.edf.filter(|e| *e > 0.0)?;
+    let z = 1.959_963_984_540_054;
+    let now = z / (2.0 * edf).sqrt();
+    let need = z * z / (2.0 * h * h);
+    Some((p.tau, now, n as f64 / rate_hz * need / edf / 3600.0))
+}
+
 /// Writes the whole report into `dir`.
 pub fn write_report(dir: &Path, inp: &ReportInput<'_>, ui: &Ui) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display().to_string(), e))?;
@@ -343,6 +397,23 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         );
     }
     html.push_str("</table>\n");
+    // How long to record.
+    html.push_str("<h2>How long to record</h2><p>For a ±10 % (95 %) interval on the Allan deviation at the bias-instability τ (its minimum); the EDF there grows in proportion to the record length.</p><ul>\n");
+    for (k, (name, av)) in inp.curves.iter().enumerate() {
+        let n = inp.columns.get(k).map_or(0, Vec::len);
+        if let Some((tau, now, hours)) = record_length_for(av, n, inp.rate_hz, 0.10) {
+            let _ = writeln!(
+                html,
+                "<li>{}: τ<sub>B</sub> = {} s, now ±{:.1} % with {:.2} h; ±10 % needs about {:.2} h.</li>",
+                html_esc(name),
+                num(tau),
+                now * 100.0,
+                n as f64 / inp.rate_hz / 3600.0,
+                hours
+            );
+        }
+    }
+    html.push_str("</ul>\n");
     if let Some(t) = inp.timing {
         let _ = writeln!(
             html,
@@ -423,6 +494,7 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
                         .collect(),
                 })
                 .collect(),
+            marks: read_off_marks(av, f, &inp.units[k], inp.rate_hz),
         };
         let svg = adev_svg(&plot, &format!("ad{k}"));
         write_plot(dir, &format!("adev_{stem}"), &svg)?;
