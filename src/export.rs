@@ -226,7 +226,11 @@ impl ImuNoise {
             skipped: Vec::new(),
         };
         for c in chans {
-            let name = c.get("name").and_then(Value::as_str).unwrap_or("?").to_string();
+            let name = c
+                .get("name")
+                .and_then(Value::as_str)
+                .unwrap_or("?")
+                .to_string();
             let unit: Unit = match c.get("unit").and_then(Value::as_str).map(str::parse) {
                 Some(Ok(u)) => u,
                 _ => {
@@ -270,7 +274,10 @@ impl ImuNoise {
             };
             let mut n = param("WN", "sigma2").map(|s2| (s2 / rate).sqrt() * to_si);
             let mut k = param("RW", "gamma2").map(|g2| (g2 * rate).sqrt() * to_si);
-            let mut source = format!("fit {}", fit.get("model").and_then(Value::as_str).unwrap_or("?"));
+            let mut source = format!(
+                "fit {}",
+                fit.get("model").and_then(Value::as_str).unwrap_or("?")
+            );
             let points: Vec<(f64, f64)> = c
                 .get("avar")
                 .and_then(Value::as_array)
@@ -416,7 +423,9 @@ impl ImuNoise {
             },
             env!("CARGO_PKG_VERSION"),
             self.source,
-            self.topic.as_deref().map_or(String::new(), |t| format!(", topic {t}"))
+            self.topic
+                .as_deref()
+                .map_or(String::new(), |t| format!(", topic {t}"))
         ));
         line("time convention: continuous-time densities (white noise N, bias random walk K), as in Kalibr's IMU noise model".into());
         line("units (SI, ROS REP 103): gyroscope N rad/s/sqrt(Hz), K rad/s^2/sqrt(Hz); accelerometer N m/s^2/sqrt(Hz), K m/s^3/sqrt(Hz)".into());
@@ -435,9 +444,15 @@ impl ImuNoise {
             line(format!("  left out: {sk}"));
         }
         if target == Target::Basalt {
-            line("aggregate: none (Basalt takes one value per axis, in channel order x, y, z)".into());
+            line(
+                "aggregate: none (Basalt takes one value per axis, in channel order x, y, z)"
+                    .into(),
+            );
         } else {
-            line(format!("aggregate over axes: {} (--aggregate max|rms|mean)", o.aggregate.name()));
+            line(format!(
+                "aggregate over axes: {} (--aggregate max|rms|mean)",
+                o.aggregate.name()
+            ));
         }
         line(format!(
             "inflation: white noise x{}, random walk x{} (--inflate-noise, --inflate-walk); the values below include it",
@@ -448,7 +463,10 @@ impl ImuNoise {
             rate_str(f)
         ));
         let sf = f.sqrt();
-        for (what, n, k) in [("gyroscope", a.gyro_n, a.gyro_k), ("accelerometer", a.acc_n, a.acc_k)] {
+        for (what, n, k) in [
+            ("gyroscope", a.gyro_n, a.gyro_k),
+            ("accelerometer", a.acc_n, a.acc_k),
+        ] {
             line(format!(
                 "  {what}: sigma_d = {}, sigma_bd = {}",
                 n.map_or("-".into(), |n| num(n * sf)),
@@ -517,10 +535,16 @@ impl ImuNoise {
                 s += "# intrinsics (Tw, Ta, Tg, R_IMUtoGYRO, R_IMUtoACC) are not estimated by imunoise: identity/zero = none\n";
                 s += "imu0:\n  T_i_b:\n";
                 for r in 0..4 {
-                    let row: Vec<&str> = (0..4).map(|c| if r == c { "1.0" } else { "0.0" }).collect();
+                    let row: Vec<&str> =
+                        (0..4).map(|c| if r == c { "1.0" } else { "0.0" }).collect();
                     let _ = writeln!(s, "    - [{}]", row.join(", "));
                 }
-                s += &kv("accelerometer_noise_density", a.acc_n, "  ", "m/s^2/sqrt(Hz)");
+                s += &kv(
+                    "accelerometer_noise_density",
+                    a.acc_n,
+                    "  ",
+                    "m/s^2/sqrt(Hz)",
+                );
                 s += &kv("accelerometer_random_walk", a.acc_k, "  ", "m/s^3/sqrt(Hz)");
                 s += &kv("gyroscope_noise_density", a.gyro_n, "  ", "rad/s/sqrt(Hz)");
                 s += &kv("gyroscope_random_walk", a.gyro_k, "  ", "rad/s^2/sqrt(Hz)");
@@ -570,14 +594,19 @@ impl ImuNoise {
                         ));
                     }
                 }
-                let axes = |v: &[AxisNoise], f: fn(&AxisNoise) -> Option<f64>, infl: f64| -> Value {
-                    let xs: Vec<Option<f64>> = v.iter().map(f).collect();
-                    if xs.len() == 3 && xs.iter().all(Option::is_some) {
-                        Value::from(xs.iter().map(|x| x.unwrap_or(0.0) * infl).collect::<Vec<_>>())
-                    } else {
-                        Value::Null
-                    }
-                };
+                let axes =
+                    |v: &[AxisNoise], f: fn(&AxisNoise) -> Option<f64>, infl: f64| -> Value {
+                        let xs: Vec<Option<f64>> = v.iter().map(f).collect();
+                        if xs.len() == 3 && xs.iter().all(Option::is_some) {
+                            Value::from(
+                                xs.iter()
+                                    .map(|x| x.unwrap_or(0.0) * infl)
+                                    .collect::<Vec<_>>(),
+                            )
+                        } else {
+                            Value::Null
+                        }
+                    };
                 let doc = serde_json::json!({
                     "imunoise_notes": notes,
                     "accel_noise_std": axes(&self.acc, |a| a.n, o.inflate_noise),

@@ -411,7 +411,13 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
         items.insert(1, (fit.label.clone(), style));
     }
     for m in &p.marks {
-        if !(m.tau > 0.0 && m.sigma > 0.0 && m.tau >= x0 && m.tau <= x1 && m.sigma >= y0 && m.sigma <= y1) {
+        if !(m.tau > 0.0
+            && m.sigma > 0.0
+            && m.tau >= x0
+            && m.tau <= x1
+            && m.sigma >= y0
+            && m.sigma <= y1)
+        {
             continue;
         }
         let (cx, cy) = (f.px(m.tau), f.py(m.sigma));

@@ -75,7 +75,11 @@ fn per_axis(doc: &Value) -> (Vec<(f64, f64)>, Vec<(f64, f64)>, f64) {
         };
         let n = (p("WN", "sigma2") / rate).sqrt() * to_si;
         let k = (p("RW", "gamma2") * rate).sqrt() * to_si;
-        if to_si == 1.0 { a.push((n, k)) } else { g.push((n, k)) }
+        if to_si == 1.0 {
+            a.push((n, k))
+        } else {
+            g.push((n, k))
+        }
     }
     (g, a, rate)
 }
@@ -98,8 +102,20 @@ fn five_config_files_match_results_json() {
     let sim = |model: &str, seed: &str, name: &str| {
         let p = dir.path().join(name);
         ok(&[
-            "simulate", "--model", model, "-n", "40000", "--rate", "100", "--seed", seed,
-            "--channels", "3", "-o", p.to_str().unwrap(), "-q",
+            "simulate",
+            "--model",
+            model,
+            "-n",
+            "40000",
+            "--rate",
+            "100",
+            "--seed",
+            seed,
+            "--channels",
+            "3",
+            "-o",
+            p.to_str().unwrap(),
+            "-q",
         ]);
         std::fs::read_to_string(p).unwrap()
     };
@@ -113,8 +129,18 @@ fn five_config_files_match_results_json() {
     std::fs::write(&input, csv).unwrap();
     let out = dir.path().join("rep");
     ok(&[
-        "analyze", input.to_str().unwrap(), "--rate", "100", "--out", out.to_str().unwrap(),
-        "--model", "WN+RW", "--no-select", "--export", "all", "-q",
+        "analyze",
+        input.to_str().unwrap(),
+        "--rate",
+        "100",
+        "--out",
+        out.to_str().unwrap(),
+        "--model",
+        "WN+RW",
+        "--no-select",
+        "--export",
+        "all",
+        "-q",
     ]);
     let doc: Value = serde_json::from_str(&read(&out, "results.json")).unwrap();
     let (g, a, f) = per_axis(&doc);
@@ -140,10 +166,26 @@ fn five_config_files_match_results_json() {
     close(yaml(&t, "IMU.AccWalk"), ak, "orb");
     assert!(t.contains("IMU.Frequency: 100.0"));
     // Discrete equivalents by formula.
-    close(comment(&t, "gyroscope:", "sigma_d"), gn * f.sqrt(), "gyro sigma_d");
-    close(comment(&t, "gyroscope:", "sigma_bd"), gk / f.sqrt(), "gyro sigma_bd");
-    close(comment(&t, "accelerometer:", "sigma_d"), an * f.sqrt(), "acc sigma_d");
-    close(comment(&t, "accelerometer:", "sigma_bd"), ak / f.sqrt(), "acc sigma_bd");
+    close(
+        comment(&t, "gyroscope:", "sigma_d"),
+        gn * f.sqrt(),
+        "gyro sigma_d",
+    );
+    close(
+        comment(&t, "gyroscope:", "sigma_bd"),
+        gk / f.sqrt(),
+        "gyro sigma_bd",
+    );
+    close(
+        comment(&t, "accelerometer:", "sigma_d"),
+        an * f.sqrt(),
+        "acc sigma_d",
+    );
+    close(
+        comment(&t, "accelerometer:", "sigma_bd"),
+        ak / f.sqrt(),
+        "acc sigma_bd",
+    );
     let t = read(&out, "vins_imu.yaml");
     close(yaml(&t, "gyr_n"), gn, "vins");
     close(yaml(&t, "acc_n"), an, "vins");
@@ -152,10 +194,26 @@ fn five_config_files_match_results_json() {
     // Basalt: per axis, no aggregate.
     let b: Value = serde_json::from_str(&read(&out, "basalt_imu.json")).unwrap();
     for k in 0..3 {
-        close(b["gyro_noise_std"][k].as_f64().unwrap(), g[k].0, "basalt gyro n");
-        close(b["gyro_bias_std"][k].as_f64().unwrap(), g[k].1, "basalt gyro k");
-        close(b["accel_noise_std"][k].as_f64().unwrap(), a[k].0, "basalt acc n");
-        close(b["accel_bias_std"][k].as_f64().unwrap(), a[k].1, "basalt acc k");
+        close(
+            b["gyro_noise_std"][k].as_f64().unwrap(),
+            g[k].0,
+            "basalt gyro n",
+        );
+        close(
+            b["gyro_bias_std"][k].as_f64().unwrap(),
+            g[k].1,
+            "basalt gyro k",
+        );
+        close(
+            b["accel_noise_std"][k].as_f64().unwrap(),
+            a[k].0,
+            "basalt acc n",
+        );
+        close(
+            b["accel_bias_std"][k].as_f64().unwrap(),
+            a[k].1,
+            "basalt acc k",
+        );
     }
     // Per-axis values are listed in the comments.
     let t = read(&out, "imu.yaml");
@@ -163,13 +221,36 @@ fn five_config_files_match_results_json() {
     // `imunoise export` with rms and inflation.
     let out2 = dir.path().join("cfg");
     ok(&[
-        "export", out.to_str().unwrap(), "--to", "kalibr,vins", "--out", out2.to_str().unwrap(),
-        "--aggregate", "rms", "--inflate-noise", "2", "--inflate-walk", "10", "-q",
+        "export",
+        out.to_str().unwrap(),
+        "--to",
+        "kalibr,vins",
+        "--out",
+        out2.to_str().unwrap(),
+        "--aggregate",
+        "rms",
+        "--inflate-noise",
+        "2",
+        "--inflate-walk",
+        "10",
+        "-q",
     ]);
     let t = read(&out2, "vins_imu.yaml");
-    close(yaml(&t, "gyr_n"), 2.0 * rms(&g.iter().map(|x| x.0).collect::<Vec<_>>()), "rms n");
-    close(yaml(&t, "acc_w"), 10.0 * rms(&a.iter().map(|x| x.1).collect::<Vec<_>>()), "rms k");
-    close(comment(&t, "accelerometer:", "sigma_bd"), yaml(&t, "acc_w") / f.sqrt(), "inflated walk");
+    close(
+        yaml(&t, "gyr_n"),
+        2.0 * rms(&g.iter().map(|x| x.0).collect::<Vec<_>>()),
+        "rms n",
+    );
+    close(
+        yaml(&t, "acc_w"),
+        10.0 * rms(&a.iter().map(|x| x.1).collect::<Vec<_>>()),
+        "rms k",
+    );
+    close(
+        comment(&t, "accelerometer:", "sigma_bd"),
+        yaml(&t, "acc_w") / f.sqrt(),
+        "inflated walk",
+    );
     assert!(t.contains("white noise x2, random walk x10"));
     assert!(!out2.join("basalt_imu.json").exists());
 }

@@ -51,7 +51,9 @@ fn simulated(n: usize, rate: f64) -> Vec<Vec<f64>> {
 /// Stamps at `rate` from 1.7e9 s.
 fn stamps(n: usize, rate: f64) -> Vec<i64> {
     let dt = (1e9 / rate).round() as i64;
-    (0..n as i64).map(|i| 1_700_000_000_000_000_000 + i * dt).collect()
+    (0..n as i64)
+        .map(|i| 1_700_000_000_000_000_000 + i * dt)
+        .collect()
 }
 
 struct Topic<'a> {
@@ -72,13 +74,12 @@ fn sample(stamps: &[i64], cols: &[Vec<f64>], i: usize) -> ImuSample {
 /// Writes an MCAP file (zstd chunks) with the topics interleaved in stamp order.
 fn write_mcap(path: &Path, topics: &[Topic<'_>]) {
     let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
-    let mut w = mcap::WriteOptions::new()
-        .profile("ros2")
-        .create(f)
-        .unwrap();
+    let mut w = mcap::WriteOptions::new().profile("ros2").create(f).unwrap();
     let mut ids = Vec::new();
     for t in topics {
-        let s = w.add_schema(t.schema, "ros2msg", b"(definition omitted)").unwrap();
+        let s = w
+            .add_schema(t.schema, "ros2msg", b"(definition omitted)")
+            .unwrap();
         ids.push(w.add_channel(s, t.name, "cdr", &BTreeMap::new()).unwrap());
     }
     let mut events: Vec<(i64, usize, usize)> = Vec::new();
@@ -111,7 +112,10 @@ fn write_mcap(path: &Path, topics: &[Topic<'_>]) {
 }
 
 fn write_csv(path: &Path, cols: &[Vec<f64>]) {
-    let names: Vec<String> = imunoise::logs::IMU_NAMES.iter().map(|s| s.to_string()).collect();
+    let names: Vec<String> = imunoise::logs::IMU_NAMES
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
     let mut f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
     imunoise::cli::simulate::write_csv(&mut f, &names, cols).unwrap();
 }
@@ -146,6 +150,16 @@ fn mcap_equals_csv_bit_for_bit_and_rate_from_stamps() {
     let v: serde_json::Value = serde_json::from_str(&a).unwrap();
     assert_eq!(v["channels"][0]["rate_hz"], 200.0);
     assert_eq!(v["channels"][0]["n"], 20_000);
+    // A ROS 2 bag folder (metadata.yaml + the storage file) reads the same.
+    let bagdir = p(&dir, "bagdir");
+    std::fs::create_dir(&bagdir).unwrap();
+    std::fs::write(
+        bagdir.join("metadata.yaml"),
+        "rosbag2_bagfile_information: {}\n",
+    )
+    .unwrap();
+    std::fs::copy(&mc, bagdir.join("bagdir_0.mcap")).unwrap();
+    assert_eq!(a, ok(&["avar", s(&bagdir), "--format", "json", "-q"]));
     // A --rate within 1 % is accepted.
     let c = ok(&["avar", s(&mc), "--rate", "200", "--format", "json", "-q"]);
     assert_eq!(a, c);
@@ -161,10 +175,18 @@ fn topics_lists_types_counts_and_rates() {
         stamps: stamps(30, 10.0),
         cols: vec![],
     };
-    write_mcap(&mc, &[imu("/imu0", 3000, 200.0), imu("/imu1", 1000, 100.0), cam]);
+    write_mcap(
+        &mc,
+        &[imu("/imu0", 3000, 200.0), imu("/imu1", 1000, 100.0), cam],
+    );
     let out = ok(&["topics", s(&mc), "--format", "json"]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    let names: Vec<&str> = v.as_array().unwrap().iter().map(|t| t["name"].as_str().unwrap()).collect();
+    let names: Vec<&str> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["name"].as_str().unwrap())
+        .collect();
     assert_eq!(names, ["/cam", "/imu0", "/imu1"]);
     assert_eq!(v[1]["count"], 3000);
     assert_eq!(v[1]["rate_hz"], 200.0);
@@ -186,7 +208,11 @@ fn topics_lists_types_counts_and_rates() {
     );
     // A topic of another type.
     let err = fails(&["avar", s(&mc), "--topic", "/cam"]);
-    assert!(err.contains("topic /cam in") && err.contains("has type sensor_msgs/msg/Image, not sensor_msgs/Imu"), "{err}");
+    assert!(
+        err.contains("topic /cam in")
+            && err.contains("has type sensor_msgs/msg/Image, not sensor_msgs/Imu"),
+        "{err}"
+    );
     // Selecting works; two topics for analyze give one report each (checked in
     // analyze_reports_timing_and_one_section_per_topic).
     let one = ok(&["avar", s(&mc), "--topic", "/imu1", "--format", "json", "-q"]);
@@ -210,9 +236,20 @@ fn no_imu_topic_empty_topic_truncated_and_corrupt_files_exit_2() {
     assert!(err.contains(&format!("no IMU topic (sensor_msgs/Imu) in {}; its topics: /cam (sensor_msgs/msg/Image, 30 messages)", s(&mc))), "{err}");
     // An IMU topic without messages.
     let empty = p(&dir, "empty.mcap");
-    write_mcap(&empty, &[Topic { name: "/imu0", schema: "sensor_msgs/msg/Imu", stamps: vec![], cols: vec![] }]);
+    write_mcap(
+        &empty,
+        &[Topic {
+            name: "/imu0",
+            schema: "sensor_msgs/msg/Imu",
+            stamps: vec![],
+            cols: vec![],
+        }],
+    );
     let err = fails(&["avar", s(&empty)]);
-    assert!(err.contains("topic /imu0 (sensor_msgs/msg/Imu) in") && err.contains("has no messages"), "{err}");
+    assert!(
+        err.contains("topic /imu0 (sensor_msgs/msg/Imu) in") && err.contains("has no messages"),
+        "{err}"
+    );
     // Truncated: the first 60 % of a good file.
     let good = p(&dir, "good.mcap");
     write_mcap(&good, &[imu("/imu0", 5000, 200.0)]);
@@ -231,7 +268,10 @@ fn no_imu_topic_empty_topic_truncated_and_corrupt_files_exit_2() {
     let corrupt = p(&dir, "corrupt.mcap");
     std::fs::write(&corrupt, &bad).unwrap();
     let err = fails(&["avar", s(&corrupt)]);
-    assert!(err.contains("truncated or corrupt MCAP") || err.contains("not a valid sensor_msgs/Imu"), "{err}");
+    assert!(
+        err.contains("truncated or corrupt MCAP") || err.contains("not a valid sensor_msgs/Imu"),
+        "{err}"
+    );
     // Not MCAP at all.
     let text = p(&dir, "text.mcap");
     std::fs::write(&text, b"1,2,3\n").unwrap();
@@ -239,7 +279,10 @@ fn no_imu_topic_empty_topic_truncated_and_corrupt_files_exit_2() {
     assert!(err.contains("not an MCAP file"), "{err}");
     // A --rate that disagrees with the stamps by more than 1 %: both are printed.
     let err = fails(&["avar", s(&good), "--rate", "100"]);
-    assert!(err.contains("--rate 100 Hz disagrees with the rate from the time stamps, 200.000000 Hz"), "{err}");
+    assert!(
+        err.contains("--rate 100 Hz disagrees with the rate from the time stamps, 200.000000 Hz"),
+        "{err}"
+    );
     // Text without stamps still needs --rate.
     let csv = p(&dir, "x.csv");
     std::fs::write(&csv, "a\n1\n2\n3\n4\n5\n6\n7\n8\n").unwrap();
@@ -263,7 +306,10 @@ fn faulty() -> (Vec<i64>, Vec<Vec<f64>>) {
         idx.swap(at, at + 1); // one message recorded before its predecessor
     }
     let s: Vec<i64> = idx.iter().map(|&i| st[i]).collect();
-    let c: Vec<Vec<f64>> = cols.iter().map(|c| idx.iter().map(|&i| c[i]).collect()).collect();
+    let c: Vec<Vec<f64>> = cols
+        .iter()
+        .map(|c| idx.iter().map(|&i| c[i]).collect())
+        .collect();
     (s, c)
 }
 
@@ -273,13 +319,38 @@ fn gap_duplicate_and_reorder_counts_are_exact() {
     let mc = p(&dir, "faulty.mcap");
     let (st, cols) = faulty();
     assert_eq!(st.len(), 10_005);
-    write_mcap(&mc, &[Topic { name: "/imu0", schema: "sensor_msgs/msg/Imu", stamps: st, cols }]);
+    write_mcap(
+        &mc,
+        &[Topic {
+            name: "/imu0",
+            schema: "sensor_msgs/msg/Imu",
+            stamps: st,
+            cols,
+        }],
+    );
     // 23 missing of 10 000 = 0.23 % > 0.1 %: refused, with the way out in the message.
     let err = fails(&["avar", s(&mc)]);
-    assert!(err.contains("2 gaps") && err.contains("about 23 missing samples") && err.contains("--gaps longest"), "{err}");
+    assert!(
+        err.contains("2 gaps")
+            && err.contains("about 23 missing samples")
+            && err.contains("--gaps longest"),
+        "{err}"
+    );
     let out = p(&dir, "rep");
-    ok(&["analyze", s(&mc), "--gaps", "ignore", "--out", s(&out), "-q", "--no-select", "--model", "WN+RW"]);
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    ok(&[
+        "analyze",
+        s(&mc),
+        "--gaps",
+        "ignore",
+        "--out",
+        s(&out),
+        "-q",
+        "--no-select",
+        "--model",
+        "WN+RW",
+    ]);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     let t = &v["timing"];
     assert_eq!(t["messages"], 10_005);
     assert_eq!(t["reordered"], 4);
@@ -291,7 +362,10 @@ fn gap_duplicate_and_reorder_counts_are_exact() {
     assert_eq!(t["gap_policy"], "ignore");
     assert_eq!(v["topic"], "/imu0");
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
-    assert!(html.contains("4 reordered, 5 duplicates (removed), 2 gaps (23 samples missing"), "report states the counts");
+    assert!(
+        html.contains("4 reordered, 5 duplicates (removed), 2 gaps (23 samples missing"),
+        "report states the counts"
+    );
     assert!(html.contains("--gaps ignore"));
     // Read-off marks on each AD plot and the "how long to record" line.
     let svg = std::fs::read_to_string(out.join("adev_gyro_x_rads.svg")).unwrap();
@@ -301,7 +375,15 @@ fn gap_duplicate_and_reorder_counts_are_exact() {
     assert!(html.contains("How long to record") && html.contains("±10 % needs about"));
     // --gaps longest: the longest gap-free run is samples 2000..7997 after sorting
     // (8000 − 3 = 7997 because the first gap removed 3 before it).
-    let o = ok(&["avar", s(&mc), "--gaps", "longest", "--format", "json", "-q"]);
+    let o = ok(&[
+        "avar",
+        s(&mc),
+        "--gaps",
+        "longest",
+        "--format",
+        "json",
+        "-q",
+    ]);
     let v: serde_json::Value = serde_json::from_str(&o).unwrap();
     assert_eq!(v["channels"][0]["n"], 5997);
 }
@@ -469,7 +551,8 @@ fn ros1_bag_equals_csv_and_bad_bags_exit_2() {
     let a = ok(&["avar", s(&bag), "--format", "json", "-q"]);
     let b = ok(&["avar", s(&csv), "--rate", "400", "--format", "json", "-q"]);
     assert_eq!(a, b, "bag and CSV give the same AV JSON, byte for byte");
-    let v: serde_json::Value = serde_json::from_str(&ok(&["topics", s(&bag), "--format", "json"])).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&bag), "--format", "json"])).unwrap();
     assert_eq!(v[1]["name"], "/imu0");
     assert_eq!(v[1]["msg_type"], "sensor_msgs/Imu");
     assert_eq!(v[1]["count"], 12_000);
@@ -536,7 +619,8 @@ fn write_db3(path: &Path, topics: &[Topic<'_>]) {
             } else {
                 vec![0, 1, 0, 0]
             };
-            st.execute(rusqlite::params![k as i64 + 1, t.stamps[i], data]).unwrap();
+            st.execute(rusqlite::params![k as i64 + 1, t.stamps[i], data])
+                .unwrap();
         }
     }
     tx.commit().unwrap();
@@ -553,7 +637,8 @@ fn db3_equals_csv_and_bad_files_exit_2() {
     let a = ok(&["avar", s(&db), "--format", "json", "-q"]);
     let b = ok(&["avar", s(&csv), "--rate", "250", "--format", "json", "-q"]);
     assert_eq!(a, b, "db3 and CSV give the same AV JSON, byte for byte");
-    let v: serde_json::Value = serde_json::from_str(&ok(&["topics", s(&db), "--format", "json"])).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&db), "--format", "json"])).unwrap();
     assert_eq!(v[0]["count"], 10_000);
     assert_eq!(v[0]["rate_hz"], 250.0);
     let bytes = std::fs::read(&db).unwrap();
@@ -588,7 +673,10 @@ fn write_ulog(path: &Path, stamps_us: &[u64], cols: &[Vec<f64>]) {
     out.extend_from_slice(&0u64.to_le_bytes());
     out.extend(ulog_msg(b'B', &[0u8; 40]));
     out.extend(ulog_msg(b'F', b"sensor_combined:uint64_t timestamp;float[3] gyro_rad;uint32_t gyro_integral_dt;int32_t accelerometer_timestamp_relative;float[3] accelerometer_m_s2;uint32_t accelerometer_integral_dt;uint8_t accelerometer_clipping;uint8_t[3] _padding0;"));
-    out.extend(ulog_msg(b'F', b"vehicle_status:uint64_t timestamp;uint8_t arming_state;uint8_t[7] _padding0;"));
+    out.extend(ulog_msg(
+        b'F',
+        b"vehicle_status:uint64_t timestamp;uint8_t arming_state;uint8_t[7] _padding0;",
+    ));
     out.extend(ulog_msg(b'A', b"\x00\x00\x00sensor_combined"));
     out.extend(ulog_msg(b'A', b"\x00\x01\x00vehicle_status"));
     for (i, &t) in stamps_us.iter().enumerate() {
@@ -628,14 +716,18 @@ fn ulog_equals_csv_and_bad_files_exit_2() {
     let a = ok(&["avar", s(&ul), "--format", "json", "-q"]);
     let b = ok(&["avar", s(&csv), "--rate", "250", "--format", "json", "-q"]);
     assert_eq!(a, b, "ULog and CSV give the same AV JSON, byte for byte");
-    let v: serde_json::Value = serde_json::from_str(&ok(&["topics", s(&ul), "--format", "json"])).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&ul), "--format", "json"])).unwrap();
     assert_eq!(v[0]["name"], "sensor_combined");
     assert_eq!(v[0]["count"], 8000);
     assert_eq!(v[0]["rate_hz"], 250.0);
     assert_eq!(v[1]["name"], "vehicle_status");
     assert_eq!(v[1]["count"], 80);
     let err = fails(&["avar", s(&ul), "--topic", "vehicle_status"]);
-    assert!(err.contains("has type vehicle_status, not sensor_msgs/Imu"), "{err}");
+    assert!(
+        err.contains("has type vehicle_status, not sensor_msgs/Imu"),
+        "{err}"
+    );
     let bytes = std::fs::read(&ul).unwrap();
     let trunc = p(&dir, "trunc.ulg");
     std::fs::write(&trunc, &bytes[..bytes.len() - 7]).unwrap();
@@ -661,7 +753,13 @@ fn df_fmt(ty: u8, len: u8, name: &str, format: &str, labels: &str) -> Vec<u8> {
 /// Writes a DataFlash log with two IMU instances (the second at half the values) and BARO.
 fn write_dataflash(path: &Path, stamps_us: &[u64], cols: &[Vec<f64>]) {
     let mut out = df_fmt(0x80, 89, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns");
-    out.extend(df_fmt(0x40, 36, "IMU", "QBffffff", "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ"));
+    out.extend(df_fmt(
+        0x40,
+        36,
+        "IMU",
+        "QBffffff",
+        "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ",
+    ));
     out.extend(df_fmt(0x41, 16, "BARO", "QBf", "TimeUS,I,Alt"));
     for (i, &t) in stamps_us.iter().enumerate() {
         for inst in 0..2u8 {
@@ -696,17 +794,45 @@ fn dataflash_equals_csv_and_bad_files_exit_2() {
     // Two IMU instances: --topic is required.
     let err = fails(&["avar", s(&df)]);
     assert!(err.contains("has 2 IMU topics; choose one or more with --topic: IMU[0] (IMU, 8000 messages, 400.0 Hz), IMU[1] (IMU, 8000 messages, 400.0 Hz)"), "{err}");
-    let a = ok(&["avar", s(&df), "--topic", "IMU[0]", "--format", "json", "-q"]);
+    let a = ok(&[
+        "avar",
+        s(&df),
+        "--topic",
+        "IMU[0]",
+        "--format",
+        "json",
+        "-q",
+    ]);
     let b = ok(&["avar", s(&csv), "--rate", "400", "--format", "json", "-q"]);
-    assert_eq!(a, b, "DataFlash and CSV give the same AV JSON, byte for byte");
-    let v: serde_json::Value = serde_json::from_str(&ok(&["topics", s(&df), "--format", "json"])).unwrap();
+    assert_eq!(
+        a, b,
+        "DataFlash and CSV give the same AV JSON, byte for byte"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&df), "--format", "json"])).unwrap();
     assert_eq!(v[0]["name"], "BARO");
     assert_eq!(v[0]["count"], 200);
     // analyze with two topics: one report folder each.
     let out = p(&dir, "rep");
-    ok(&["analyze", s(&df), "--topic", "IMU[0]", "--topic", "IMU[1]", "--out", s(&out), "-q", "--no-select", "--model", "WN+RW"]);
+    ok(&[
+        "analyze",
+        s(&df),
+        "--topic",
+        "IMU[0]",
+        "--topic",
+        "IMU[1]",
+        "--out",
+        s(&out),
+        "-q",
+        "--no-select",
+        "--model",
+        "WN+RW",
+    ]);
     for t in ["IMU_0_", "IMU_1_"] {
-        let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join(t).join("results.json")).unwrap()).unwrap();
+        let r: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join(t).join("results.json")).unwrap(),
+        )
+        .unwrap();
         assert_eq!(r["rate_hz"], 400.0);
     }
     let bytes = std::fs::read(&df).unwrap();
@@ -745,18 +871,52 @@ fn csv_time_column_gives_the_rate_and_the_order() {
     }
     let plain = p(&dir, "plain.csv");
     std::fs::write(&plain, &s2).unwrap();
-    let a = ok(&["avar", s(&timed), "--time-column", "t", "--format", "json", "-q"]);
+    let a = ok(&[
+        "avar",
+        s(&timed),
+        "--time-column",
+        "t",
+        "--format",
+        "json",
+        "-q",
+    ]);
     let b = ok(&["avar", s(&plain), "--rate", "100", "--format", "json", "-q"]);
     assert_eq!(a, b, "sorted by stamp, rate from the time column");
     // The same with --columns and the time column given by index, in milliseconds.
     let mut s3 = String::from("t_ms,gyro_x_rads,acc_x_mps2\n");
     for &i in &rows {
-        s3.push_str(&format!("{},{:?},{:?}\n", (st[i] - st[0]) / 1_000_000, cols[0][i], cols[3][i]));
+        s3.push_str(&format!(
+            "{},{:?},{:?}\n",
+            (st[i] - st[0]) / 1_000_000,
+            cols[0][i],
+            cols[3][i]
+        ));
     }
     let ms = p(&dir, "ms.csv");
     std::fs::write(&ms, &s3).unwrap();
-    let c = ok(&["avar", s(&ms), "--time-column", "1", "--time-unit", "ms", "--columns", "gyro_x_rads,acc_x_mps2", "--format", "json", "-q"]);
+    let c = ok(&[
+        "avar",
+        s(&ms),
+        "--time-column",
+        "1",
+        "--time-unit",
+        "ms",
+        "--columns",
+        "gyro_x_rads,acc_x_mps2",
+        "--format",
+        "json",
+        "-q",
+    ]);
     assert_eq!(a, c);
-    let err = fails(&["avar", s(&ms), "--time-column", "1", "--time-unit", "ms", "--rate", "50"]);
+    let err = fails(&[
+        "avar",
+        s(&ms),
+        "--time-column",
+        "1",
+        "--time-unit",
+        "ms",
+        "--rate",
+        "50",
+    ]);
     assert!(err.contains("--rate 50 Hz disagrees"), "{err}");
 }

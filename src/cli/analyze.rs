@@ -269,7 +269,8 @@ pub fn read_off_marks(
             .map(|x| x.value)
     };
     let ro = gmwm_prep::ieee::read_off_adev(&av.taus(), &av.adevs(), unit).ok();
-    let from_ro = |t: gmwm_prep::units::IeeeTerm| ro.as_ref().and_then(|r| r.get(t)).map(|e| e.value);
+    let from_ro =
+        |t: gmwm_prep::units::IeeeTerm| ro.as_ref().and_then(|r| r.get(t)).map(|e| e.value);
     let n = param("WN", "sigma2")
         .map(|s2| (s2 / rate_hz).sqrt())
         .or_else(|| from_ro(gmwm_prep::units::IeeeTerm::N));
@@ -278,14 +279,30 @@ pub fn read_off_marks(
         .or_else(|| from_ro(gmwm_prep::units::IeeeTerm::K));
     let mut marks = Vec::new();
     if let Some(n) = n {
-        marks.push(Mark { label: format!("N = {}", num(n)), tau: 1.0, sigma: n });
+        marks.push(Mark {
+            label: format!("N = {}", num(n)),
+            tau: 1.0,
+            sigma: n,
+        });
     }
     if let Some(k) = k {
-        marks.push(Mark { label: format!("K = {}", num(k)), tau: 3.0, sigma: k });
-    }
-    if let Some(p) = av.points.iter().filter(|p| p.adev > 0.0).min_by(|a, b| a.adev.total_cmp(&b.adev)) {
         marks.push(Mark {
-            label: format!("B = {}", num(p.adev / crate::export::BIAS_INSTABILITY_FACTOR)),
+            label: format!("K = {}", num(k)),
+            tau: 3.0,
+            sigma: k,
+        });
+    }
+    if let Some(p) = av
+        .points
+        .iter()
+        .filter(|p| p.adev > 0.0)
+        .min_by(|a, b| a.adev.total_cmp(&b.adev))
+    {
+        marks.push(Mark {
+            label: format!(
+                "B = {}",
+                num(p.adev / crate::export::BIAS_INSTABILITY_FACTOR)
+            ),
             tau: p.tau,
             sigma: p.adev,
         });
@@ -297,8 +314,17 @@ pub fn read_off_marks(
 /// bias-instability τ (the minimum): the chi-square EDF ν there gives a half-width of about
 /// 1.96/√(2ν); ν grows in proportion to the record length when T ≫ m, so the length needed
 /// is T·ν_needed/ν with ν_needed = 1.96²/(2h²). Returns (τ_B, current half-width, hours needed).
-pub fn record_length_for(av: &AllanVariance, n: usize, rate_hz: f64, h: f64) -> Option<(f64, f64, f64)> {
-    let p = av.points.iter().filter(|p| p.adev > 0.0).min_by(|a, b| a.adev.total_cmp(&b.adev))?;
+pub fn record_length_for(
+    av: &AllanVariance,
+    n: usize,
+    rate_hz: f64,
+    h: f64,
+) -> Option<(f64, f64, f64)> {
+    let p = av
+        .points
+        .iter()
+        .filter(|p| p.adev > 0.0)
+        .min_by(|a, b| a.adev.total_cmp(&b.adev))?;
     let edf = p.edf.filter(|e| *e > 0.0)?;
     let z = 1.959_963_984_540_054;
     let now = z / (2.0 * edf).sqrt();
@@ -418,8 +444,10 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         let _ = writeln!(
             html,
             "<h2>Time stamps</h2><p>{}{}</p>",
-            inp.topic
-                .map_or(String::new(), |t| format!("Topic <code>{}</code>: ", html_esc(t))),
+            inp.topic.map_or(String::new(), |t| format!(
+                "Topic <code>{}</code>: ",
+                html_esc(t)
+            )),
             html_esc(&t.summary())
         );
     }

@@ -251,10 +251,18 @@ impl TimeUnit {
 }
 
 impl InputArgs {
-    /// The log format of the input, if it is a log.
+    /// The log format of the input, if it is a log (a folder is a ROS 2 bag).
     pub fn log_format(&self) -> Option<logs::LogFormat> {
-        self.log_format
-            .or_else(|| logs::LogFormat::from_path(&self.file))
+        self.log_format.or_else(|| {
+            if self.file.is_dir() {
+                logs::storage_file(&self.file)
+                    .ok()
+                    .and_then(|p| logs::LogFormat::from_path(&p))
+                    .or(Some(logs::LogFormat::Mcap))
+            } else {
+                logs::LogFormat::from_path(&self.file)
+            }
+        })
     }
 
     /// Reads the file as the flags say (with a spinner on a terminal). The returned table
@@ -296,9 +304,7 @@ impl InputArgs {
         let time_col = match &self.time_column {
             None => None,
             Some(_) if self.binary.is_some() => {
-                return Err(Error::Usage(
-                    "--time-column is for text input".to_string(),
-                ));
+                return Err(Error::Usage("--time-column is for text input".to_string()));
             }
             Some(tc) => {
                 let spec = io::parse_columns(tc)?;
@@ -388,8 +394,9 @@ impl InputArgs {
                 fmt
             )));
         }
-        let file = self.file.display().to_string();
-        let reader = logs::open(&self.file, fmt)?;
+        let path = logs::storage_file(&self.file)?;
+        let file = path.display().to_string();
+        let reader = logs::open(&path, fmt)?;
         let topics = logs::select_topics(reader.as_ref(), &file, &self.topic)?;
         let mut out = Vec::new();
         for topic in topics {

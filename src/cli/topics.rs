@@ -18,7 +18,8 @@ IMU topics (sensor_msgs/Imu) are marked with *; pass one to the other subcommand
 /// Arguments of `imunoise topics`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct TopicsArgs {
-    /// The log (.mcap; the format is taken from the extension unless --log-format).
+    /// The log: .mcap, .bag, .db3, .ulg or .bin (by extension unless --log-format), or a
+    /// ROS 2 bag folder.
     pub file: PathBuf,
     /// The log format when the extension does not tell.
     #[arg(long, value_name = "FORMAT", value_enum)]
@@ -30,17 +31,18 @@ pub struct TopicsArgs {
 
 /// Runs `imunoise topics`.
 pub fn run(args: &TopicsArgs, ui: &Ui) -> Result<()> {
-    let file = args.file.display().to_string();
+    let path = logs::storage_file(&args.file)?;
+    let file = path.display().to_string();
     let fmt = args
         .log_format
-        .or_else(|| logs::LogFormat::from_path(&args.file))
+        .or_else(|| logs::LogFormat::from_path(&path))
         .ok_or_else(|| {
             Error::Usage(format!(
                 "{file}: not a log by its extension (.mcap, .bag, .db3, .ulg, .bin); give --log-format"
             ))
         })?;
     let pb = ui.spinner(format!("reading {file}"));
-    let reader = logs::open(&args.file, fmt)?;
+    let reader = logs::open(&path, fmt)?;
     let all = logs::summarize(reader.as_ref());
     pb.finish_and_clear();
     let all = all?;
@@ -68,7 +70,12 @@ pub fn run(args: &TopicsArgs, ui: &Ui) -> Result<()> {
             r
         }
         Format::Table => {
-            let w = all.iter().map(|t| t.info.name.len()).max().unwrap_or(5).max(5);
+            let w = all
+                .iter()
+                .map(|t| t.info.name.len())
+                .max()
+                .unwrap_or(5)
+                .max(5);
             let wt = all
                 .iter()
                 .map(|t| t.info.msg_type.len())

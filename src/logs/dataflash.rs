@@ -145,9 +145,9 @@ impl DataflashReader {
             let Some(f) = &fmts[ty] else {
                 return Err(self.corrupt(p, &format!("message type {ty} has no FMT before it")));
             };
-            let m = b
-                .get(p..p + f.len)
-                .ok_or_else(|| self.corrupt(p, &format!("the last {} message is cut short", f.name)))?;
+            let m = b.get(p..p + f.len).ok_or_else(|| {
+                self.corrupt(p, &format!("the last {} message is cut short", f.name))
+            })?;
             let len = f.len.max(3);
             if ty == 0x80 {
                 let (t, nf) = parse_fmt(&m[3..])
@@ -199,8 +199,7 @@ impl LogReader for DataflashReader {
             }
             let g = |o: usize| f32::from_le_bytes(m[o..o + 4].try_into().expect("4")) as f64;
             out.push(&ImuSample {
-                stamp_ns: (u64::from_le_bytes(m[l.time..l.time + 8].try_into().expect("8"))
-                    as i64)
+                stamp_ns: (u64::from_le_bytes(m[l.time..l.time + 8].try_into().expect("8")) as i64)
                     .saturating_mul(1000),
                 gyro: [g(l.gyr[0]), g(l.gyr[1]), g(l.gyr[2])],
                 acc: [g(l.acc[0]), g(l.acc[1]), g(l.acc[2])],

@@ -67,7 +67,10 @@ const BODY: usize = 37 * 8;
 /// ```
 pub fn decode_ros1(b: &[u8]) -> Result<ImuSample, String> {
     if b.len() < 16 {
-        return Err(format!("{} bytes, too short for a ROS 1 Imu header", b.len()));
+        return Err(format!(
+            "{} bytes, too short for a ROS 1 Imu header",
+            b.len()
+        ));
     }
     let sec = u32_at(b, 4, true) as i64;
     let nsec = u32_at(b, 8, true) as i64;
@@ -86,8 +89,16 @@ pub fn decode_ros1(b: &[u8]) -> Result<ImuSample, String> {
     let a = g + 12 * 8;
     Ok(ImuSample {
         stamp_ns: sec * 1_000_000_000 + nsec,
-        gyro: [f64_at(b, g, true), f64_at(b, g + 8, true), f64_at(b, g + 16, true)],
-        acc: [f64_at(b, a, true), f64_at(b, a + 8, true), f64_at(b, a + 16, true)],
+        gyro: [
+            f64_at(b, g, true),
+            f64_at(b, g + 8, true),
+            f64_at(b, g + 16, true),
+        ],
+        acc: [
+            f64_at(b, a, true),
+            f64_at(b, a + 8, true),
+            f64_at(b, a + 16, true),
+        ],
     })
 }
 
@@ -125,8 +136,16 @@ pub fn decode_cdr(b: &[u8]) -> Result<ImuSample, String> {
     let a = g + 12 * 8;
     Ok(ImuSample {
         stamp_ns: sec * 1_000_000_000 + nsec,
-        gyro: [f64_at(p, g, le), f64_at(p, g + 8, le), f64_at(p, g + 16, le)],
-        acc: [f64_at(p, a, le), f64_at(p, a + 8, le), f64_at(p, a + 16, le)],
+        gyro: [
+            f64_at(p, g, le),
+            f64_at(p, g + 8, le),
+            f64_at(p, g + 16, le),
+        ],
+        acc: [
+            f64_at(p, a, le),
+            f64_at(p, a + 8, le),
+            f64_at(p, a + 16, le),
+        ],
     })
 }
 

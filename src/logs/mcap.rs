@@ -51,8 +51,8 @@ impl McapReader {
 
     /// Topics by a full pass over the messages (when the file has no usable summary).
     fn scan_topics(&self) -> Result<Vec<TopicInfo>> {
-        let mut stream = mcap::read::RawMessageStream::new(&self.map)
-            .map_err(|e| self.corrupt(0, e))?;
+        let mut stream =
+            mcap::read::RawMessageStream::new(&self.map).map_err(|e| self.corrupt(0, e))?;
         let mut counts: BTreeMap<u16, u64> = BTreeMap::new();
         let mut n = 0u64;
         for m in stream.by_ref() {
@@ -122,8 +122,8 @@ impl LogReader for McapReader {
             })
             .unwrap_or(0);
         let mut out = ImuSeries::with_capacity(hint.min(1 << 28) as usize);
-        let mut stream = mcap::read::RawMessageStream::new(&self.map)
-            .map_err(|e| self.corrupt(0, e))?;
+        let mut stream =
+            mcap::read::RawMessageStream::new(&self.map).map_err(|e| self.corrupt(0, e))?;
         // Per channel id: None = not looked up yet, Some(None) = not this topic.
         let mut dec: Vec<Option<Option<Decoder>>> = vec![None; 1 << 16];
         let mut n = 0u64;

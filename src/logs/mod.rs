@@ -186,6 +186,45 @@ pub fn open(path: &Path, format: LogFormat) -> Result<Box<dyn LogReader>> {
     }
 }
 
+/// A ROS 2 bag is a folder (`metadata.yaml` and the storage files): returns its one
+/// `.mcap` or `.db3` file. Any other path is returned as it is.
+///
+/// ```
+/// let p = std::path::Path::new("run.mcap");
+/// assert_eq!(imunoise::logs::storage_file(p).unwrap(), p);
+/// ```
+pub fn storage_file(path: &Path) -> Result<std::path::PathBuf> {
+    if !path.is_dir() {
+        return Ok(path.to_path_buf());
+    }
+    let dir = path.display().to_string();
+    let mut found: Vec<std::path::PathBuf> = std::fs::read_dir(path)
+        .map_err(|e| Error::io(&dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            matches!(
+                LogFormat::from_path(p),
+                Some(LogFormat::Mcap | LogFormat::Db3)
+            )
+        })
+        .collect();
+    found.sort();
+    match found.len() {
+        1 => Ok(found.remove(0)),
+        0 => Err(Error::Usage(format!(
+            "{dir} is a folder without a .mcap or .db3 file (a ROS 2 bag folder holds one)"
+        ))),
+        k => Err(Error::Usage(format!(
+            "{dir} holds {k} storage files (a split bag: {}); give one of them",
+            found
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
+    }
+}
+
 /// Memory-maps a whole file read-only (shared by the readers).
 pub(crate) fn map_file(path: &Path) -> Result<memmap2::Mmap> {
     let file = path.display().to_string();
@@ -309,7 +348,10 @@ pub fn select_topics(
                 return Err(Error::Usage(if imu.is_empty() {
                     format!("topic {name} not found; {file} has no IMU topic")
                 } else {
-                    format!("topic {name} not found; IMU topics in {file}: {}", imu_list()?)
+                    format!(
+                        "topic {name} not found; IMU topics in {file}: {}",
+                        imu_list()?
+                    )
                 }));
             }
             Some(t) if !t.is_imu => {

@@ -135,7 +135,10 @@ impl LogReader for BagReader {
             .filter(|(_, (t, tp))| t == topic && is_imu_type(tp))
             .map(|(&id, _)| id)
             .collect();
-        let n: u64 = ids.iter().map(|i| counts.get(i).copied().unwrap_or(0)).sum();
+        let n: u64 = ids
+            .iter()
+            .map(|i| counts.get(i).copied().unwrap_or(0))
+            .sum();
         let mut out = ImuSeries::with_capacity(n.min(1 << 28) as usize);
         for r in self.bag.chunk_records() {
             let rosbag::ChunkRecord::Chunk(chunk) = r.map_err(|e| self.corrupt(e))? else {

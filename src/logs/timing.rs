@@ -291,11 +291,29 @@ mod tests {
     fn rate_check_and_gap_policies() {
         let s = stamps(1000, 5_000_000);
         let x = vec![0.0; 1000];
-        assert!(prepare(s.clone(), vec![x.clone()], Some(201.9), GapPolicy::Refuse, "t").is_ok());
-        let e = prepare(s.clone(), vec![x.clone()], Some(100.0), GapPolicy::Refuse, "t")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("--rate 100 Hz") && e.contains("200.000000 Hz"), "{e}");
+        assert!(
+            prepare(
+                s.clone(),
+                vec![x.clone()],
+                Some(201.9),
+                GapPolicy::Refuse,
+                "t"
+            )
+            .is_ok()
+        );
+        let e = prepare(
+            s.clone(),
+            vec![x.clone()],
+            Some(100.0),
+            GapPolicy::Refuse,
+            "t",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("--rate 100 Hz") && e.contains("200.000000 Hz"),
+            "{e}"
+        );
         // One gap of 10 missing samples in 1000: 1 % > 0.1 %.
         let mut g = s.clone();
         g.drain(300..310);

@@ -164,7 +164,10 @@ impl UlogReader {
 }
 
 /// Offsets of `timestamp`, `gyro_rad[3]` and `accelerometer_m_s2[3]` in a format.
-fn imu_layout(body: &str, formats: &HashMap<String, String>) -> Option<(usize, usize, usize, usize)> {
+fn imu_layout(
+    body: &str,
+    formats: &HashMap<String, String>,
+) -> Option<(usize, usize, usize, usize)> {
     let f = fields(body, formats, 0)?;
     let get = |n: &str, base: &str, size: usize| {
         f.iter()
@@ -226,7 +229,10 @@ impl LogReader for UlogReader {
                 .ok_or_else(|| self.corrupt(p, "the last message is cut short"))?;
             match ty {
                 b'F' => {
-                    if let Some((n, f)) = std::str::from_utf8(body).ok().and_then(|s| s.split_once(':')) {
+                    if let Some((n, f)) = std::str::from_utf8(body)
+                        .ok()
+                        .and_then(|s| s.split_once(':'))
+                    {
                         formats.insert(n.to_string(), f.to_string());
                     }
                 }
@@ -234,7 +240,11 @@ impl LogReader for UlogReader {
                     let multi = body[0];
                     let id = u16::from_le_bytes([body[1], body[2]]);
                     let name = String::from_utf8_lossy(&body[3..]).into_owned();
-                    let t = if multi == 0 { name.clone() } else { format!("{name}[{multi}]") };
+                    let t = if multi == 0 {
+                        name.clone()
+                    } else {
+                        format!("{name}[{multi}]")
+                    };
                     subs.insert(id, (t, name));
                 }
                 b'D' if body.len() >= 2 => {
@@ -247,11 +257,20 @@ impl LogReader for UlogReader {
                     if let Some((ts, g, a, total)) = lay {
                         let d = &body[2..];
                         if d.len() < total {
-                            return Err(self.corrupt(p, &format!("{topic} message shorter than its format ({} < {total} bytes)", d.len())));
+                            return Err(self.corrupt(
+                                p,
+                                &format!(
+                                    "{topic} message shorter than its format ({} < {total} bytes)",
+                                    d.len()
+                                ),
+                            ));
                         }
-                        let f = |o: usize| f32::from_le_bytes(d[o..o + 4].try_into().expect("4")) as f64;
+                        let f = |o: usize| {
+                            f32::from_le_bytes(d[o..o + 4].try_into().expect("4")) as f64
+                        };
                         out.push(&ImuSample {
-                            stamp_ns: (u64::from_le_bytes(d[ts..ts + 8].try_into().expect("8")) as i64)
+                            stamp_ns: (u64::from_le_bytes(d[ts..ts + 8].try_into().expect("8"))
+                                as i64)
                                 .saturating_mul(1000),
                             gyro: [f(g), f(g + 4), f(g + 8)],
                             acc: [f(a), f(a + 4), f(a + 8)],
