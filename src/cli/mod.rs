@@ -251,16 +251,30 @@ impl TimeUnit {
 }
 
 impl InputArgs {
-    /// The log format of the input, if it is a log (a folder is a ROS 2 bag).
+    /// The log format of the input, if it is a log (a folder is a ROS 2 bag). With
+    /// `--binary` the input is raw binary whatever its extension, and a `.bin` file is a
+    /// DataFlash log only when it starts with a DataFlash message header (A3 95).
     pub fn log_format(&self) -> Option<logs::LogFormat> {
         self.log_format.or_else(|| {
-            if self.file.is_dir() {
+            if self.binary.is_some() {
+                None
+            } else if self.file.is_dir() {
                 logs::storage_file(&self.file)
                     .ok()
                     .and_then(|p| logs::LogFormat::from_path(&p))
                     .or(Some(logs::LogFormat::Mcap))
             } else {
-                logs::LogFormat::from_path(&self.file)
+                match logs::LogFormat::from_path(&self.file) {
+                    Some(logs::LogFormat::Dataflash) => {
+                        let mut head = [0u8; 2];
+                        let is_df = std::fs::File::open(&self.file)
+                            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+                            .is_ok()
+                            && head == [0xA3, 0x95];
+                        is_df.then_some(logs::LogFormat::Dataflash)
+                    }
+                    other => other,
+                }
             }
         })
     }
