@@ -54,7 +54,10 @@ fn comment(text: &str, prefix: &str, name: &str) -> f64 {
 }
 
 /// Per-axis (N, K) in SI from results.json, gyros first.
-fn per_axis(doc: &Value) -> (Vec<(f64, f64)>, Vec<(f64, f64)>, f64) {
+/// (N, K) of one axis.
+type Nk = (f64, f64);
+
+fn per_axis(doc: &Value) -> (Vec<Nk>, Vec<Nk>, f64) {
     let rate = doc["rate_hz"].as_f64().unwrap();
     let (mut g, mut a) = (Vec::new(), Vec::new());
     for c in doc["channels"].as_array().unwrap() {

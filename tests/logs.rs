@@ -866,8 +866,8 @@ fn csv_time_column_gives_the_rate_and_the_order() {
     let timed = p(&dir, "timed.csv");
     std::fs::write(&timed, &s1).unwrap();
     let mut s2 = String::from("gyro_x_rads,acc_x_mps2\n");
-    for i in 0..6000 {
-        s2.push_str(&format!("{:?},{:?}\n", cols[0][i], cols[3][i]));
+    for (g, a) in cols[0].iter().zip(&cols[3]) {
+        s2.push_str(&format!("{g:?},{a:?}\n"));
     }
     let plain = p(&dir, "plain.csv");
     std::fs::write(&plain, &s2).unwrap();

@@ -600,7 +600,7 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
     write_report(&args.out, &inp, ui)?;
     if let Some(targets) = &targets {
         let noise = super::export::load(&args.out.join("results.json"))?;
-        crate::export::write_all(&noise, &targets, &args.export_options, &args.out)?;
+        crate::export::write_all(&noise, targets, &args.export_options, &args.out)?;
     }
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());

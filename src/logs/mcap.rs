@@ -54,11 +54,9 @@ impl McapReader {
         let mut stream =
             mcap::read::RawMessageStream::new(&self.map).map_err(|e| self.corrupt(0, e))?;
         let mut counts: BTreeMap<u16, u64> = BTreeMap::new();
-        let mut n = 0u64;
-        for m in stream.by_ref() {
-            let m = m.map_err(|e| self.corrupt(n, e))?;
+        for (n, m) in stream.by_ref().enumerate() {
+            let m = m.map_err(|e| self.corrupt(n as u64, e))?;
             *counts.entry(m.header.channel_id).or_default() += 1;
-            n += 1;
         }
         let mut by_topic: BTreeMap<String, TopicInfo> = BTreeMap::new();
         for (id, count) in counts {

@@ -12,6 +12,9 @@ use crate::error::{Error, Result};
 use std::collections::BTreeMap;
 use std::path::Path;
 
+/// Connection id → (topic, type).
+type Connections = BTreeMap<u32, (String, String)>;
+
 /// An open ROS 1 bag.
 pub struct BagReader {
     file: String,
@@ -88,7 +91,7 @@ impl BagReader {
     }
 
     /// Connections (id → topic, type) and message counts per connection, from the index.
-    fn index(&self) -> Result<(BTreeMap<u32, (String, String)>, BTreeMap<u32, u64>)> {
+    fn index(&self) -> Result<(Connections, BTreeMap<u32, u64>)> {
         let mut conns = BTreeMap::new();
         let mut counts: BTreeMap<u32, u64> = BTreeMap::new();
         for r in self.bag.index_records() {
