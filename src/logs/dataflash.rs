@@ -7,8 +7,8 @@
 //! where a message header must be is an error naming its offset: nothing is skipped.
 //!
 //! Layout: each message is `A3 95 type` then a payload whose size and field types come
-//! from the FMT message (type 128: type u8, length u8, name char[4], format char[16],
-//! labels char[64]). IMU messages are those named `IMU…` with `TimeUS` (µs), `GyrX/Y/Z`
+//! from the FMT message (type 128: type u8, length u8, name `char[4]`, format `char[16]`,
+//! labels `char[64]`). IMU messages are those named `IMU…` with `TimeUS` (µs), `GyrX/Y/Z`
 //! (rad/s) and `AccX/Y/Z` (m/s²); an `I` field is the instance (`IMU[1]`), older logs use
 //! `IMU2`, `IMU3`.
 
