@@ -83,6 +83,80 @@ fn add(by_topic: &mut BTreeMap<String, TopicInfo>, ch: &mcap::Channel<'_>, count
     e.count += count;
 }
 
+impl McapReader {
+    /// With a summary that indexes the chunks: the chunks holding `topic` are decoded in
+    /// parallel (rayon) and joined in file order, which is the recording order. `None` when
+    /// the file has no chunk index (then it is streamed).
+    fn read_chunks_parallel(&self, topic: &str) -> Result<Option<ImuSeries>> {
+        use rayon::prelude::*;
+        let Ok(Some(summary)) = mcap::Summary::read(&self.map) else {
+            return Ok(None);
+        };
+        if summary.chunk_indexes.is_empty() {
+            return Ok(None);
+        }
+        let decoders: BTreeMap<u16, Decoder> = summary
+            .channels
+            .iter()
+            .filter(|(_, c)| c.topic == topic)
+            .filter_map(|(&id, c)| {
+                decoder(
+                    c.schema.as_ref().map(|s| s.name.as_str()),
+                    &c.message_encoding,
+                )
+                .map(|d| (id, d))
+            })
+            .collect();
+        let mut chunks: Vec<&mcap::records::ChunkIndex> = summary
+            .chunk_indexes
+            .iter()
+            .filter(|c| {
+                c.message_index_offsets.is_empty()
+                    || c.message_index_offsets
+                        .keys()
+                        .any(|id| decoders.contains_key(id))
+            })
+            .collect();
+        chunks.sort_by_key(|c| c.chunk_start_offset);
+        let parts: Vec<Result<ImuSeries>> = chunks
+            .par_iter()
+            .map(|ci| {
+                let mut out = ImuSeries::with_capacity(0);
+                let stream = summary
+                    .stream_chunk(&self.map, ci)
+                    .map_err(|e| self.corrupt(0, e))?;
+                for m in stream {
+                    let m = m.map_err(|e| self.corrupt(0, e))?;
+                    if let Some(d) = decoders.get(&m.channel.id) {
+                        let s = d(&m.data).map_err(|why| Error::File {
+                            file: self.file.clone(),
+                            message: format!(
+                                "the message on {topic} logged at {} ns is not a valid sensor_msgs/Imu: {why}",
+                                m.log_time
+                            ),
+                        })?;
+                        out.push(&s);
+                    }
+                }
+                Ok(out)
+            })
+            .collect();
+        let total: usize = parts
+            .iter()
+            .map(|p| p.as_ref().map_or(0, |s| s.stamps_ns.len()))
+            .sum();
+        let mut out = ImuSeries::with_capacity(total);
+        for p in parts {
+            let p = p?;
+            out.stamps_ns.extend_from_slice(&p.stamps_ns);
+            for (dst, src) in out.columns.iter_mut().zip(&p.columns) {
+                dst.extend_from_slice(src);
+            }
+        }
+        Ok(Some(out))
+    }
+}
+
 impl LogReader for McapReader {
     fn format(&self) -> LogFormat {
         LogFormat::Mcap
@@ -105,6 +179,10 @@ impl LogReader for McapReader {
     }
 
     fn read_imu(&self, topic: &str) -> Result<ImuSeries> {
+        if let Some(out) = self.read_chunks_parallel(topic)? {
+            out.check_finite(&format!("{} ({topic})", self.file))?;
+            return Ok(out);
+        }
         let hint = mcap::Summary::read(&self.map)
             .ok()
             .flatten()
