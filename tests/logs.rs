@@ -150,6 +150,22 @@ fn mcap_equals_csv_bit_for_bit_and_rate_from_stamps() {
     let v: serde_json::Value = serde_json::from_str(&a).unwrap();
     assert_eq!(v["channels"][0]["rate_hz"], 200.0);
     assert_eq!(v["channels"][0]["n"], 20_000);
+    // analyze: the same channels in results.json (AV, fit, IEEE values), number for number.
+    let (ra, rb) = (p(&dir, "ra"), p(&dir, "rb"));
+    let fit = ["--model", "WN+RW", "--no-select", "-q"];
+    ok(&[&["analyze", s(&mc), "--out", s(&ra)][..], &fit[..]].concat());
+    ok(&[
+        &["analyze", s(&csv), "--rate", "200", "--out", s(&rb)][..],
+        &fit[..],
+    ]
+    .concat());
+    let res = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("results.json")).unwrap()).unwrap()
+    };
+    let (ja, jb) = (res(&ra), res(&rb));
+    assert_eq!(ja["channels"], jb["channels"]);
+    assert_eq!(ja["rate_hz"], jb["rate_hz"]);
+    assert_eq!(ja["timing"]["rate_source"], "stamps");
     // A ROS 2 bag folder (metadata.yaml + the storage file) reads the same.
     let bagdir = p(&dir, "bagdir");
     std::fs::create_dir(&bagdir).unwrap();
