@@ -226,6 +226,15 @@ pub fn storage_file(path: &Path) -> Result<std::path::PathBuf> {
 }
 
 /// Memory-maps a whole file read-only (shared by the readers).
+#[cfg_attr(
+    not(any(
+        feature = "mcap",
+        feature = "rosbag",
+        feature = "ulog",
+        feature = "dataflash"
+    )),
+    allow(dead_code)
+)]
 pub(crate) fn map_file(path: &Path) -> Result<memmap2::Mmap> {
     let file = path.display().to_string();
     let f = std::fs::File::open(path).map_err(|e| Error::io(&file, e))?;
