@@ -136,12 +136,30 @@ pub struct Table {
     pub names: Vec<String>,
     /// The samples, one vector per channel, all of the same length.
     pub columns: Vec<Vec<f64>>,
+    /// The sampling rate (Hz) when known: from `--rate`, or from the time stamps of a log
+    /// (see [`crate::logs::timing`]). `None` for text and binary read without `--rate`.
+    pub rate_hz: Option<f64>,
+    /// What the time stamps said (logs, and text with `--time-column`).
+    pub timing: Option<crate::logs::Timing>,
+    /// The topic (or log message) the samples come from, for logs.
+    pub topic: Option<String>,
 }
 
 impl Table {
     /// Samples per channel.
     pub fn n_rows(&self) -> usize {
         self.columns.first().map_or(0, Vec::len)
+    }
+
+    /// The sampling rate (Hz), or a usage error saying that `--rate` is needed.
+    pub fn rate(&self) -> Result<f64> {
+        self.rate_hz.ok_or_else(|| {
+            Error::Usage(format!(
+                "{}: --rate is required (the file has no time stamps; for text with a time \
+                 column give --time-column NAME)",
+                self.file
+            ))
+        })
     }
 }
 
@@ -436,6 +454,9 @@ pub fn parse_binary(bytes: &[u8], file: &str, kind: BinaryType, channels: usize)
         file: file.to_string(),
         names: (1..=channels).map(|c| format!("ch{c}")).collect(),
         columns,
+        rate_hz: None,
+        timing: None,
+        topic: None,
     })
 }
 
@@ -850,6 +871,9 @@ pub fn parse_text(bytes: &[u8], file: &str, select: Option<&[ColumnSpec]>) -> Re
         file: file.to_string(),
         names: order.iter().map(|&i| names[i].clone()).collect(),
         columns,
+        rate_hz: None,
+        timing: None,
+        topic: None,
     })
 }
 

@@ -9,7 +9,9 @@
 //! The command's own layers live here too: [`io`] reads IMU logs (text, gzip, binary),
 //! [`error`] locates every input problem by file, line and column, [`units`] maps
 //! `--unit` and channel names to units, [`plot`] draws the SVG/PNG figures and [`cli`]
-//! holds the subcommands (`avar`, `fit`, `analyze`, `simulate`, `theory`, `demo`).
+//! holds the subcommands (`avar`, `fit`, `analyze`, `export`, `topics`, `simulate`, `theory`,
+//! `demo`). [`logs`] reads the logs IMUs are recorded in (ROS 2 MCAP, …) and checks their
+//! time stamps; [`export`] writes the noise values into the estimators' config files.
 
 pub use avar;
 pub use gmwm_prep;
@@ -18,7 +20,9 @@ pub use spectral;
 
 pub mod cli;
 pub mod error;
+pub mod export;
 pub mod io;
+pub mod logs;
 pub mod output;
 pub mod plot;
 pub mod units;

@@ -48,6 +48,19 @@ pub struct AdevPlot {
     pub fitted: Option<Series>,
     /// Each fitted component.
     pub components: Vec<Series>,
+    /// Read-off points marked on the curve (N at τ = 1 s, K at τ = 3 s, B at the minimum).
+    pub marks: Vec<Mark>,
+}
+
+/// A point marked and labelled on an Allan-deviation plot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mark {
+    /// Short label, e.g. `N = 3.1e-3`.
+    pub label: String,
+    /// τ (s).
+    pub tau: f64,
+    /// σ(τ) in the plot's unit.
+    pub sigma: f64,
 }
 
 struct Frame {
@@ -397,6 +410,27 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
         polyline(&mut s, &f, &fit.points, &style, id);
         items.insert(1, (fit.label.clone(), style));
     }
+    for m in &p.marks {
+        if !(m.tau > 0.0
+            && m.sigma > 0.0
+            && m.tau >= x0
+            && m.tau <= x1
+            && m.sigma >= y0
+            && m.sigma <= y1)
+        {
+            continue;
+        }
+        let (cx, cy) = (f.px(m.tau), f.py(m.sigma));
+        let _ = writeln!(
+            s,
+            r##"<rect x="{:.2}" y="{:.2}" width="9" height="9" transform="rotate(45 {cx:.2} {cy:.2})" fill="#E69F00" stroke="#222" stroke-width="0.8"/><text x="{:.1}" y="{:.1}" font-size="12" fill="#222">{}</text>"##,
+            cx - 4.5,
+            cy - 4.5,
+            cx + 8.0,
+            cy + 16.0,
+            esc(&m.label)
+        );
+    }
     legend(&mut s, &items);
     s.push_str("</svg>\n");
     s
@@ -648,9 +682,24 @@ mod tests {
                     points: obs.iter().map(|q| (q.0, q.1)).collect(),
                 }),
                 components: vec![],
+                marks: vec![
+                    Mark {
+                        label: "N = 0.01".into(),
+                        tau: 1.0,
+                        sigma: 0.01,
+                    },
+                    // Outside the frame: not drawn.
+                    Mark {
+                        label: "K = 1".into(),
+                        tau: 1e6,
+                        sigma: 1.0,
+                    },
+                ],
             },
             "t",
         );
+        assert!(svg.contains(">N = 0.01</text>"));
+        assert!(!svg.contains("K = 1"));
         assert!(svg.contains("<polygon"));
         assert!(svg.contains("Allan deviation σ(τ) [°/s]"));
         assert!(svg.contains("slope −1/2"));

@@ -58,6 +58,14 @@ pub struct AnalyzeArgs {
     /// Robust fitting (the contamination check runs in any case, at --efficiency).
     #[command(flatten)]
     pub robust: super::fit::RobustArgs,
+    /// Also write estimators' config files into the output directory: a comma list of
+    /// kalibr, openvins, orbslam3, vins, basalt, or all (see `imunoise export --help`;
+    /// kalibr replaces the plain imu.yaml with the commented one).
+    #[arg(long, value_name = "LIST")]
+    pub export: Option<String>,
+    /// Aggregation and inflation for --export.
+    #[command(flatten)]
+    pub export_options: crate::export::ExportOptions,
 }
 
 /// One channel in `results.json`.
@@ -84,6 +92,13 @@ pub struct Results<'a> {
     pub source: &'a str,
     /// Sampling rate (Hz).
     pub rate_hz: f64,
+    /// The topic (or log message) analysed, for logs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub topic: Option<&'a str>,
+    /// What the time stamps said (rate source, reordered, duplicates, gaps, policy), for
+    /// time-stamped input.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timing: Option<&'a crate::logs::Timing>,
     /// Channels.
     pub channels: Vec<ChannelResult<'a>>,
 }
@@ -108,6 +123,10 @@ pub struct ReportInput<'a> {
     pub extra_html: String,
     /// Bootstrap replicates behind the CIs (0: none), for their description.
     pub bootstrap: usize,
+    /// The topic (or log message) analysed, for logs.
+    pub topic: Option<&'a str>,
+    /// What the time stamps said, for time-stamped input.
+    pub timing: Option<&'a crate::logs::Timing>,
 }
 
 fn file_safe(name: &str) -> String {
@@ -254,6 +273,86 @@ fn write_plot(dir: &Path, stem: &str, svg: &str) -> Result<()> {
     Ok(())
 }
 
+/// The read-off points of a channel: N at τ = 1 s (σ(1) on the −1/2 line), K at τ = 3 s
+/// (σ(3) on the +1/2 line), from the fitted WN and RW (else the IEEE 952 read-off), and B at
+/// the minimum of the Allan deviation (B = σ_min / 0.6643).
+pub fn read_off_marks(
+    av: &AllanVariance,
+    f: &ChannelFit,
+    unit: &Unit,
+    rate_hz: f64,
+) -> Vec<crate::plot::Mark> {
+    use crate::plot::Mark;
+    let param = |p: &str, n: &str| {
+        f.parameters
+            .iter()
+            .find(|x| x.process == p && x.name == n)
+            .map(|x| x.value)
+    };
+    let ro = gmwm_prep::ieee::read_off_adev(&av.taus(), &av.adevs(), unit).ok();
+    let from_ro =
+        |t: gmwm_prep::units::IeeeTerm| ro.as_ref().and_then(|r| r.get(t)).map(|e| e.value);
+    let n = param("WN", "sigma2")
+        .map(|s2| (s2 / rate_hz).sqrt())
+        .or_else(|| from_ro(gmwm_prep::units::IeeeTerm::N));
+    let k = param("RW", "gamma2")
+        .map(|g2| (g2 * rate_hz).sqrt())
+        .or_else(|| from_ro(gmwm_prep::units::IeeeTerm::K));
+    let mut marks = Vec::new();
+    if let Some(n) = n {
+        marks.push(Mark {
+            label: format!("N = {}", num(n)),
+            tau: 1.0,
+            sigma: n,
+        });
+    }
+    if let Some(k) = k {
+        marks.push(Mark {
+            label: format!("K = {}", num(k)),
+            tau: 3.0,
+            sigma: k,
+        });
+    }
+    if let Some(p) = av
+        .points
+        .iter()
+        .filter(|p| p.adev > 0.0)
+        .min_by(|a, b| a.adev.total_cmp(&b.adev))
+    {
+        marks.push(Mark {
+            label: format!(
+                "B = {}",
+                num(p.adev / crate::export::BIAS_INSTABILITY_FACTOR)
+            ),
+            tau: p.tau,
+            sigma: p.adev,
+        });
+    }
+    marks
+}
+
+/// How long to record for a relative 95 % CI half-width `h` on the Allan deviation at the
+/// bias-instability τ (the minimum): the chi-square EDF ν there gives a half-width of about
+/// 1.96/√(2ν); ν grows in proportion to the record length when T ≫ m, so the length needed
+/// is T·ν_needed/ν with ν_needed = 1.96²/(2h²). Returns (τ_B, current half-width, hours needed).
+pub fn record_length_for(
+    av: &AllanVariance,
+    n: usize,
+    rate_hz: f64,
+    h: f64,
+) -> Option<(f64, f64, f64)> {
+    let p = av
+        .points
+        .iter()
+        .filter(|p| p.adev > 0.0)
+        .min_by(|a, b| a.adev.total_cmp(&b.adev))?;
+    let edf = p.edf.filter(|e| *e > 0.0)?;
+    let z = 1.959_963_984_540_054;
+    let now = z / (2.0 * edf).sqrt();
+    let need = z * z / (2.0 * h * h);
+    Some((p.tau, now, n as f64 / rate_hz * need / edf / 3600.0))
+}
+
 /// Writes the whole report into `dir`.
 pub fn write_report(dir: &Path, inp: &ReportInput<'_>, ui: &Ui) -> Result<()> {
     crate::output::create_dir(dir, "--out")?;
@@ -267,6 +366,8 @@ pub fn write_report(dir: &Path, inp: &ReportInput<'_>, ui: &Ui) -> Result<()> {
     let results = Results {
         source: inp.source,
         rate_hz: inp.rate_hz,
+        topic: inp.topic,
+        timing: inp.timing,
         channels: json
             .channels
             .into_iter()
@@ -358,6 +459,34 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         html.push_str(&remarks.join("\n"));
         html.push_str("</ul>\n");
     }
+    // How long to record.
+    html.push_str("<h2>How long to record</h2><p>For a ±10 % (95 %) interval on the Allan deviation at the bias-instability τ (its minimum); the EDF there grows in proportion to the record length.</p><ul>\n");
+    for (k, (name, av)) in inp.curves.iter().enumerate() {
+        let n = inp.columns.get(k).map_or(0, Vec::len);
+        if let Some((tau, now, hours)) = record_length_for(av, n, inp.rate_hz, 0.10) {
+            let _ = writeln!(
+                html,
+                "<li>{}: τ<sub>B</sub> = {} s, now ±{:.1} % with {:.2} h; ±10 % needs about {:.2} h.</li>",
+                html_esc(name),
+                num(tau),
+                now * 100.0,
+                n as f64 / inp.rate_hz / 3600.0,
+                hours
+            );
+        }
+    }
+    html.push_str("</ul>\n");
+    if let Some(t) = inp.timing {
+        let _ = writeln!(
+            html,
+            "<h2>Time stamps</h2><p>{}{}</p>",
+            inp.topic.map_or(String::new(), |t| format!(
+                "Topic <code>{}</code>: ",
+                html_esc(t)
+            )),
+            html_esc(&t.summary())
+        );
+    }
     html.push_str(&inp.extra_html);
     // Parameter table.
     let level = inp
@@ -429,6 +558,7 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
                         .collect(),
                 })
                 .collect(),
+            marks: read_off_marks(av, f, &inp.units[k], inp.rate_hz),
         };
         let svg = adev_svg(&plot, &format!("ad{k}"));
         write_plot(dir, &format!("adev_{stem}"), &svg)?;
@@ -633,6 +763,7 @@ fn robust_section(
                 .collect(),
             fitted: robust_fits.map(|rf| adev_series("robust fit", rate, &rf[k].fitted)),
             components,
+            marks: Vec::new(),
         };
         let svg = adev_svg(&plot, &format!("rob{k}"));
         write_plot(dir, &format!("adev_robust_{}", file_safe(name)), &svg)?;
@@ -647,8 +778,23 @@ fn robust_section(
 pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
     // a bad --out fails before the work, not after it
     crate::output::create_dir(&args.out, "--out")?;
+    // Several topics: one report per topic, in a folder named after it.
+    if args.input.topic.len() > 1 {
+        for topic in &args.input.topic {
+            let mut one = args.clone();
+            one.input.topic = vec![topic.clone()];
+            one.out = args.out.join(file_safe(topic.trim_start_matches('/')));
+            run(&one, ui)?;
+        }
+        return Ok(());
+    }
+    let targets = args
+        .export
+        .as_deref()
+        .map(crate::export::Target::parse_list)
+        .transpose()?;
     let (table, units, curves) = super::fit::read_curves(&args.input, args.fit.alpha, ui)?;
-    let quality = super::fit::check_quality(&table, args.input.rate, ui)?;
+    let quality = super::fit::check_quality(&table, table.rate()?, ui)?;
     let mut settings = args.fit.clone();
     settings.select = !args.no_select && settings.method == super::fit::Method::Gmwm;
     if settings.select && settings.model.replace(' ', "") == FIT_DEFAULT_MODEL {
@@ -661,7 +807,7 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
     let pb = ui.spinner("robust Allan variance");
     let rcurves = super::fit::robust_curves(
         &table,
-        args.input.rate,
+        table.rate()?,
         args.fit.alpha,
         args.robust.efficiency,
     )?;
@@ -694,7 +840,7 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         &args.out,
         &table.names,
         &units,
-        args.input.rate,
+        table.rate()?,
         &rcurves,
         &checks,
         &fits,
@@ -702,7 +848,7 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
     )?;
     let inp = ReportInput {
         source: &table.file,
-        rate_hz: args.input.rate,
+        rate_hz: table.rate()?,
         names: &table.names,
         columns: &table.columns,
         units: &units,
@@ -710,6 +856,8 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         fits: &fits,
         extra_html,
         bootstrap: settings.bootstrap,
+        topic: table.topic.as_deref(),
+        timing: table.timing.as_ref(),
     };
     write_report(&args.out, &inp, ui)?;
     // the robust entries of results.json
@@ -744,6 +892,10 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         }
     }
     write_file(&path, serde_json::to_string_pretty(&doc)?.as_bytes())?;
+    if let Some(targets) = &targets {
+        let noise = super::export::load(&args.out.join("results.json"))?;
+        crate::export::write_all(&noise, targets, &args.export_options, &args.out)?;
+    }
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     super::fit::write_table(&mut out, &fits, settings.alpha, settings.bootstrap)

@@ -625,7 +625,7 @@ pub fn run(args: &AvarArgs, ui: &Ui) -> Result<()> {
                 stats.push(s);
             }
         }
-        let curves = compute_statistics(&table, args.input.rate, &config, &stats, ui)?;
+        let curves = compute_statistics(&table, table.rate()?, &config, &stats, ui)?;
         if let Some(path) = &args.plot {
             write_plot(path, &plot_curves(&curves, &table.file))?;
         }
@@ -641,9 +641,9 @@ pub fn run(args: &AvarArgs, ui: &Ui) -> Result<()> {
         };
         return res
             .and_then(|_| out.flush())
-            .map_err(|e| crate::Error::io("<stdout>", e));
+            .map_err(|e| crate::Error::write("<stdout>", e));
     }
-    let curves = compute(&table, args.input.rate, &config, ui)?;
+    let curves = compute(&table, table.rate()?, &config, ui)?;
     if let Some(path) = &args.plot {
         let st = match config.estimator {
             Estimator::Overlapping => Statistic::Oadev,

@@ -353,6 +353,9 @@ pub fn estimate(n: usize, seed: u64, bootstrap: usize, ui: &Ui) -> Result<DemoRu
         file: "<demo>".into(),
         names: data.names,
         columns: data.columns,
+        rate_hz: Some(DEMO_RATE_HZ),
+        timing: None,
+        topic: None,
     };
     let curves: Vec<(String, AllanVariance)> =
         super::avar_cmd::compute(&table, DEMO_RATE_HZ, &AvarConfig::default(), ui)?;
@@ -540,6 +543,8 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         fits: &r.fits,
         extra_html: extra,
         bootstrap: args.bootstrap,
+        topic: None,
+        timing: None,
     };
     super::analyze::write_report(&args.out, &inp, ui)?;
     w(format!(

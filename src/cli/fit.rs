@@ -822,7 +822,7 @@ pub(super) fn read_curves(
         alpha,
         ..AvarConfig::default()
     };
-    let curves = super::avar_cmd::compute(&table, input.rate, &cfg, ui)?;
+    let curves = super::avar_cmd::compute(&table, table.rate()?, &cfg, ui)?;
     Ok((table, units, curves))
 }
 
@@ -931,7 +931,7 @@ pub fn run_joint(args: &FitArgs, ui: &Ui) -> Result<Vec<JointChannel>> {
         };
         let (table, units, mut curves) = read_curves(&input, args.fit.alpha, ui)?;
         if let Some(e) = robust {
-            let r = robust_curves(&table, input.rate, args.fit.alpha, e)?;
+            let r = robust_curves(&table, table.rate()?, args.fit.alpha, e)?;
             curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
         }
         if let Some((names0, _, _)) = per_file.first()
@@ -1065,10 +1065,10 @@ pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
     let robust = args.robust.efficiency()?;
     let (table, units, mut curves) = read_curves(&args.input, args.fit.alpha, ui)?;
     if let Some(e) = robust {
-        let r = robust_curves(&table, args.input.rate, args.fit.alpha, e)?;
+        let r = robust_curves(&table, table.rate()?, args.fit.alpha, e)?;
         curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
     }
-    let quality = check_quality(&table, args.input.rate, ui)?;
+    let quality = check_quality(&table, table.rate()?, ui)?;
     let mut fits = fit_all_robust(&curves, &units, &args.fit, robust, ui)?;
     attach_quality(&mut fits, quality);
     let stdout = std::io::stdout();

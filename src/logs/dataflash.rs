@@ -1,0 +1,211 @@
+//! ArduPilot DataFlash logs (`.bin`), read by a small strict reader of our own over the
+//! memory-mapped file.
+//!
+//! Why not `ardupilot-binlog`: reading its code, its reader skips bytes it cannot parse
+//! (it rescans for the next header, up to a limit) without telling the caller, and it
+//! builds an owned entry (name string, field vector) per message. Here a byte that is not
+//! where a message header must be is an error naming its offset: nothing is skipped.
+//!
+//! Layout: each message is `A3 95 type` then a payload whose size and field types come
+//! from the FMT message (type 128: type u8, length u8, name `char[4]`, format `char[16]`,
+//! labels `char[64]`). IMU messages are those named `IMU…` with `TimeUS` (µs), `GyrX/Y/Z`
+//! (rad/s) and `AccX/Y/Z` (m/s²); an `I` field is the instance (`IMU[1]`), older logs use
+//! `IMU2`, `IMU3`.
+
+use super::imu_msg::ImuSample;
+use super::{ImuSeries, LogFormat, LogReader, TopicInfo, map_file};
+use crate::error::{Error, Result};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A mapped DataFlash log.
+pub struct DataflashReader {
+    file: String,
+    map: memmap2::Mmap,
+}
+
+/// Size of a DataFlash field type character.
+fn char_size(c: u8) -> Option<usize> {
+    Some(match c {
+        b'b' | b'B' | b'M' => 1,
+        b'h' | b'H' | b'c' | b'C' => 2,
+        b'i' | b'I' | b'f' | b'n' | b'e' | b'E' | b'L' => 4,
+        b'd' | b'q' | b'Q' => 8,
+        b'N' => 16,
+        b'Z' | b'a' => 64,
+        _ => return None,
+    })
+}
+
+/// A message format from FMT.
+#[derive(Debug, Clone)]
+struct Fmt {
+    name: String,
+    len: usize,
+    /// For IMU messages: offsets of TimeUS, GyrX..Z, AccX..Z (f32) and the instance byte.
+    imu: Option<ImuLayout>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct ImuLayout {
+    time: usize,
+    gyr: [usize; 3],
+    acc: [usize; 3],
+    instance: Option<usize>,
+}
+
+fn parse_fmt(p: &[u8]) -> Option<(u8, Fmt)> {
+    if p.len() < 86 {
+        return None;
+    }
+    let ty = p[0];
+    let len = p[1] as usize;
+    let text = |b: &[u8]| {
+        String::from_utf8_lossy(b)
+            .trim_end_matches('\0')
+            .trim()
+            .to_string()
+    };
+    let name = text(&p[2..6]);
+    let format = text(&p[6..22]);
+    let labels = text(&p[22..86]);
+    let labels: Vec<&str> = labels.split(',').collect();
+    let mut offs = Vec::new();
+    let mut o = 3usize; // header bytes
+    for c in format.bytes() {
+        offs.push((o, c));
+        o += char_size(c)?;
+    }
+    if o != len {
+        return None;
+    }
+    let at = |l: &str, want: u8| {
+        labels
+            .iter()
+            .position(|x| *x == l)
+            .and_then(|i| offs.get(i))
+            .filter(|(_, c)| *c == want)
+            .map(|(o, _)| *o)
+    };
+    let imu = (|| {
+        if !name.starts_with("IMU") {
+            return None;
+        }
+        Some(ImuLayout {
+            time: at("TimeUS", b'Q')?,
+            gyr: [at("GyrX", b'f')?, at("GyrY", b'f')?, at("GyrZ", b'f')?],
+            acc: [at("AccX", b'f')?, at("AccY", b'f')?, at("AccZ", b'f')?],
+            instance: at("I", b'B'),
+        })
+    })();
+    Some((ty, Fmt { name, len, imu }))
+}
+
+impl DataflashReader {
+    /// Maps `path` and checks that it starts with a DataFlash message header.
+    pub fn open(path: &Path) -> Result<Self> {
+        let file = path.display().to_string();
+        let map = map_file(path)?;
+        if map.len() < 3 || map[0] != 0xA3 || map[1] != 0x95 {
+            return Err(Error::File {
+                file,
+                message: "not an ArduPilot DataFlash log (no A3 95 message header at its start)"
+                    .to_string(),
+            });
+        }
+        Ok(DataflashReader { file, map })
+    }
+
+    fn corrupt(&self, at: usize, what: &str) -> Error {
+        Error::File {
+            file: self.file.clone(),
+            message: format!("truncated or corrupt DataFlash log at byte {at}: {what}"),
+        }
+    }
+
+    /// Walks every message; `on(fmt, message bytes including the header)`.
+    fn walk(&self, mut on: impl FnMut(&Fmt, &[u8])) -> Result<()> {
+        let b = &self.map[..];
+        let mut fmts: Vec<Option<Fmt>> = vec![None; 256];
+        // FMT describes itself; a log normally starts with that FMT, but be safe.
+        fmts[0x80] = Some(Fmt {
+            name: "FMT".into(),
+            len: 89,
+            imu: None,
+        });
+        let mut p = 0;
+        while p < b.len() {
+            if b.len() - p < 3 {
+                return Err(self.corrupt(p, "a message header is cut short"));
+            }
+            if b[p] != 0xA3 || b[p + 1] != 0x95 {
+                return Err(self.corrupt(p, "expected a message header (A3 95)"));
+            }
+            let ty = b[p + 2] as usize;
+            let Some(f) = &fmts[ty] else {
+                return Err(self.corrupt(p, &format!("message type {ty} has no FMT before it")));
+            };
+            let m = b.get(p..p + f.len).ok_or_else(|| {
+                self.corrupt(p, &format!("the last {} message is cut short", f.name))
+            })?;
+            let len = f.len.max(3);
+            if ty == 0x80 {
+                let (t, nf) = parse_fmt(&m[3..])
+                    .ok_or_else(|| self.corrupt(p, "a FMT message that cannot be parsed"))?;
+                fmts[t as usize] = Some(nf);
+            } else {
+                on(f, m);
+            }
+            p += len;
+        }
+        Ok(())
+    }
+}
+
+fn topic_of(f: &Fmt, m: &[u8]) -> String {
+    match f.imu.and_then(|l| l.instance) {
+        Some(i) => format!("{}[{}]", f.name, m[i]),
+        None => f.name.clone(),
+    }
+}
+
+impl LogReader for DataflashReader {
+    fn format(&self) -> LogFormat {
+        LogFormat::Dataflash
+    }
+
+    fn topics(&self) -> Result<Vec<TopicInfo>> {
+        let mut by: BTreeMap<String, TopicInfo> = BTreeMap::new();
+        self.walk(|f, m| {
+            let t = topic_of(f, m);
+            by.entry(t.clone())
+                .or_insert_with(|| TopicInfo {
+                    name: t,
+                    msg_type: f.name.clone(),
+                    count: 0,
+                    is_imu: f.imu.is_some(),
+                })
+                .count += 1;
+        })?;
+        Ok(by.into_values().collect())
+    }
+
+    fn read_imu(&self, topic: &str) -> Result<ImuSeries> {
+        let mut out = ImuSeries::with_capacity(0);
+        self.walk(|f, m| {
+            let Some(l) = f.imu else { return };
+            if !topic.starts_with(f.name.as_str()) || topic_of(f, m) != topic {
+                return;
+            }
+            let g = |o: usize| f32::from_le_bytes(m[o..o + 4].try_into().expect("4")) as f64;
+            out.push(&ImuSample {
+                stamp_ns: (u64::from_le_bytes(m[l.time..l.time + 8].try_into().expect("8")) as i64)
+                    .saturating_mul(1000),
+                gyro: [g(l.gyr[0]), g(l.gyr[1]), g(l.gyr[2])],
+                acc: [g(l.acc[0]), g(l.acc[1]), g(l.acc[2])],
+            });
+        })?;
+        out.check_finite(&format!("{} ({topic})", self.file))?;
+        Ok(out)
+    }
+}

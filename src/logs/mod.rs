@@ -1,0 +1,411 @@
+//! Readers for the logs people record IMUs in: ROS 2 MCAP, ROS 1 bags, ROS 2 SQLite
+//! (`.db3`), PX4 ULog and ArduPilot DataFlash. One module per format, each behind the
+//! [`LogReader`] interface; the format is picked by extension (or `--log-format`).
+//!
+//! A reader lists its topics ([`LogReader::topics`]) and reads one IMU topic into stamped
+//! columns ([`LogReader::read_imu`]). [`select_topics`] applies the `--topic` rules and
+//! [`timing::prepare`] orders the samples by stamp, estimates the rate and counts gaps.
+//! Files are memory-mapped (or read by SQLite page by page): never copied whole.
+//!
+//! Units: bags (ROS REP 103) give angular velocity in rad/s and linear acceleration in
+//! m/s²; PX4 and ArduPilot log the same units. Channel names carry them as suffixes
+//! (`gyro_x_rads`, `acc_x_mps2`), which [`crate::units::infer_unit`] reads.
+
+use crate::error::{Error, Result};
+use serde::Serialize;
+use std::path::Path;
+
+pub mod imu_msg;
+pub mod timing;
+
+#[cfg(feature = "dataflash")]
+pub mod dataflash;
+#[cfg(feature = "db3")]
+pub mod db3;
+#[cfg(feature = "mcap")]
+pub mod mcap;
+#[cfg(feature = "rosbag")]
+pub mod rosbag1;
+#[cfg(feature = "ulog")]
+pub mod ulog;
+
+pub use timing::{GapPolicy, Timing};
+
+/// A log file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LogFormat {
+    /// ROS 2 MCAP (`.mcap`), CDR-encoded messages.
+    Mcap,
+    /// ROS 1 bag (`.bag`).
+    Bag,
+    /// ROS 2 SQLite storage (`.db3`).
+    Db3,
+    /// PX4 ULog (`.ulg`).
+    Ulog,
+    /// ArduPilot DataFlash binary log (`.bin`).
+    Dataflash,
+}
+
+impl LogFormat {
+    /// The format of a path by its extension, if it is a log format.
+    ///
+    /// ```
+    /// use imunoise::logs::LogFormat;
+    /// assert_eq!(LogFormat::from_path("run.mcap".as_ref()), Some(LogFormat::Mcap));
+    /// assert_eq!(LogFormat::from_path("imu.csv".as_ref()), None);
+    /// ```
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "mcap" => LogFormat::Mcap,
+            "bag" => LogFormat::Bag,
+            "db3" => LogFormat::Db3,
+            "ulg" => LogFormat::Ulog,
+            "bin" => LogFormat::Dataflash,
+            _ => return None,
+        })
+    }
+
+    /// The cargo feature that builds this format's reader.
+    pub fn feature(self) -> &'static str {
+        match self {
+            LogFormat::Mcap => "mcap",
+            LogFormat::Bag => "rosbag",
+            LogFormat::Db3 => "db3",
+            LogFormat::Ulog => "ulog",
+            LogFormat::Dataflash => "dataflash",
+        }
+    }
+}
+
+/// A topic (bags) or message/instance (ULog, DataFlash) of a log.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TopicInfo {
+    /// Topic name (`/imu0`), or message name and instance (`sensor_combined`, `IMU[1]`).
+    pub name: String,
+    /// Message type (`sensor_msgs/msg/Imu`, …).
+    pub msg_type: String,
+    /// Number of messages.
+    pub count: u64,
+    /// Whether imunoise reads IMU samples from it.
+    pub is_imu: bool,
+}
+
+/// The samples of one IMU topic in recording order, with their stamps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImuSeries {
+    /// Stamps (ns; header stamps for bags, the log's microseconds × 1000 otherwise).
+    pub stamps_ns: Vec<i64>,
+    /// Channel names with unit suffixes (`gyro_x_rads`, …, `acc_z_mps2`).
+    pub names: Vec<String>,
+    /// One column per channel, same length as `stamps_ns`.
+    pub columns: Vec<Vec<f64>>,
+}
+
+/// The six channel names of an IMU, units as suffixes (rad/s, m/s²).
+pub const IMU_NAMES: [&str; 6] = [
+    "gyro_x_rads",
+    "gyro_y_rads",
+    "gyro_z_rads",
+    "acc_x_mps2",
+    "acc_y_mps2",
+    "acc_z_mps2",
+];
+
+impl ImuSeries {
+    /// An empty series with the six [`IMU_NAMES`] channels and room for `n` samples.
+    pub fn with_capacity(n: usize) -> Self {
+        ImuSeries {
+            stamps_ns: Vec::with_capacity(n),
+            names: IMU_NAMES.iter().map(|s| s.to_string()).collect(),
+            columns: (0..6).map(|_| Vec::with_capacity(n)).collect(),
+        }
+    }
+
+    /// Appends one sample (stamp in ns, gyro in rad/s, acc in m/s²).
+    #[inline]
+    pub fn push(&mut self, s: &imu_msg::ImuSample) {
+        self.stamps_ns.push(s.stamp_ns);
+        for k in 0..3 {
+            self.columns[k].push(s.gyro[k]);
+            self.columns[3 + k].push(s.acc[k]);
+        }
+    }
+
+    /// Errors on non-finite values, naming the message (1-based) and channel.
+    pub fn check_finite(&self, what: &str) -> Result<()> {
+        for (c, col) in self.columns.iter().enumerate() {
+            if let Some(i) = col.iter().position(|v| !v.is_finite()) {
+                return Err(Error::File {
+                    file: what.to_string(),
+                    message: format!(
+                        "message {} has {} = {}: values must be finite",
+                        i + 1,
+                        self.names[c],
+                        col[i]
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What every log reader offers.
+pub trait LogReader {
+    /// The file's format.
+    fn format(&self) -> LogFormat;
+    /// All topics (messages) with type and count, in a stable order.
+    fn topics(&self) -> Result<Vec<TopicInfo>>;
+    /// The samples of one IMU topic, in recording order. The topic exists and is an IMU
+    /// topic ([`select_topics`] checks that first).
+    fn read_imu(&self, topic: &str) -> Result<ImuSeries>;
+}
+
+/// Opens a log with the reader of `format`; the file is mapped, not read.
+pub fn open(path: &Path, format: LogFormat) -> Result<Box<dyn LogReader>> {
+    let file = path.display().to_string();
+    match format {
+        #[cfg(feature = "mcap")]
+        LogFormat::Mcap => Ok(Box::new(mcap::McapReader::open(path)?)),
+        #[cfg(feature = "rosbag")]
+        LogFormat::Bag => Ok(Box::new(rosbag1::BagReader::open(path)?)),
+        #[cfg(feature = "db3")]
+        LogFormat::Db3 => Ok(Box::new(db3::Db3Reader::open(path)?)),
+        #[cfg(feature = "ulog")]
+        LogFormat::Ulog => Ok(Box::new(ulog::UlogReader::open(path)?)),
+        #[cfg(feature = "dataflash")]
+        LogFormat::Dataflash => Ok(Box::new(dataflash::DataflashReader::open(path)?)),
+        #[allow(unreachable_patterns)]
+        other => Err(Error::Usage(format!(
+            "{file}: this imunoise was built without the {:?} reader (cargo feature \"{}\")",
+            other,
+            other.feature()
+        ))),
+    }
+}
+
+/// A ROS 2 bag is a folder (`metadata.yaml` and the storage files): returns its one
+/// `.mcap` or `.db3` file. Any other path is returned as it is.
+///
+/// ```
+/// let p = std::path::Path::new("run.mcap");
+/// assert_eq!(imunoise::logs::storage_file(p).unwrap(), p);
+/// ```
+pub fn storage_file(path: &Path) -> Result<std::path::PathBuf> {
+    if !path.is_dir() {
+        return Ok(path.to_path_buf());
+    }
+    let dir = path.display().to_string();
+    let mut found: Vec<std::path::PathBuf> = std::fs::read_dir(path)
+        .map_err(|e| Error::io(&dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            matches!(
+                LogFormat::from_path(p),
+                Some(LogFormat::Mcap | LogFormat::Db3)
+            )
+        })
+        .collect();
+    found.sort();
+    match found.len() {
+        1 => Ok(found.remove(0)),
+        0 => Err(Error::Usage(format!(
+            "{dir} is a folder without a .mcap or .db3 file (a ROS 2 bag folder holds one)"
+        ))),
+        k => Err(Error::Usage(format!(
+            "{dir} holds {k} storage files (a split bag: {}); give one of them",
+            found
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
+    }
+}
+
+/// Memory-maps a whole file read-only (shared by the readers).
+#[cfg_attr(
+    not(any(
+        feature = "mcap",
+        feature = "rosbag",
+        feature = "ulog",
+        feature = "dataflash"
+    )),
+    allow(dead_code)
+)]
+pub(crate) fn map_file(path: &Path) -> Result<memmap2::Mmap> {
+    let file = path.display().to_string();
+    let f = std::fs::File::open(path).map_err(|e| Error::io(&file, e))?;
+    let len = f.metadata().map_err(|e| Error::io(&file, e))?.len();
+    if len == 0 {
+        return Err(Error::File {
+            file,
+            message: "the file is empty".to_string(),
+        });
+    }
+    // SAFETY: read-only private map; the file must not be truncated while it is read
+    // (as for the text reader).
+    unsafe { memmap2::Mmap::map(&f) }.map_err(|e| Error::io(file, e))
+}
+
+/// A topic with the rate from its stamps (for `imunoise topics` and the messages of
+/// [`select_topics`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TopicSummary {
+    /// Name, type, count.
+    #[serde(flatten)]
+    pub info: TopicInfo,
+    /// 1 / median Δt of the sorted stamps (Hz), for IMU topics with ≥ 2 distinct stamps.
+    pub rate_hz: Option<f64>,
+}
+
+impl std::fmt::Display for TopicSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} ({}, {} messages",
+            self.info.name, self.info.msg_type, self.info.count
+        )?;
+        if let Some(r) = self.rate_hz {
+            write!(f, ", {r:.1} Hz")?;
+        }
+        write!(f, ")")
+    }
+}
+
+/// 1 / median Δt of the sorted distinct stamps (Hz); `None` with fewer than 2.
+///
+/// ```
+/// assert_eq!(imunoise::logs::rate_from_stamps(&[0, 5_000_000, 10_000_000]), Some(200.0));
+/// ```
+pub fn rate_from_stamps(stamps_ns: &[i64]) -> Option<f64> {
+    let mut s = stamps_ns.to_vec();
+    s.sort_unstable();
+    s.dedup();
+    let mut d: Vec<i64> = s.windows(2).map(|w| w[1] - w[0]).collect();
+    if d.is_empty() {
+        return None;
+    }
+    let mid = d.len() / 2;
+    let hi = *d.select_nth_unstable(mid).1 as f64;
+    let med = if d.len() % 2 == 1 {
+        hi
+    } else {
+        (hi + *d[..mid].iter().max().expect("non-empty") as f64) / 2.0
+    };
+    Some(1e9 / med)
+}
+
+/// Every topic with its rate (IMU topics are read to get it).
+pub fn summarize(reader: &dyn LogReader) -> Result<Vec<TopicSummary>> {
+    summarize_some(reader, reader.topics()?.iter())
+}
+
+fn list(items: &[TopicSummary]) -> String {
+    items
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Applies the `--topic` rules: with none given and one IMU topic, that one; with none
+/// given and several, an error listing them; a given topic must exist, be an IMU topic
+/// and hold messages. Every refusal is an [`Error::Usage`] (exit 2) whose message lists
+/// the IMU topics with type, count and rate.
+pub fn select_topics(
+    reader: &dyn LogReader,
+    file: &str,
+    requested: &[String],
+) -> Result<Vec<String>> {
+    let topics = reader.topics()?;
+    let imu: Vec<&TopicInfo> = topics.iter().filter(|t| t.is_imu).collect();
+    let imu_list = || -> Result<String> {
+        let all = summarize_some(reader, imu.iter().copied())?;
+        Ok(list(&all))
+    };
+    if requested.is_empty() {
+        return match imu.len() {
+            1 if imu[0].count == 0 => Err(Error::Usage(format!(
+                "topic {} ({}) in {file} has no messages",
+                imu[0].name, imu[0].msg_type
+            ))),
+            1 => Ok(vec![imu[0].name.clone()]),
+            0 => {
+                let others = summarize_some(reader, topics.iter())?;
+                Err(Error::Usage(format!(
+                    "no IMU topic (sensor_msgs/Imu) in {file}; its topics: {}",
+                    if others.is_empty() {
+                        "none".to_string()
+                    } else {
+                        list(&others)
+                    }
+                )))
+            }
+            k => Err(Error::Usage(format!(
+                "{file} has {k} IMU topics; choose one or more with --topic: {}",
+                imu_list()?
+            ))),
+        };
+    }
+    let mut out = Vec::new();
+    for name in requested {
+        match topics.iter().find(|t| &t.name == name) {
+            None => {
+                return Err(Error::Usage(if imu.is_empty() {
+                    format!("topic {name} not found; {file} has no IMU topic")
+                } else {
+                    format!(
+                        "topic {name} not found; IMU topics in {file}: {}",
+                        imu_list()?
+                    )
+                }));
+            }
+            Some(t) if !t.is_imu => {
+                return Err(Error::Usage(format!(
+                    "topic {name} in {file} has type {}, not sensor_msgs/Imu; IMU topics in {file}: {}",
+                    t.msg_type,
+                    if imu.is_empty() {
+                        "none".to_string()
+                    } else {
+                        imu_list()?
+                    }
+                )));
+            }
+            Some(t) if t.count == 0 => {
+                return Err(Error::Usage(format!(
+                    "topic {name} ({}) in {file} has no messages",
+                    t.msg_type
+                )));
+            }
+            Some(t) => {
+                if out.contains(&t.name) {
+                    return Err(Error::Usage(format!("--topic {name} is given twice")));
+                }
+                out.push(t.name.clone());
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn summarize_some<'a>(
+    reader: &dyn LogReader,
+    items: impl Iterator<Item = &'a TopicInfo>,
+) -> Result<Vec<TopicSummary>> {
+    items
+        .map(|info| {
+            let rate_hz = if info.is_imu && info.count > 1 {
+                rate_from_stamps(&reader.read_imu(&info.name)?.stamps_ns)
+            } else {
+                None
+            };
+            Ok(TopicSummary {
+                info: info.clone(),
+                rate_hz,
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,938 @@
+//! Log readers end to end: fixtures written here from simulated data (with the `mcap`
+//! crate for MCAP), read back by the `imunoise` binary and compared with the same data as
+//! CSV, bit for bit; exact gap/duplicate/reorder counts on injected faults; and one exit-2
+//! test per bad-input class (wrong topic, several IMU topics, no IMU topic, wrong message
+//! type, empty topic, truncated file, corrupt file, rate disagreeing with the stamps).
+#![cfg(feature = "mcap")]
+
+use imunoise::logs::imu_msg::{ImuSample, encode_cdr};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn imunoise(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_imunoise"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = imunoise(args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Runs, expects exit code 2, returns stderr.
+fn fails(args: &[&str]) -> String {
+    let out = imunoise(args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+/// Six channels of WN + RW (gyro in rad/s, acc in m/s² around g), known parameters,
+/// fixed seed.
+fn simulated(n: usize, rate: f64) -> Vec<Vec<f64>> {
+    let gyro: imunoise::processes::Model = "WN(sigma2=1e-6)+RW(gamma2=1e-12)".parse().unwrap();
+    let acc: imunoise::processes::Model = "WN(sigma2=4e-4)+RW(gamma2=1e-9)".parse().unwrap();
+    let mut c = imunoise::cli::simulate::simulate_channels(&gyro, n, rate, 11, 3).unwrap();
+    let mut a = imunoise::cli::simulate::simulate_channels(&acc, n, rate, 12, 3).unwrap();
+    a[2].iter_mut().for_each(|v| *v += 9.80665);
+    c.append(&mut a);
+    c
+}
+
+/// Stamps at `rate` from 1.7e9 s.
+fn stamps(n: usize, rate: f64) -> Vec<i64> {
+    let dt = (1e9 / rate).round() as i64;
+    (0..n as i64)
+        .map(|i| 1_700_000_000_000_000_000 + i * dt)
+        .collect()
+}
+
+struct Topic<'a> {
+    name: &'a str,
+    schema: &'a str,
+    stamps: Vec<i64>,
+    cols: Vec<Vec<f64>>,
+}
+
+fn sample(stamps: &[i64], cols: &[Vec<f64>], i: usize) -> ImuSample {
+    ImuSample {
+        stamp_ns: stamps[i],
+        gyro: [cols[0][i], cols[1][i], cols[2][i]],
+        acc: [cols[3][i], cols[4][i], cols[5][i]],
+    }
+}
+
+/// Writes an MCAP file (zstd chunks) with the topics interleaved in stamp order.
+fn write_mcap(path: &Path, topics: &[Topic<'_>]) {
+    let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut w = mcap::WriteOptions::new().profile("ros2").create(f).unwrap();
+    let mut ids = Vec::new();
+    for t in topics {
+        let s = w
+            .add_schema(t.schema, "ros2msg", b"(definition omitted)")
+            .unwrap();
+        ids.push(w.add_channel(s, t.name, "cdr", &BTreeMap::new()).unwrap());
+    }
+    let mut events: Vec<(i64, usize, usize)> = Vec::new();
+    for (k, t) in topics.iter().enumerate() {
+        for (i, &s) in t.stamps.iter().enumerate() {
+            events.push((s, k, i));
+        }
+    }
+    // Recording order = position in the topic's vectors (so injected reordering survives).
+    events.sort_by_key(|&(_, k, i)| (i, k));
+    for (seq, &(s, k, i)) in events.iter().enumerate() {
+        let t = &topics[k];
+        let data = if t.schema == "sensor_msgs/msg/Imu" {
+            encode_cdr(&sample(&t.stamps, &t.cols, i), "imu_link")
+        } else {
+            vec![0, 1, 0, 0, 1, 2, 3, 4]
+        };
+        w.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id: ids[k],
+                sequence: seq as u32,
+                log_time: s as u64,
+                publish_time: s as u64,
+            },
+            &data,
+        )
+        .unwrap();
+    }
+    w.finish().unwrap();
+}
+
+fn write_csv(path: &Path, cols: &[Vec<f64>]) {
+    let names: Vec<String> = imunoise::logs::IMU_NAMES
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    imunoise::cli::simulate::write_csv(&mut f, &names, cols).unwrap();
+}
+
+fn imu<'a>(name: &'a str, n: usize, rate: f64) -> Topic<'a> {
+    Topic {
+        name,
+        schema: "sensor_msgs/msg/Imu",
+        stamps: stamps(n, rate),
+        cols: simulated(n, rate),
+    }
+}
+
+fn p(dir: &tempfile::TempDir, name: &str) -> PathBuf {
+    dir.path().join(name)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn mcap_equals_csv_bit_for_bit_and_rate_from_stamps() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mc, csv) = (p(&dir, "run.mcap"), p(&dir, "run.csv"));
+    let t = imu("/imu0", 20_000, 200.0);
+    write_csv(&csv, &t.cols);
+    write_mcap(&mc, &[t]);
+    let a = ok(&["avar", s(&mc), "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&csv), "--rate", "200", "--format", "json", "-q"]);
+    assert_eq!(a, b, "MCAP and CSV give the same AV JSON, byte for byte");
+    let v: serde_json::Value = serde_json::from_str(&a).unwrap();
+    assert_eq!(v["channels"][0]["rate_hz"], 200.0);
+    assert_eq!(v["channels"][0]["n"], 20_000);
+    // analyze: the same channels in results.json (AV, fit, IEEE values), number for number.
+    let (ra, rb) = (p(&dir, "ra"), p(&dir, "rb"));
+    let fit = ["--model", "WN+RW", "--no-select", "-q"];
+    ok(&[&["analyze", s(&mc), "--out", s(&ra)][..], &fit[..]].concat());
+    ok(&[
+        &["analyze", s(&csv), "--rate", "200", "--out", s(&rb)][..],
+        &fit[..],
+    ]
+    .concat());
+    let res = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("results.json")).unwrap()).unwrap()
+    };
+    let (ja, jb) = (res(&ra), res(&rb));
+    assert_eq!(ja["channels"], jb["channels"]);
+    assert_eq!(ja["rate_hz"], jb["rate_hz"]);
+    assert_eq!(ja["timing"]["rate_source"], "stamps");
+    // A ROS 2 bag folder (metadata.yaml + the storage file) reads the same.
+    let bagdir = p(&dir, "bagdir");
+    std::fs::create_dir(&bagdir).unwrap();
+    std::fs::write(
+        bagdir.join("metadata.yaml"),
+        "rosbag2_bagfile_information: {}\n",
+    )
+    .unwrap();
+    std::fs::copy(&mc, bagdir.join("bagdir_0.mcap")).unwrap();
+    assert_eq!(a, ok(&["avar", s(&bagdir), "--format", "json", "-q"]));
+    // A --rate within 1 % is accepted.
+    let c = ok(&["avar", s(&mc), "--rate", "200", "--format", "json", "-q"]);
+    assert_eq!(a, c);
+}
+
+#[test]
+fn topics_lists_types_counts_and_rates() {
+    let dir = tempfile::tempdir().unwrap();
+    let mc = p(&dir, "two.mcap");
+    let cam = Topic {
+        name: "/cam",
+        schema: "sensor_msgs/msg/Image",
+        stamps: stamps(30, 10.0),
+        cols: vec![],
+    };
+    write_mcap(
+        &mc,
+        &[imu("/imu0", 3000, 200.0), imu("/imu1", 1000, 100.0), cam],
+    );
+    let out = ok(&["topics", s(&mc), "--format", "json"]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let names: Vec<&str> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["/cam", "/imu0", "/imu1"]);
+    assert_eq!(v[1]["count"], 3000);
+    assert_eq!(v[1]["rate_hz"], 200.0);
+    assert_eq!(v[2]["rate_hz"], 100.0);
+    assert_eq!(v[0]["is_imu"], false);
+    let table = ok(&["topics", s(&mc)]);
+    assert!(table.contains("* /imu0"), "{table}");
+    // Several IMU topics and no --topic: exit 2 listing them.
+    let err = fails(&["avar", s(&mc)]);
+    assert!(
+        err.contains(&format!("{} has 2 IMU topics; choose one or more with --topic: /imu0 (sensor_msgs/msg/Imu, 3000 messages, 200.0 Hz), /imu1 (sensor_msgs/msg/Imu, 1000 messages, 100.0 Hz)", s(&mc))),
+        "{err}"
+    );
+    // A wrong topic: the issue's message.
+    let err = fails(&["avar", s(&mc), "--topic", "/imu"]);
+    assert!(
+        err.contains(&format!("topic /imu not found; IMU topics in {}: /imu0 (sensor_msgs/msg/Imu, 3000 messages, 200.0 Hz), /imu1", s(&mc))),
+        "{err}"
+    );
+    // A topic of another type.
+    let err = fails(&["avar", s(&mc), "--topic", "/cam"]);
+    assert!(
+        err.contains("topic /cam in")
+            && err.contains("has type sensor_msgs/msg/Image, not sensor_msgs/Imu"),
+        "{err}"
+    );
+    // Selecting works; two topics for analyze give one report each (checked in
+    // analyze_reports_timing_and_one_section_per_topic).
+    let one = ok(&["avar", s(&mc), "--topic", "/imu1", "--format", "json", "-q"]);
+    let v: serde_json::Value = serde_json::from_str(&one).unwrap();
+    assert_eq!(v["channels"][0]["rate_hz"], 100.0);
+    assert_eq!(v["channels"][0]["n"], 1000);
+}
+
+#[test]
+fn no_imu_topic_empty_topic_truncated_and_corrupt_files_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let mc = p(&dir, "cam.mcap");
+    let cam = Topic {
+        name: "/cam",
+        schema: "sensor_msgs/msg/Image",
+        stamps: stamps(30, 10.0),
+        cols: vec![],
+    };
+    write_mcap(&mc, &[cam]);
+    let err = fails(&["avar", s(&mc)]);
+    assert!(err.contains(&format!("no IMU topic (sensor_msgs/Imu) in {}; its topics: /cam (sensor_msgs/msg/Image, 30 messages)", s(&mc))), "{err}");
+    // An IMU topic without messages.
+    let empty = p(&dir, "empty.mcap");
+    write_mcap(
+        &empty,
+        &[Topic {
+            name: "/imu0",
+            schema: "sensor_msgs/msg/Imu",
+            stamps: vec![],
+            cols: vec![],
+        }],
+    );
+    let err = fails(&["avar", s(&empty)]);
+    assert!(
+        err.contains("topic /imu0 (sensor_msgs/msg/Imu) in") && err.contains("has no messages"),
+        "{err}"
+    );
+    // Truncated: the first 60 % of a good file.
+    let good = p(&dir, "good.mcap");
+    write_mcap(&good, &[imu("/imu0", 5000, 200.0)]);
+    let bytes = std::fs::read(&good).unwrap();
+    let trunc = p(&dir, "trunc.mcap");
+    std::fs::write(&trunc, &bytes[..bytes.len() * 6 / 10]).unwrap();
+    let err = fails(&["avar", s(&trunc)]);
+    assert!(err.contains("truncated or corrupt MCAP"), "{err}");
+    // Corrupt: 4 KiB flipped a third into the file (inside the first zstd chunk, which
+    // is written before its message index).
+    let mut bad = bytes.clone();
+    let mid = bad.len() / 3;
+    for b in &mut bad[mid..mid + 4096] {
+        *b ^= 0x5a;
+    }
+    let corrupt = p(&dir, "corrupt.mcap");
+    std::fs::write(&corrupt, &bad).unwrap();
+    let err = fails(&["avar", s(&corrupt)]);
+    assert!(
+        err.contains("truncated or corrupt MCAP") || err.contains("not a valid sensor_msgs/Imu"),
+        "{err}"
+    );
+    // Not MCAP at all.
+    let text = p(&dir, "text.mcap");
+    std::fs::write(&text, b"1,2,3\n").unwrap();
+    let err = fails(&["avar", s(&text)]);
+    assert!(err.contains("not an MCAP file"), "{err}");
+    // A --rate that disagrees with the stamps by more than 1 %: both are printed.
+    let err = fails(&["avar", s(&good), "--rate", "100"]);
+    assert!(
+        err.contains("--rate 100 Hz disagrees with the rate from the time stamps, 200.000000 Hz"),
+        "{err}"
+    );
+    // Text without stamps still needs --rate.
+    let csv = p(&dir, "x.csv");
+    std::fs::write(&csv, "a\n1\n2\n3\n4\n5\n6\n7\n8\n").unwrap();
+    let err = fails(&["avar", s(&csv)]);
+    assert!(err.contains("--rate is required"), "{err}");
+}
+
+/// 10 000 samples at 100 Hz with injected faults: 4 messages recorded out of order, 5
+/// duplicated stamps and 2 gaps missing 3 and 20 samples.
+fn faulty() -> (Vec<i64>, Vec<Vec<f64>>) {
+    let n = 10_023;
+    let st = stamps(n, 100.0);
+    let cols = simulated(n, 100.0);
+    let mut idx: Vec<usize> = (0..n).collect();
+    idx.drain(8000..8020); // gap of 20 missing
+    idx.drain(2000..2003); // gap of 3 missing
+    for d in [100, 101, 102, 103, 104] {
+        idx.insert(d * 10, idx[d * 10]); // duplicates
+    }
+    for at in [500, 600, 700, 900] {
+        idx.swap(at, at + 1); // one message recorded before its predecessor
+    }
+    let s: Vec<i64> = idx.iter().map(|&i| st[i]).collect();
+    let c: Vec<Vec<f64>> = cols
+        .iter()
+        .map(|c| idx.iter().map(|&i| c[i]).collect())
+        .collect();
+    (s, c)
+}
+
+#[test]
+fn gap_duplicate_and_reorder_counts_are_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    let mc = p(&dir, "faulty.mcap");
+    let (st, cols) = faulty();
+    assert_eq!(st.len(), 10_005);
+    write_mcap(
+        &mc,
+        &[Topic {
+            name: "/imu0",
+            schema: "sensor_msgs/msg/Imu",
+            stamps: st,
+            cols,
+        }],
+    );
+    // 23 missing of 10 000 = 0.23 % > 0.1 %: refused, with the way out in the message.
+    let err = fails(&["avar", s(&mc)]);
+    assert!(
+        err.contains("2 gaps")
+            && err.contains("about 23 missing samples")
+            && err.contains("--gaps longest"),
+        "{err}"
+    );
+    let out = p(&dir, "rep");
+    ok(&[
+        "analyze",
+        s(&mc),
+        "--gaps",
+        "ignore",
+        "--out",
+        s(&out),
+        "-q",
+        "--no-select",
+        "--model",
+        "WN+RW",
+    ]);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let t = &v["timing"];
+    assert_eq!(t["messages"], 10_005);
+    assert_eq!(t["reordered"], 4);
+    assert_eq!(t["duplicates"], 5);
+    assert_eq!(t["gaps"], 2);
+    assert_eq!(t["missing_samples"], 23);
+    assert_eq!(t["samples_used"], 10_000);
+    assert_eq!(t["rate_hz"], 100.0);
+    assert_eq!(t["gap_policy"], "ignore");
+    assert_eq!(v["topic"], "/imu0");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        html.contains("4 reordered, 5 duplicates (removed), 2 gaps (23 samples missing"),
+        "report states the counts"
+    );
+    assert!(html.contains("--gaps ignore"));
+    // Read-off marks on each AD plot and the "how long to record" line.
+    let svg = std::fs::read_to_string(out.join("adev_gyro_x_rads.svg")).unwrap();
+    for m in [">N = ", ">K = ", ">B = "] {
+        assert!(svg.contains(m), "plot marks {m}");
+    }
+    assert!(html.contains("How long to record") && html.contains("±10 % needs about"));
+    // --gaps longest: the longest gap-free run is samples 2000..7997 after sorting
+    // (8000 − 3 = 7997 because the first gap removed 3 before it).
+    let o = ok(&[
+        "avar",
+        s(&mc),
+        "--gaps",
+        "longest",
+        "--format",
+        "json",
+        "-q",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&o).unwrap();
+    assert_eq!(v["channels"][0]["n"], 5997);
+}
+
+// ---------------------------------------------------------------- ROS 1 bags
+
+fn bag_field(name: &str, val: &[u8]) -> Vec<u8> {
+    let mut v = ((name.len() + 1 + val.len()) as u32).to_le_bytes().to_vec();
+    v.extend_from_slice(name.as_bytes());
+    v.push(b'=');
+    v.extend_from_slice(val);
+    v
+}
+
+fn bag_record(fields: &[Vec<u8>], data: &[u8]) -> Vec<u8> {
+    let h: Vec<u8> = fields.concat();
+    let mut v = (h.len() as u32).to_le_bytes().to_vec();
+    v.extend_from_slice(&h);
+    v.extend_from_slice(&(data.len() as u32).to_le_bytes());
+    v.extend_from_slice(data);
+    v
+}
+
+fn bag_time(ns: i64) -> [u8; 8] {
+    let mut t = [0u8; 8];
+    t[..4].copy_from_slice(&((ns / 1_000_000_000) as u32).to_le_bytes());
+    t[4..].copy_from_slice(&((ns % 1_000_000_000) as u32).to_le_bytes());
+    t
+}
+
+fn bag_connection(id: u32, t: &Topic<'_>) -> Vec<u8> {
+    let data = [
+        bag_field("topic", t.name.as_bytes()),
+        bag_field("type", t.schema.as_bytes()),
+        bag_field("md5sum", b"6a62c6daae103f4ff57a132d6f95cec2"),
+        bag_field("message_definition", b"(omitted)"),
+    ]
+    .concat();
+    bag_record(
+        &[
+            bag_field("op", &[7]),
+            bag_field("conn", &id.to_le_bytes()),
+            bag_field("topic", t.name.as_bytes()),
+        ],
+        &data,
+    )
+}
+
+/// Writes a ROS 1 bag (format 2.0, one uncompressed chunk, with its index), the messages
+/// in recording order (position in each topic's vectors, topics interleaved).
+fn write_bag(path: &Path, topics: &[Topic<'_>]) {
+    use imunoise::logs::imu_msg::encode_ros1;
+    let header = |index_pos: u64, chunks: u32| {
+        bag_record(
+            &[
+                bag_field("op", &[3]),
+                bag_field("index_pos", &index_pos.to_le_bytes()),
+                bag_field("conn_count", &(topics.len() as u32).to_le_bytes()),
+                bag_field("chunk_count", &chunks.to_le_bytes()),
+            ],
+            &[b' '; 64],
+        )
+    };
+    let mut out = b"#ROSBAG V2.0\n".to_vec();
+    let hdr_at = out.len();
+    out.extend_from_slice(&header(0, 1));
+    let mut chunk = Vec::new();
+    for (k, t) in topics.iter().enumerate() {
+        chunk.extend_from_slice(&bag_connection(k as u32, t));
+    }
+    let mut events: Vec<(usize, usize)> = Vec::new();
+    for (k, t) in topics.iter().enumerate() {
+        events.extend((0..t.stamps.len()).map(|i| (i, k)));
+    }
+    events.sort();
+    let mut index: Vec<Vec<(i64, u32)>> = vec![Vec::new(); topics.len()];
+    let (mut t0, mut t1) = (i64::MAX, i64::MIN);
+    for &(i, k) in &events {
+        let t = &topics[k];
+        let st = t.stamps[i];
+        let data = if t.schema == "sensor_msgs/Imu" {
+            encode_ros1(&sample(&t.stamps, &t.cols, i), i as u32, "imu_link")
+        } else {
+            vec![1, 2, 3]
+        };
+        index[k].push((st, chunk.len() as u32));
+        t0 = t0.min(st);
+        t1 = t1.max(st);
+        chunk.extend_from_slice(&bag_record(
+            &[
+                bag_field("op", &[2]),
+                bag_field("conn", &(k as u32).to_le_bytes()),
+                bag_field("time", &bag_time(st)),
+            ],
+            &data,
+        ));
+    }
+    let chunk_pos = out.len() as u64;
+    out.extend_from_slice(&bag_record(
+        &[
+            bag_field("op", &[5]),
+            bag_field("compression", b"none"),
+            bag_field("size", &(chunk.len() as u32).to_le_bytes()),
+        ],
+        &chunk,
+    ));
+    for (k, ix) in index.iter().enumerate() {
+        let data: Vec<u8> = ix
+            .iter()
+            .flat_map(|&(st, off)| [bag_time(st).to_vec(), off.to_le_bytes().to_vec()].concat())
+            .collect();
+        out.extend_from_slice(&bag_record(
+            &[
+                bag_field("op", &[4]),
+                bag_field("ver", &1u32.to_le_bytes()),
+                bag_field("conn", &(k as u32).to_le_bytes()),
+                bag_field("count", &(ix.len() as u32).to_le_bytes()),
+            ],
+            &data,
+        ));
+    }
+    let index_pos = out.len() as u64;
+    for (k, t) in topics.iter().enumerate() {
+        out.extend_from_slice(&bag_connection(k as u32, t));
+    }
+    let entries: Vec<u8> = index
+        .iter()
+        .enumerate()
+        .flat_map(|(k, ix)| [(k as u32).to_le_bytes(), (ix.len() as u32).to_le_bytes()].concat())
+        .collect();
+    if t0 > t1 {
+        (t0, t1) = (0, 0);
+    }
+    out.extend_from_slice(&bag_record(
+        &[
+            bag_field("op", &[6]),
+            bag_field("ver", &1u32.to_le_bytes()),
+            bag_field("chunk_pos", &chunk_pos.to_le_bytes()),
+            bag_field("start_time", &bag_time(t0)),
+            bag_field("end_time", &bag_time(t1)),
+            bag_field("count", &(topics.len() as u32).to_le_bytes()),
+        ],
+        &entries,
+    ));
+    let h = header(index_pos, 1);
+    out[hdr_at..hdr_at + h.len()].copy_from_slice(&h);
+    std::fs::write(path, out).unwrap();
+}
+
+#[cfg(feature = "rosbag")]
+#[test]
+fn ros1_bag_equals_csv_and_bad_bags_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bag, csv) = (p(&dir, "run.bag"), p(&dir, "run.csv"));
+    let mut t = imu("/imu0", 12_000, 400.0);
+    t.schema = "sensor_msgs/Imu";
+    write_csv(&csv, &t.cols);
+    let cam = Topic {
+        name: "/cam",
+        schema: "sensor_msgs/Image",
+        stamps: stamps(20, 10.0),
+        cols: vec![],
+    };
+    write_bag(&bag, &[t, cam]);
+    let a = ok(&["avar", s(&bag), "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&csv), "--rate", "400", "--format", "json", "-q"]);
+    assert_eq!(a, b, "bag and CSV give the same AV JSON, byte for byte");
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&bag), "--format", "json"])).unwrap();
+    assert_eq!(v[1]["name"], "/imu0");
+    assert_eq!(v[1]["msg_type"], "sensor_msgs/Imu");
+    assert_eq!(v[1]["count"], 12_000);
+    assert_eq!(v[1]["rate_hz"], 400.0);
+    assert_eq!(v[0]["count"], 20);
+    let err = fails(&["avar", s(&bag), "--topic", "/imu"]);
+    assert!(err.contains(&format!("topic /imu not found; IMU topics in {}: /imu0 (sensor_msgs/Imu, 12000 messages, 400.0 Hz)", s(&bag))), "{err}");
+    // Truncated (index missing), unindexed (index_pos 0), and not a bag.
+    let bytes = std::fs::read(&bag).unwrap();
+    let trunc = p(&dir, "trunc.bag");
+    std::fs::write(&trunc, &bytes[..bytes.len() / 2]).unwrap();
+    let err = fails(&["avar", s(&trunc)]);
+    assert!(err.contains("truncated or corrupt bag"), "{err}");
+    let mut unidx = bytes.clone();
+    // version, header length, "op" field (4 + 4 bytes), field length, "index_pos=".
+    let at = 13 + 4 + 8 + 4 + 10;
+    unidx[at..at + 8].copy_from_slice(&0u64.to_le_bytes());
+    let u = p(&dir, "unindexed.bag");
+    std::fs::write(&u, &unidx).unwrap();
+    let err = fails(&["avar", s(&u)]);
+    assert!(err.contains("has no index"), "{err}");
+    let junk = p(&dir, "junk.bag");
+    std::fs::write(&junk, b"hello").unwrap();
+    assert!(fails(&["topics", s(&junk)]).contains("not a ROS 1 bag"));
+}
+
+// ---------------------------------------------------------------- ROS 2 .db3
+
+/// Writes a rosbag2 SQLite file (Humble's schema) with the messages in recording order.
+#[cfg(feature = "db3")]
+fn write_db3(path: &Path, topics: &[Topic<'_>]) {
+    let mut c = rusqlite::Connection::open(path).unwrap();
+    c.execute_batch(
+        "CREATE TABLE schema(schema_version INTEGER PRIMARY KEY, ros_distro TEXT NOT NULL);
+         INSERT INTO schema VALUES (3, 'humble');
+         CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL,
+           serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);
+         CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL,
+           timestamp INTEGER NOT NULL, data BLOB NOT NULL);
+         CREATE INDEX timestamp_idx ON messages (timestamp ASC);",
+    )
+    .unwrap();
+    let tx = c.transaction().unwrap();
+    for (k, t) in topics.iter().enumerate() {
+        tx.execute(
+            "INSERT INTO topics VALUES (?1, ?2, ?3, 'cdr', '')",
+            rusqlite::params![k as i64 + 1, t.name, t.schema],
+        )
+        .unwrap();
+    }
+    let mut events: Vec<(usize, usize)> = Vec::new();
+    for (k, t) in topics.iter().enumerate() {
+        events.extend((0..t.stamps.len()).map(|i| (i, k)));
+    }
+    events.sort();
+    {
+        let mut st = tx
+            .prepare("INSERT INTO messages (topic_id, timestamp, data) VALUES (?1, ?2, ?3)")
+            .unwrap();
+        for (i, k) in events {
+            let t = &topics[k];
+            let data = if t.schema == "sensor_msgs/msg/Imu" {
+                encode_cdr(&sample(&t.stamps, &t.cols, i), "imu_link")
+            } else {
+                vec![0, 1, 0, 0]
+            };
+            st.execute(rusqlite::params![k as i64 + 1, t.stamps[i], data])
+                .unwrap();
+        }
+    }
+    tx.commit().unwrap();
+}
+
+#[cfg(feature = "db3")]
+#[test]
+fn db3_equals_csv_and_bad_files_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let (db, csv) = (p(&dir, "run.db3"), p(&dir, "run.csv"));
+    let t = imu("/imu/data", 10_000, 250.0);
+    write_csv(&csv, &t.cols);
+    write_db3(&db, &[t]);
+    let a = ok(&["avar", s(&db), "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&csv), "--rate", "250", "--format", "json", "-q"]);
+    assert_eq!(a, b, "db3 and CSV give the same AV JSON, byte for byte");
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&db), "--format", "json"])).unwrap();
+    assert_eq!(v[0]["count"], 10_000);
+    assert_eq!(v[0]["rate_hz"], 250.0);
+    let bytes = std::fs::read(&db).unwrap();
+    let trunc = p(&dir, "trunc.db3");
+    std::fs::write(&trunc, &bytes[..bytes.len() / 3]).unwrap();
+    let err = fails(&["avar", s(&trunc)]);
+    assert!(err.contains("corrupt"), "{err}");
+    let junk = p(&dir, "junk.db3");
+    std::fs::write(&junk, b"SQLite? no").unwrap();
+    assert!(fails(&["avar", s(&junk)]).contains("not an SQLite"));
+}
+
+// ---------------------------------------------------------------- PX4 ULog, ArduPilot DataFlash
+
+/// The columns rounded to f32, as these logs store them.
+fn as_f32(cols: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    cols.iter()
+        .map(|c| c.iter().map(|&v| v as f32 as f64).collect())
+        .collect()
+}
+
+fn ulog_msg(ty: u8, body: &[u8]) -> Vec<u8> {
+    let mut v = (body.len() as u16).to_le_bytes().to_vec();
+    v.push(ty);
+    v.extend_from_slice(body);
+    v
+}
+
+/// Writes a ULog with `sensor_combined` (µs stamps) and a `vehicle_status` topic.
+fn write_ulog(path: &Path, stamps_us: &[u64], cols: &[Vec<f64>]) {
+    let mut out = b"ULog\x01\x12\x35\x01".to_vec();
+    out.extend_from_slice(&0u64.to_le_bytes());
+    out.extend(ulog_msg(b'B', &[0u8; 40]));
+    out.extend(ulog_msg(b'F', b"sensor_combined:uint64_t timestamp;float[3] gyro_rad;uint32_t gyro_integral_dt;int32_t accelerometer_timestamp_relative;float[3] accelerometer_m_s2;uint32_t accelerometer_integral_dt;uint8_t accelerometer_clipping;uint8_t[3] _padding0;"));
+    out.extend(ulog_msg(
+        b'F',
+        b"vehicle_status:uint64_t timestamp;uint8_t arming_state;uint8_t[7] _padding0;",
+    ));
+    out.extend(ulog_msg(b'A', b"\x00\x00\x00sensor_combined"));
+    out.extend(ulog_msg(b'A', b"\x00\x01\x00vehicle_status"));
+    for (i, &t) in stamps_us.iter().enumerate() {
+        let mut d = vec![0u8, 0];
+        d.extend_from_slice(&t.to_le_bytes());
+        for c in &cols[..3] {
+            d.extend_from_slice(&(c[i] as f32).to_le_bytes());
+        }
+        d.extend_from_slice(&4000u32.to_le_bytes());
+        d.extend_from_slice(&0i32.to_le_bytes());
+        for c in &cols[3..] {
+            d.extend_from_slice(&(c[i] as f32).to_le_bytes());
+        }
+        d.extend_from_slice(&4000u32.to_le_bytes());
+        d.extend_from_slice(&[0, 0, 0, 0]);
+        out.extend(ulog_msg(b'D', &d));
+        if i % 100 == 0 {
+            let mut s = vec![1u8, 0];
+            s.extend_from_slice(&t.to_le_bytes());
+            s.extend_from_slice(&[2, 0, 0, 0, 0, 0, 0, 0]);
+            out.extend(ulog_msg(b'D', &s));
+        }
+    }
+    std::fs::write(path, out).unwrap();
+}
+
+#[cfg(feature = "ulog")]
+#[test]
+fn ulog_equals_csv_and_bad_files_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ul, csv) = (p(&dir, "px4.ulg"), p(&dir, "px4.csv"));
+    let n = 8000;
+    let cols = as_f32(&simulated(n, 250.0));
+    let st: Vec<u64> = (0..n as u64).map(|i| 5_000_000 + 4000 * i).collect();
+    write_csv(&csv, &cols);
+    write_ulog(&ul, &st, &cols);
+    let a = ok(&["avar", s(&ul), "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&csv), "--rate", "250", "--format", "json", "-q"]);
+    assert_eq!(a, b, "ULog and CSV give the same AV JSON, byte for byte");
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&ul), "--format", "json"])).unwrap();
+    assert_eq!(v[0]["name"], "sensor_combined");
+    assert_eq!(v[0]["count"], 8000);
+    assert_eq!(v[0]["rate_hz"], 250.0);
+    assert_eq!(v[1]["name"], "vehicle_status");
+    assert_eq!(v[1]["count"], 80);
+    let err = fails(&["avar", s(&ul), "--topic", "vehicle_status"]);
+    assert!(
+        err.contains("has type vehicle_status, not sensor_msgs/Imu"),
+        "{err}"
+    );
+    let bytes = std::fs::read(&ul).unwrap();
+    let trunc = p(&dir, "trunc.ulg");
+    std::fs::write(&trunc, &bytes[..bytes.len() - 7]).unwrap();
+    assert!(fails(&["avar", s(&trunc)]).contains("truncated or corrupt ULog"));
+    let junk = p(&dir, "junk.ulg");
+    std::fs::write(&junk, b"not a ulog file at all").unwrap();
+    assert!(fails(&["avar", s(&junk)]).contains("not a PX4 ULog"));
+}
+
+fn df_fmt(ty: u8, len: u8, name: &str, format: &str, labels: &str) -> Vec<u8> {
+    let pad = |s: &str, n: usize| {
+        let mut v = s.as_bytes().to_vec();
+        v.resize(n, 0);
+        v
+    };
+    let mut v = vec![0xA3, 0x95, 0x80, ty, len];
+    v.extend(pad(name, 4));
+    v.extend(pad(format, 16));
+    v.extend(pad(labels, 64));
+    v
+}
+
+/// Writes a DataFlash log with two IMU instances (the second at half the values) and BARO.
+fn write_dataflash(path: &Path, stamps_us: &[u64], cols: &[Vec<f64>]) {
+    let mut out = df_fmt(0x80, 89, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns");
+    out.extend(df_fmt(
+        0x40,
+        36,
+        "IMU",
+        "QBffffff",
+        "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ",
+    ));
+    out.extend(df_fmt(0x41, 16, "BARO", "QBf", "TimeUS,I,Alt"));
+    for (i, &t) in stamps_us.iter().enumerate() {
+        for inst in 0..2u8 {
+            out.extend_from_slice(&[0xA3, 0x95, 0x40]);
+            out.extend_from_slice(&t.to_le_bytes());
+            out.push(inst);
+            for c in cols {
+                let v = if inst == 0 { c[i] } else { c[i] / 2.0 };
+                out.extend_from_slice(&(v as f32).to_le_bytes());
+            }
+        }
+        if i % 40 == 0 {
+            out.extend_from_slice(&[0xA3, 0x95, 0x41]);
+            out.extend_from_slice(&t.to_le_bytes());
+            out.push(0);
+            out.extend_from_slice(&12.5f32.to_le_bytes());
+        }
+    }
+    std::fs::write(path, out).unwrap();
+}
+
+#[cfg(feature = "dataflash")]
+#[test]
+fn dataflash_equals_csv_and_bad_files_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let (df, csv) = (p(&dir, "ap.bin"), p(&dir, "ap.csv"));
+    let n = 8000;
+    let cols = as_f32(&simulated(n, 400.0));
+    let st: Vec<u64> = (0..n as u64).map(|i| 1_000_000 + 2500 * i).collect();
+    write_csv(&csv, &cols);
+    write_dataflash(&df, &st, &cols);
+    // Two IMU instances: --topic is required.
+    let err = fails(&["avar", s(&df)]);
+    assert!(err.contains("has 2 IMU topics; choose one or more with --topic: IMU[0] (IMU, 8000 messages, 400.0 Hz), IMU[1] (IMU, 8000 messages, 400.0 Hz)"), "{err}");
+    let a = ok(&[
+        "avar",
+        s(&df),
+        "--topic",
+        "IMU[0]",
+        "--format",
+        "json",
+        "-q",
+    ]);
+    let b = ok(&["avar", s(&csv), "--rate", "400", "--format", "json", "-q"]);
+    assert_eq!(
+        a, b,
+        "DataFlash and CSV give the same AV JSON, byte for byte"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&df), "--format", "json"])).unwrap();
+    assert_eq!(v[0]["name"], "BARO");
+    assert_eq!(v[0]["count"], 200);
+    // analyze with two topics: one report folder each.
+    let out = p(&dir, "rep");
+    ok(&[
+        "analyze",
+        s(&df),
+        "--topic",
+        "IMU[0]",
+        "--topic",
+        "IMU[1]",
+        "--out",
+        s(&out),
+        "-q",
+        "--no-select",
+        "--model",
+        "WN+RW",
+    ]);
+    for t in ["IMU_0_", "IMU_1_"] {
+        let r: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join(t).join("results.json")).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(r["rate_hz"], 400.0);
+    }
+    let bytes = std::fs::read(&df).unwrap();
+    let trunc = p(&dir, "trunc.bin");
+    std::fs::write(&trunc, &bytes[..bytes.len() - 5]).unwrap();
+    assert!(fails(&["avar", s(&trunc), "--topic", "IMU[0]"]).contains("cut short"));
+    let mut bad = bytes.clone();
+    let at = 89 * 3 + 2 * 36 + 16; // the header of the second time step's first IMU message
+    bad[at] = 0;
+    let corrupt = p(&dir, "corrupt.bin");
+    std::fs::write(&corrupt, &bad).unwrap();
+    let err = fails(&["avar", s(&corrupt), "--topic", "IMU[0]"]);
+    assert!(err.contains("expected a message header (A3 95)"), "{err}");
+}
+
+#[test]
+fn csv_time_column_gives_the_rate_and_the_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let cols = simulated(6000, 100.0);
+    let st = stamps(6000, 100.0);
+    // Time in seconds since start, with 3 rows swapped in recording order and one gap.
+    let mut rows: Vec<usize> = (0..6000).collect();
+    rows.swap(10, 11);
+    rows.swap(20, 21);
+    rows.swap(30, 31);
+    let mut s1 = String::from("t,gyro_x_rads,acc_x_mps2\n");
+    for &i in &rows {
+        let t = (st[i] - st[0]) as f64 * 1e-9;
+        s1.push_str(&format!("{t:?},{:?},{:?}\n", cols[0][i], cols[3][i]));
+    }
+    let timed = p(&dir, "timed.csv");
+    std::fs::write(&timed, &s1).unwrap();
+    let mut s2 = String::from("gyro_x_rads,acc_x_mps2\n");
+    for (g, a) in cols[0].iter().zip(&cols[3]) {
+        s2.push_str(&format!("{g:?},{a:?}\n"));
+    }
+    let plain = p(&dir, "plain.csv");
+    std::fs::write(&plain, &s2).unwrap();
+    let a = ok(&[
+        "avar",
+        s(&timed),
+        "--time-column",
+        "t",
+        "--format",
+        "json",
+        "-q",
+    ]);
+    let b = ok(&["avar", s(&plain), "--rate", "100", "--format", "json", "-q"]);
+    assert_eq!(a, b, "sorted by stamp, rate from the time column");
+    // The same with --columns and the time column given by index, in milliseconds.
+    let mut s3 = String::from("t_ms,gyro_x_rads,acc_x_mps2\n");
+    for &i in &rows {
+        s3.push_str(&format!(
+            "{},{:?},{:?}\n",
+            (st[i] - st[0]) / 1_000_000,
+            cols[0][i],
+            cols[3][i]
+        ));
+    }
+    let ms = p(&dir, "ms.csv");
+    std::fs::write(&ms, &s3).unwrap();
+    let c = ok(&[
+        "avar",
+        s(&ms),
+        "--time-column",
+        "1",
+        "--time-unit",
+        "ms",
+        "--columns",
+        "gyro_x_rads,acc_x_mps2",
+        "--format",
+        "json",
+        "-q",
+    ]);
+    assert_eq!(a, c);
+    let err = fails(&[
+        "avar",
+        s(&ms),
+        "--time-column",
+        "1",
+        "--time-unit",
+        "ms",
+        "--rate",
+        "50",
+    ]);
+    assert!(err.contains("--rate 50 Hz disagrees"), "{err}");
+}
