@@ -300,7 +300,14 @@ pub fn read_table(path: &Path, opts: &ReadOptions) -> Result<Table> {
 /// assert!(e.to_string().starts_with("mem.csv:3:1:"));
 /// ```
 pub fn read_bytes(bytes: &[u8], file: &str, opts: &ReadOptions) -> Result<Table> {
-    let bytes = gunzip(bytes, file)?;
+    // Raw binary samples can begin with the gzip magic bytes by chance (f64 1.19e117 does):
+    // binary input not named *.gz is read raw when it does not decompress.
+    let bytes = match gunzip(bytes, file) {
+        Err(_) if opts.binary.is_some() && !file.ends_with(".gz") => {
+            std::borrow::Cow::Borrowed(bytes)
+        }
+        r => r?,
+    };
     let file = file.to_string();
     let mut table = match opts.binary {
         Some(kind) => parse_binary(&bytes, &file, kind, opts.channels.unwrap_or(1))?,

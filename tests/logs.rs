@@ -936,3 +936,128 @@ fn csv_time_column_gives_the_rate_and_the_order() {
     ]);
     assert!(err.contains("--rate 50 Hz disagrees"), "{err}");
 }
+
+/// Property tests of every log reader (run by `cargo xtask fuzz` too, filter `fuzz_`): a valid
+/// fixture of each format with random byte flips and a random truncation, or arbitrary bytes
+/// behind the format's magic, never makes a reader panic; listing the topics and reading each
+/// one either works (finite values, one stamp per sample) or gives a user error (exit code 2).
+#[cfg(all(
+    feature = "rosbag",
+    feature = "db3",
+    feature = "ulog",
+    feature = "dataflash"
+))]
+mod fuzz {
+    use super::*;
+    use imunoise::logs::{LogFormat, open};
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, RngSeed};
+    use std::sync::OnceLock;
+
+    fn config() -> Config {
+        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<u64>().ok());
+        Config {
+            cases: env("IMUNOISE_FUZZ_CASES").map_or(64, |c| c as u32),
+            rng_seed: RngSeed::Fixed(env("IMUNOISE_FUZZ_SEED").unwrap_or(0x106_2026)),
+            failure_persistence: None,
+            ..Config::default()
+        }
+    }
+
+    const FORMATS: [(LogFormat, &str); 5] = [
+        (LogFormat::Mcap, "mcap"),
+        (LogFormat::Bag, "bag"),
+        (LogFormat::Db3, "db3"),
+        (LogFormat::Ulog, "ulg"),
+        (LogFormat::Dataflash, "bin"),
+    ];
+
+    /// One valid fixture per format (200 samples at 100 Hz), written once.
+    fn fixtures() -> &'static Vec<Vec<u8>> {
+        static F: OnceLock<Vec<Vec<u8>>> = OnceLock::new();
+        F.get_or_init(|| {
+            let dir = tempfile::tempdir().unwrap();
+            let n = 200;
+            let cols = simulated(n, 100.0);
+            let us: Vec<u64> = (0..n as u64).map(|i| 1_000_000 + i * 10_000).collect();
+            FORMATS
+                .iter()
+                .map(|(f, ext)| {
+                    let path = dir.path().join(format!("f.{ext}"));
+                    match f {
+                        LogFormat::Mcap => write_mcap(&path, &[imu("/imu0", n, 100.0)]),
+                        LogFormat::Bag => write_bag(&path, &[imu("/imu0", n, 100.0)]),
+                        LogFormat::Db3 => write_db3(&path, &[imu("/imu0", n, 100.0)]),
+                        LogFormat::Ulog => write_ulog(&path, &us, &cols),
+                        LogFormat::Dataflash => write_dataflash(&path, &us, &cols),
+                    }
+                    std::fs::read(&path).unwrap()
+                })
+                .collect()
+        })
+    }
+
+    /// Opens `bytes` as `format` and reads every topic; panics only on a broken property.
+    fn read_all(format: LogFormat, ext: &str, bytes: &[u8]) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(format!("x.{ext}"));
+        std::fs::write(&path, bytes).unwrap();
+        let user = |e: imunoise::Error| assert_eq!(e.exit_code(), 2, "{format:?}: {e}");
+        let r = match open(&path, format) {
+            Ok(r) => r,
+            Err(e) => return user(e),
+        };
+        let topics = match r.topics() {
+            Ok(t) => t,
+            Err(e) => return user(e),
+        };
+        for t in topics {
+            match r.read_imu(&t.name) {
+                Ok(s) => {
+                    assert_eq!(s.stamps_ns.len(), s.columns[0].len());
+                    assert!(s.columns.iter().all(|c| c.iter().all(|v| v.is_finite())));
+                }
+                Err(e) => user(e),
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(config())]
+
+        #[test]
+        fn fuzz_log_readers_corrupted_fixtures(
+            which in 0usize..5,
+            flips in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 0..6),
+            cut in any::<prop::sample::Index>(),
+        ) {
+            let (format, ext) = FORMATS[which];
+            let mut b = fixtures()[which].clone();
+            for (i, x) in &flips {
+                let at = i.index(b.len());
+                b[at] ^= x | 1;
+            }
+            let keep = b.len() / 2 + cut.index(b.len() / 2 + 1);
+            b.truncate(keep);
+            read_all(format, ext, &b);
+        }
+
+        #[test]
+        fn fuzz_log_readers_arbitrary_bytes_after_the_magic(
+            which in 0usize..5,
+            tail in prop::collection::vec(any::<u8>(), 0..400),
+        ) {
+            let (format, ext) = FORMATS[which];
+            let magic: &[u8] = match format {
+                LogFormat::Mcap => b"\x89MCAP0\r\n",
+                LogFormat::Bag => b"#ROSBAG V2.0\n",
+                LogFormat::Db3 => b"SQLite format 3\0",
+                LogFormat::Ulog => b"ULog\x01\x12\x35\x01",
+                LogFormat::Dataflash => b"\xa3\x95\x80",
+            };
+            let mut b = magic.to_vec();
+            b.extend_from_slice(&tail);
+            read_all(format, ext, &b);
+        }
+    }
+}

@@ -440,17 +440,23 @@ proptest! {
 proptest! {
     #![proptest_config(config(24))]
 
-    /// Theory = estimate in expectation: for a simulated WN + RW (+ AR1) model the theoretical
-    /// AV lies inside the chi-square interval at level 1 − 10⁻⁶ at every scale with m ≤ T/64
-    /// (a nominal failure rate of 10⁻⁶ per scale).
+    /// Theory = estimate in expectation: for a simulated WN + RW (+ AR1) model, the mean of the
+    /// AV estimates of R = 8 independent replicates lies within 7 standard errors of the
+    /// theoretical AV at every dyadic scale with m ≤ T/64, the standard error from the exact
+    /// variance of the estimator under the model (`model_covariance`) over √R. The mean of 8
+    /// estimates with ≥ 64 clusters is close to normal (skewness < 0.1), so a false alarm has
+    /// probability of order 1e-11 per scale: none in a long fuzz run. (A first version tested
+    /// the chi-square interval at level 1 − 10⁻⁶ per case; `cargo xtask fuzz` showed that with
+    /// millions of cases such misses are expected, about 1 per 10⁶ scales, as they should be.)
     #[test]
-    fn theory_inside_the_interval_for_simulated_models(
+    fn theory_is_the_estimate_in_expectation_for_simulated_models(
         seed in any::<u64>(),
         wn in 1e-6f64..1e-2,
         rw_ratio in 0.0f64..1e-3,
         ar in prop::option::of((0.5f64..0.99, 0.01f64..1.0)),
         log2_t in 12u32..16,
     ) {
+        const R: u64 = 8;
         let t = 1usize << log2_t;
         let mut text = format!("WN(sigma2={wn:e})");
         if rw_ratio > 0.0 {
@@ -460,14 +466,40 @@ proptest! {
             text.push_str(&format!(" + AR1(phi={phi}, sigma2={:e})", wn * s));
         }
         let model: imunoise::processes::Model = text.parse().unwrap();
-        let x = model.simulate(t, 100.0, seed).unwrap();
         let ms: Vec<u64> = (1..).map(|j| 1u64 << j).take_while(|&m| m <= (t / 64) as u64).collect();
-        let cfg = AvarConfig { scales: Scales::Explicit(ms.clone()), alpha: 1e-6, ..AvarConfig::default() };
-        let est = avar::allan_variance(x.values(), 100.0, &cfg).unwrap();
+        let cfg = AvarConfig { scales: Scales::Explicit(ms.clone()), ci: CiMethod::None, ..AvarConfig::default() };
+        let mut mean = vec![0.0; ms.len()];
+        for r in 0..R {
+            let x = model.simulate_stream(t, 100.0, seed, r).unwrap();
+            let est = avar::allan_variance(x.values(), 100.0, &cfg).unwrap();
+            for (a, p) in mean.iter_mut().zip(&est.points) {
+                *a += p.avar / R as f64;
+            }
+        }
         let th = imunoise::gmwm_prep::theory::model_avar(&model, &ms, 100.0).unwrap();
-        for (p, v) in est.points.iter().zip(&th) {
-            let (lo, hi) = (p.avar_lo.unwrap(), p.avar_hi.unwrap());
-            prop_assert!(lo <= *v && *v <= hi, "{text}, T={t}, m={}: theory {v:e} outside [{lo:e}, {hi:e}]", p.m);
+        let cov = imunoise::gmwm_prep::inference::model_covariance(&model, &ms, 100.0, t as u64).unwrap();
+        for (j, (a, v)) in mean.iter().zip(&th).enumerate() {
+            let se = (cov.get(j, j) / R as f64).sqrt();
+            prop_assert!((a - v).abs() <= 7.0 * se, "{text}, T={t}, m={}: mean {a:e} vs theory {v:e} (SE {se:e})", ms[j]);
         }
     }
+}
+
+/// Found by `cargo xtask fuzz`: raw f64 samples whose first bytes are the gzip magic (1f 8b, e.g.
+/// 1.1930572105140361e117) were taken for gzip and refused. Binary input not named *.gz that
+/// does not decompress is read raw.
+#[test]
+fn raw_binary_that_starts_like_gzip_is_read_raw() {
+    let vals: [f64; 2] = [1.1930572105140361e117, 0.0];
+    let bytes: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
+    assert_eq!(&bytes[..2], &[0x1f, 0x8b]);
+    let opts = ReadOptions {
+        binary: Some(BinaryType::F64),
+        channels: Some(1),
+        ..Default::default()
+    };
+    let t = read_bytes(&bytes, "rt.f64", &opts).unwrap();
+    assert_eq!(t.columns[0], vals);
+    // named .gz, it must be gzip
+    assert!(read_bytes(&bytes, "rt.f64.gz", &opts).is_err());
 }

@@ -1,6 +1,7 @@
 //! `cargo xtask fuzz --minutes N [--cases C] [--seed S]`: runs the property suites of
-//! `tests/props.rs` (every parser, the estimators' invariants) with fresh seeds for N minutes and
-//! reports the cases tried and the failures per property.
+//! `tests/props.rs` (every parser, the estimators' invariants) and the `fuzz_` properties of
+//! `tests/logs.rs` (every log reader) with fresh seeds for N minutes and reports the cases tried
+//! and the failures per property.
 //!
 //! The suite is built once in release mode; each round runs every property with C cases
 //! (`IMUNOISE_FUZZ_CASES`) at seed S + round (`IMUNOISE_FUZZ_SEED`). A failing round's output
@@ -23,7 +24,11 @@ pub fn run(rest: &[String]) -> Result<(), String> {
         .parent()
         .ok_or("no workspace root")?
         .to_path_buf();
-    let exe = build(&root)?;
+    // (test executable, name filter)
+    let suites = [
+        (build(&root, "props")?, None),
+        (build(&root, "logs")?, Some("fuzz_")),
+    ];
     let out_dir = root.join("target/fuzz");
     std::fs::create_dir_all(&out_dir).map_err(|e| e.to_string())?;
     let t0 = Instant::now();
@@ -33,10 +38,15 @@ pub fn run(rest: &[String]) -> Result<(), String> {
     let mut failures = Vec::new();
     while t0.elapsed().as_secs_f64() < minutes * 60.0 {
         let seed = seed0 + rounds;
-        let out = Command::new(&exe)
-            .env("IMUNOISE_FUZZ_CASES", cases.to_string())
+        let (exe, filter) = &suites[rounds as usize % suites.len()];
+        let mut cmd = Command::new(exe);
+        cmd.env("IMUNOISE_FUZZ_CASES", cases.to_string())
             .env("IMUNOISE_FUZZ_SEED", seed.to_string())
-            .args(["--test-threads", "2"])
+            .args(["--test-threads", "2"]);
+        if let Some(f) = filter {
+            cmd.arg(f);
+        }
+        let out = cmd
             .output()
             .map_err(|e| format!("running {}: {e}", exe.display()))?;
         let text = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -74,7 +84,7 @@ pub fn run(rest: &[String]) -> Result<(), String> {
         );
     }
     let mut report = format!(
-        "# cargo xtask fuzz: {rounds} rounds of {cases} cases per property in {:.1} min (seeds {seed0}..{})\n\n| property | cases | failed rounds |\n|---|---|---|\n",
+        "# cargo xtask fuzz: {rounds} rounds (alternating tests/props.rs and the fuzz_ properties of tests/logs.rs) of {cases} cases per property in {:.1} min (seeds {seed0}..{})\n\n| property | cases | failed rounds |\n|---|---|---|\n",
         t0.elapsed().as_secs_f64() / 60.0,
         seed0 + rounds
     );
@@ -98,8 +108,8 @@ pub fn run(rest: &[String]) -> Result<(), String> {
     Ok(())
 }
 
-/// Builds the property suite in release mode and returns its executable.
-fn build(root: &PathBuf) -> Result<PathBuf, String> {
+/// Builds the test target `target` in release mode and returns its executable.
+fn build(root: &PathBuf, target: &str) -> Result<PathBuf, String> {
     let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(root)
         .args([
@@ -108,7 +118,7 @@ fn build(root: &PathBuf) -> Result<PathBuf, String> {
             "-p",
             "imunoise",
             "--test",
-            "props",
+            target,
             "--no-run",
             "--message-format=json",
         ])
@@ -116,14 +126,14 @@ fn build(root: &PathBuf) -> Result<PathBuf, String> {
         .map_err(|e| format!("cargo: {e}"))?;
     if !out.status.success() {
         return Err(format!(
-            "building the property suite failed:\n{}",
+            "building tests/{target}.rs failed:\n{}",
             String::from_utf8_lossy(&out.stderr)
         ));
     }
     String::from_utf8_lossy(&out.stdout)
         .lines()
         .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-        .filter(|v| v["target"]["name"] == "props")
+        .filter(|v| v["target"]["name"] == target)
         .find_map(|v| v["executable"].as_str().map(PathBuf::from))
-        .ok_or_else(|| "no executable for tests/props.rs in cargo's output".to_string())
+        .ok_or_else(|| format!("no executable for tests/{target}.rs in cargo's output"))
 }
