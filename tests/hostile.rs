@@ -131,15 +131,19 @@ fn huge_and_tiny_magnitudes_give_exactly_scaled_results() {
 fn a_directory_or_a_device_as_input_is_named_in_plain_words() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().to_str().unwrap();
+    // a folder is read as a ROS 2 bag folder when it holds one .mcap or .db3 file
     let err = fails_with(&imunoise(&["avar", d, "--rate", "100"]), 2);
-    assert!(err.contains("is a directory, not a log file"), "{err}");
+    assert!(
+        err.contains("is a folder without a .mcap or .db3 file"),
+        "{err}"
+    );
     assert!(!err.contains("os error"), "{err}");
     if Path::new("/dev/null").exists() {
         let err = fails_with(&imunoise(&["avar", "/dev/null", "--rate", "100"]), 2);
         assert!(err.contains("/dev/null: is a device"), "{err}");
     }
     let err = fails_with(&imunoise(&["fit", d, "--rate", "100"]), 2);
-    assert!(err.contains("is a directory"), "{err}");
+    assert!(err.contains("is a folder"), "{err}");
     let missing = dir.path().join("missing.csv");
     let err = fails_with(
         &imunoise(&["avar", missing.to_str().unwrap(), "--rate", "1"]),

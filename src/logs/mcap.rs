@@ -13,6 +13,80 @@ use std::path::Path;
 pub struct McapReader {
     file: String,
     map: memmap2::Mmap,
+    /// File offsets of the chunks checked by [`check_records`].
+    chunks: std::collections::BTreeSet<u64>,
+}
+
+/// Walks the records of the data section (opcode, u64 length, body) before the `mcap` crate
+/// reads them: every length must fit in what remains, and every chunk must claim a plausible
+/// uncompressed size (at most 1024 times its compressed size plus 64 MiB, and at most 16 GiB),
+/// with the records of an uncompressed chunk fitting in it too. The crate reserves the sizes a
+/// file claims before checking them, so a corrupt length would otherwise abort the process on
+/// a failed allocation (found by `cargo xtask fuzz`). Returns the chunks' offsets.
+fn check_records(map: &[u8]) -> std::result::Result<std::collections::BTreeSet<u64>, String> {
+    let u64_at = |b: &[u8], at: usize| -> Option<u64> {
+        b.get(at..at + 8)
+            .map(|s| u64::from_le_bytes(s.try_into().unwrap_or([0; 8])))
+    };
+    let walk = |b: &[u8]| -> std::result::Result<Vec<(u8, usize, usize)>, String> {
+        // (opcode, body start, body length)
+        let mut out = Vec::new();
+        let mut at = 0usize;
+        while at < b.len() {
+            let op = b[at];
+            let len = u64_at(b, at + 1).ok_or("a record header runs past the end")?;
+            let start = at + 9;
+            if len > (b.len() - start.min(b.len())) as u64 {
+                return Err(format!(
+                    "a record at byte {at} claims {len} bytes, more than the {} that remain",
+                    b.len().saturating_sub(start)
+                ));
+            }
+            out.push((op, start, len as usize));
+            at = start + len as usize;
+            if op == 0x0F {
+                break; // data end: the summary follows
+            }
+        }
+        Ok(out)
+    };
+    let body = &map[8..];
+    let mut chunks = std::collections::BTreeSet::new();
+    for (op, start, len) in walk(body)? {
+        if op != 0x06 {
+            continue;
+        }
+        let c = &body[start..start + len];
+        let uncompressed = u64_at(c, 16).ok_or("a chunk header is cut short")?;
+        let clen = c
+            .get(28..32)
+            .map(|s| u32::from_le_bytes(s.try_into().unwrap_or([0; 4])) as usize)
+            .ok_or("a chunk header is cut short")?;
+        let compression = c.get(32..32 + clen).ok_or("a chunk header is cut short")?;
+        let compressed = u64_at(c, 32 + clen).ok_or("a chunk header is cut short")?;
+        let records = c.get(40 + clen..).unwrap_or(&[]);
+        if compressed != records.len() as u64 {
+            return Err(format!(
+                "a chunk claims {compressed} bytes of records but holds {}",
+                records.len()
+            ));
+        }
+        if uncompressed > compressed.saturating_mul(1024).saturating_add(1 << 26)
+            || uncompressed > 1 << 34
+        {
+            return Err(format!(
+                "a chunk claims {uncompressed} bytes uncompressed from {compressed} compressed"
+            ));
+        }
+        if compression.is_empty() {
+            if uncompressed != compressed {
+                return Err("an uncompressed chunk's sizes differ".to_string());
+            }
+            walk(records)?;
+        }
+        chunks.insert((8 + start - 9) as u64);
+    }
+    Ok(chunks)
 }
 
 type Decoder = fn(&[u8]) -> std::result::Result<ImuSample, String>;
@@ -39,7 +113,11 @@ impl McapReader {
                 message: "not an MCAP file (no MCAP magic at its start)".to_string(),
             });
         }
-        Ok(McapReader { file, map })
+        let chunks = check_records(&map).map_err(|e| Error::File {
+            file: file.clone(),
+            message: format!("truncated or corrupt MCAP file: {e}"),
+        })?;
+        Ok(McapReader { file, map, chunks })
     }
 
     fn corrupt(&self, after: u64, e: impl std::fmt::Display) -> Error {
@@ -92,7 +170,13 @@ impl McapReader {
         let Ok(Some(summary)) = mcap::Summary::read(&self.map) else {
             return Ok(None);
         };
-        if summary.chunk_indexes.is_empty() {
+        // an index that points anywhere but at a checked chunk is not used (streamed instead)
+        if summary.chunk_indexes.is_empty()
+            || summary
+                .chunk_indexes
+                .iter()
+                .any(|c| !self.chunks.contains(&c.chunk_start_offset))
+        {
             return Ok(None);
         }
         let decoders: BTreeMap<u16, Decoder> = summary
