@@ -15,6 +15,76 @@ pub struct McapReader {
     map: memmap2::Mmap,
     /// File offsets of the chunks checked by [`check_records`].
     chunks: std::collections::BTreeSet<u64>,
+    /// The largest record or uncompressed chunk in the file (bytes): the record length limit
+    /// of [`BoundedStream`].
+    limit: usize,
+}
+
+/// The messages of a mapped MCAP file, in file order, like `mcap::read::RawMessageStream` but
+/// read through the crate's sans-io reader with a record length limit: a length read from a
+/// corrupt (compressed) chunk larger than any record the file can hold is an error, not an
+/// attempt to reserve it (found by `cargo xtask fuzz`: 3.6·10¹⁷ bytes, an abort).
+struct BoundedStream<'a> {
+    buf: &'a [u8],
+    reader: mcap::sans_io::LinearReader,
+    channels: mcap::read::ChannelAccumulator<'static>,
+}
+
+impl<'a> BoundedStream<'a> {
+    fn new(buf: &'a [u8], limit: usize) -> Self {
+        BoundedStream {
+            buf,
+            reader: mcap::sans_io::LinearReader::new_with_options(
+                mcap::sans_io::LinearReaderOptions::default()
+                    .with_record_length_limit(limit)
+                    .with_skip_end_magic(true),
+            ),
+            channels: mcap::read::ChannelAccumulator::default(),
+        }
+    }
+
+    /// Calls `f(header, data, channels)` for each message up to the data end record; returns
+    /// the number of messages, or the crate's error with the count read before it.
+    fn for_each(
+        &mut self,
+        mut f: impl FnMut(
+            &mcap::records::MessageHeader,
+            &[u8],
+            &mcap::read::ChannelAccumulator<'static>,
+        ) -> Result<()>,
+    ) -> std::result::Result<u64, (u64, String)> {
+        use mcap::records::Record;
+        let mut n = 0u64;
+        while let Some(event) = self.reader.next_event() {
+            match event.map_err(|e| (n, e.to_string()))? {
+                mcap::sans_io::LinearReadEvent::ReadRequest(need) => {
+                    let len = need.min(self.buf.len());
+                    self.reader.insert(len).copy_from_slice(&self.buf[..len]);
+                    self.reader.notify_read(len);
+                    self.buf = &self.buf[len..];
+                }
+                mcap::sans_io::LinearReadEvent::Record { data, opcode } => {
+                    match mcap::parse_record(opcode, data).map_err(|e| (n, e.to_string()))? {
+                        Record::Schema { header, data } => self
+                            .channels
+                            .add_schema(header, std::borrow::Cow::Owned(data.into_owned()))
+                            .map_err(|e| (n, e.to_string()))?,
+                        Record::Channel(c) => self
+                            .channels
+                            .add_channel(c)
+                            .map_err(|e| (n, e.to_string()))?,
+                        Record::Message { header, data } => {
+                            f(&header, &data, &self.channels).map_err(|e| (n, e.to_string()))?;
+                            n += 1;
+                        }
+                        Record::DataEnd(_) => break,
+                        _ => {}
+                    }
+                }
+            }
+        }
+        Ok(n)
+    }
 }
 
 /// Walks the records of the data section (opcode, u64 length, body) before the `mcap` crate
@@ -23,7 +93,9 @@ pub struct McapReader {
 /// with the records of an uncompressed chunk fitting in it too. The crate reserves the sizes a
 /// file claims before checking them, so a corrupt length would otherwise abort the process on
 /// a failed allocation (found by `cargo xtask fuzz`). Returns the chunks' offsets.
-fn check_records(map: &[u8]) -> std::result::Result<std::collections::BTreeSet<u64>, String> {
+fn check_records(
+    map: &[u8],
+) -> std::result::Result<(std::collections::BTreeSet<u64>, usize), String> {
     let u64_at = |b: &[u8], at: usize| -> Option<u64> {
         b.get(at..at + 8)
             .map(|s| u64::from_le_bytes(s.try_into().unwrap_or([0; 8])))
@@ -52,7 +124,9 @@ fn check_records(map: &[u8]) -> std::result::Result<std::collections::BTreeSet<u
     };
     let body = &map[8..];
     let mut chunks = std::collections::BTreeSet::new();
+    let mut limit = 1usize << 16;
     for (op, start, len) in walk(body)? {
+        limit = limit.max(len);
         if op != 0x06 {
             continue;
         }
@@ -85,8 +159,9 @@ fn check_records(map: &[u8]) -> std::result::Result<std::collections::BTreeSet<u
             walk(records)?;
         }
         chunks.insert((8 + start - 9) as u64);
+        limit = limit.max(uncompressed as usize);
     }
-    Ok(chunks)
+    Ok((chunks, limit))
 }
 
 type Decoder = fn(&[u8]) -> std::result::Result<ImuSample, String>;
@@ -113,11 +188,16 @@ impl McapReader {
                 message: "not an MCAP file (no MCAP magic at its start)".to_string(),
             });
         }
-        let chunks = check_records(&map).map_err(|e| Error::File {
+        let (chunks, limit) = check_records(&map).map_err(|e| Error::File {
             file: file.clone(),
             message: format!("truncated or corrupt MCAP file: {e}"),
         })?;
-        Ok(McapReader { file, map, chunks })
+        Ok(McapReader {
+            file,
+            map,
+            chunks,
+            limit,
+        })
     }
 
     fn corrupt(&self, after: u64, e: impl std::fmt::Display) -> Error {
@@ -129,16 +209,17 @@ impl McapReader {
 
     /// Topics by a full pass over the messages (when the file has no usable summary).
     fn scan_topics(&self) -> Result<Vec<TopicInfo>> {
-        let mut stream =
-            mcap::read::RawMessageStream::new(&self.map).map_err(|e| self.corrupt(0, e))?;
+        let mut stream = BoundedStream::new(&self.map, self.limit);
         let mut counts: BTreeMap<u16, u64> = BTreeMap::new();
-        for (n, m) in stream.by_ref().enumerate() {
-            let m = m.map_err(|e| self.corrupt(n as u64, e))?;
-            *counts.entry(m.header.channel_id).or_default() += 1;
-        }
+        stream
+            .for_each(|h, _, _| {
+                *counts.entry(h.channel_id).or_default() += 1;
+                Ok(())
+            })
+            .map_err(|(n, e)| self.corrupt(n, e))?;
         let mut by_topic: BTreeMap<String, TopicInfo> = BTreeMap::new();
         for (id, count) in counts {
-            let Some(ch) = stream.get_channel(id) else {
+            let Some(ch) = stream.channels.get(id) else {
                 continue;
             };
             add(&mut by_topic, &ch, count);
@@ -206,22 +287,45 @@ impl McapReader {
             .par_iter()
             .map(|ci| {
                 let mut out = ImuSeries::with_capacity(0);
-                let stream = summary
-                    .stream_chunk(&self.map, ci)
-                    .map_err(|e| self.corrupt(0, e))?;
-                for m in stream {
-                    let m = m.map_err(|e| self.corrupt(0, e))?;
-                    if let Some(d) = decoders.get(&m.channel.id) {
-                        let s = d(&m.data).map_err(|why| Error::File {
-                            file: self.file.clone(),
-                            message: format!(
-                                "the message on {topic} logged at {} ns is not a valid sensor_msgs/Imu: {why}",
-                                m.log_time
-                            ),
-                        })?;
-                        out.push(&s);
+                // the chunk record alone, read with the record length limit (see BoundedStream)
+                let start = ci.chunk_start_offset as usize;
+                let end = start.saturating_add(ci.chunk_length as usize);
+                let rec = self
+                    .map
+                    .get(start..end)
+                    .ok_or_else(|| self.corrupt(0, "a chunk index points past the end"))?;
+                let mut stream = BoundedStream::new(rec, self.limit);
+                stream.reader = mcap::sans_io::LinearReader::new_with_options(
+                    mcap::sans_io::LinearReaderOptions::default()
+                        .with_record_length_limit(self.limit)
+                        .with_skip_start_magic(true)
+                        .with_skip_end_magic(true),
+                );
+                let mut bad: Option<Error> = None;
+                let r = stream.for_each(|h, data, _| {
+                    if let Some(d) = decoders.get(&h.channel_id) {
+                        match d(data) {
+                            Ok(s) => out.push(&s),
+                            Err(why) => {
+                                let e = Error::File {
+                                    file: self.file.clone(),
+                                    message: format!(
+                                        "the message on {topic} logged at {} ns is not a valid sensor_msgs/Imu: {why}",
+                                        h.log_time
+                                    ),
+                                };
+                                let msg = e.to_string();
+                                bad = Some(e);
+                                return Err(Error::Usage(msg));
+                            }
+                        }
                     }
+                    Ok(())
+                });
+                if let Some(e) = bad {
+                    return Err(e);
                 }
+                r.map_err(|(n, e)| self.corrupt(n, e))?;
                 Ok(out)
             })
             .collect();
@@ -282,19 +386,16 @@ impl LogReader for McapReader {
             })
             .unwrap_or(0);
         let mut out = ImuSeries::with_capacity(hint.min(1 << 28) as usize);
-        let mut stream =
-            mcap::read::RawMessageStream::new(&self.map).map_err(|e| self.corrupt(0, e))?;
+        let mut stream = BoundedStream::new(&self.map, self.limit);
         // Per channel id: None = not looked up yet, Some(None) = not this topic.
         let mut dec: Vec<Option<Option<Decoder>>> = vec![None; 1 << 16];
-        let mut n = 0u64;
-        while let Some(m) = stream.next() {
-            let m = m.map_err(|e| self.corrupt(n, e))?;
-            n += 1;
-            let id = m.header.channel_id as usize;
+        let mut bad: Option<Error> = None;
+        let r = stream.for_each(|h, data, channels| {
+            let id = h.channel_id as usize;
             let d = match dec[id] {
                 Some(d) => d,
                 None => {
-                    let d = stream.get_channel(m.header.channel_id).and_then(|ch| {
+                    let d = channels.get(h.channel_id).and_then(|ch| {
                         if ch.topic == topic {
                             decoder(
                                 ch.schema.as_ref().map(|s| s.name.as_str()),
@@ -309,16 +410,28 @@ impl LogReader for McapReader {
                 }
             };
             if let Some(d) = d {
-                let s = d(&m.data).map_err(|why| Error::File {
-                    file: self.file.clone(),
-                    message: format!(
-                        "message {} on {topic} is not a valid sensor_msgs/Imu: {why}",
-                        out.stamps_ns.len() + 1
-                    ),
-                })?;
-                out.push(&s);
+                match d(data) {
+                    Ok(s) => out.push(&s),
+                    Err(why) => {
+                        let e = Error::File {
+                            file: self.file.clone(),
+                            message: format!(
+                                "message {} on {topic} is not a valid sensor_msgs/Imu: {why}",
+                                out.stamps_ns.len() + 1
+                            ),
+                        };
+                        let msg = e.to_string();
+                        bad = Some(e);
+                        return Err(Error::Usage(msg));
+                    }
+                }
             }
+            Ok(())
+        });
+        if let Some(e) = bad {
+            return Err(e);
         }
+        r.map_err(|(n, e)| self.corrupt(n, e))?;
         out.check_finite(&format!("{} ({topic})", self.file))?;
         Ok(out)
     }
