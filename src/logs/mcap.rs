@@ -20,6 +20,14 @@ pub struct McapReader {
     limit: usize,
 }
 
+/// Why [`BoundedStream::for_each`] stopped early.
+enum Stop {
+    /// The crate's error, after this many messages.
+    Corrupt(u64, String),
+    /// The callback's error (a message that does not decode).
+    Message(Error),
+}
+
 /// The messages of a mapped MCAP file, in file order, like `mcap::read::RawMessageStream` but
 /// read through the crate's sans-io reader with a record length limit: a length read from a
 /// corrupt (compressed) chunk larger than any record the file can hold is an error, not an
@@ -44,7 +52,7 @@ impl<'a> BoundedStream<'a> {
     }
 
     /// Calls `f(header, data, channels)` for each message up to the data end record; returns
-    /// the number of messages, or the crate's error with the count read before it.
+    /// the number of messages, or why it stopped.
     fn for_each(
         &mut self,
         mut f: impl FnMut(
@@ -52,11 +60,11 @@ impl<'a> BoundedStream<'a> {
             &[u8],
             &mcap::read::ChannelAccumulator<'static>,
         ) -> Result<()>,
-    ) -> std::result::Result<u64, (u64, String)> {
+    ) -> std::result::Result<u64, Stop> {
         use mcap::records::Record;
         let mut n = 0u64;
         while let Some(event) = self.reader.next_event() {
-            match event.map_err(|e| (n, e.to_string()))? {
+            match event.map_err(|e| Stop::Corrupt(n, e.to_string()))? {
                 mcap::sans_io::LinearReadEvent::ReadRequest(need) => {
                     let len = need.min(self.buf.len());
                     self.reader.insert(len).copy_from_slice(&self.buf[..len]);
@@ -64,17 +72,19 @@ impl<'a> BoundedStream<'a> {
                     self.buf = &self.buf[len..];
                 }
                 mcap::sans_io::LinearReadEvent::Record { data, opcode } => {
-                    match mcap::parse_record(opcode, data).map_err(|e| (n, e.to_string()))? {
+                    match mcap::parse_record(opcode, data)
+                        .map_err(|e| Stop::Corrupt(n, e.to_string()))?
+                    {
                         Record::Schema { header, data } => self
                             .channels
                             .add_schema(header, std::borrow::Cow::Owned(data.into_owned()))
-                            .map_err(|e| (n, e.to_string()))?,
+                            .map_err(|e| Stop::Corrupt(n, e.to_string()))?,
                         Record::Channel(c) => self
                             .channels
                             .add_channel(c)
-                            .map_err(|e| (n, e.to_string()))?,
+                            .map_err(|e| Stop::Corrupt(n, e.to_string()))?,
                         Record::Message { header, data } => {
-                            f(&header, &data, &self.channels).map_err(|e| (n, e.to_string()))?;
+                            f(&header, &data, &self.channels).map_err(Stop::Message)?;
                             n += 1;
                         }
                         Record::DataEnd(_) => break,
@@ -200,6 +210,21 @@ impl McapReader {
         })
     }
 
+    fn stop(&self, s: Stop) -> Error {
+        match s {
+            Stop::Corrupt(n, e) => self.corrupt(n, e),
+            Stop::Message(e) => e,
+        }
+    }
+
+    /// A message of `topic` that is not a valid `sensor_msgs/Imu`: `which` says which.
+    fn not_imu(&self, topic: &str, which: String, why: String) -> Error {
+        Error::File {
+            file: self.file.clone(),
+            message: format!("{which} on {topic} is not a valid sensor_msgs/Imu: {why}"),
+        }
+    }
+
     fn corrupt(&self, after: u64, e: impl std::fmt::Display) -> Error {
         Error::File {
             file: self.file.clone(),
@@ -216,7 +241,7 @@ impl McapReader {
                 *counts.entry(h.channel_id).or_default() += 1;
                 Ok(())
             })
-            .map_err(|(n, e)| self.corrupt(n, e))?;
+            .map_err(|s| self.stop(s))?;
         let mut by_topic: BTreeMap<String, TopicInfo> = BTreeMap::new();
         for (id, count) in counts {
             let Some(ch) = stream.channels.get(id) else {
@@ -301,31 +326,15 @@ impl McapReader {
                         .with_skip_start_magic(true)
                         .with_skip_end_magic(true),
                 );
-                let mut bad: Option<Error> = None;
-                let r = stream.for_each(|h, data, _| {
-                    if let Some(d) = decoders.get(&h.channel_id) {
-                        match d(data) {
-                            Ok(s) => out.push(&s),
-                            Err(why) => {
-                                let e = Error::File {
-                                    file: self.file.clone(),
-                                    message: format!(
-                                        "the message on {topic} logged at {} ns is not a valid sensor_msgs/Imu: {why}",
-                                        h.log_time
-                                    ),
-                                };
-                                let msg = e.to_string();
-                                bad = Some(e);
-                                return Err(Error::Usage(msg));
-                            }
+                stream
+                    .for_each(|h, data, _| {
+                        if let Some(d) = decoders.get(&h.channel_id) {
+                            let which = || format!("the message logged at {} ns", h.log_time);
+                            out.push(&d(data).map_err(|why| self.not_imu(topic, which(), why))?);
                         }
-                    }
-                    Ok(())
-                });
-                if let Some(e) = bad {
-                    return Err(e);
-                }
-                r.map_err(|(n, e)| self.corrupt(n, e))?;
+                        Ok(())
+                    })
+                    .map_err(|s| self.stop(s))?;
                 Ok(out)
             })
             .collect();
@@ -389,7 +398,6 @@ impl LogReader for McapReader {
         let mut stream = BoundedStream::new(&self.map, self.limit);
         // Per channel id: None = not looked up yet, Some(None) = not this topic.
         let mut dec: Vec<Option<Option<Decoder>>> = vec![None; 1 << 16];
-        let mut bad: Option<Error> = None;
         let r = stream.for_each(|h, data, channels| {
             let id = h.channel_id as usize;
             let d = match dec[id] {
@@ -410,28 +418,12 @@ impl LogReader for McapReader {
                 }
             };
             if let Some(d) = d {
-                match d(data) {
-                    Ok(s) => out.push(&s),
-                    Err(why) => {
-                        let e = Error::File {
-                            file: self.file.clone(),
-                            message: format!(
-                                "message {} on {topic} is not a valid sensor_msgs/Imu: {why}",
-                                out.stamps_ns.len() + 1
-                            ),
-                        };
-                        let msg = e.to_string();
-                        bad = Some(e);
-                        return Err(Error::Usage(msg));
-                    }
-                }
+                let which = format!("message {}", out.stamps_ns.len() + 1);
+                out.push(&d(data).map_err(|why| self.not_imu(topic, which, why))?);
             }
             Ok(())
         });
-        if let Some(e) = bad {
-            return Err(e);
-        }
-        r.map_err(|(n, e)| self.corrupt(n, e))?;
+        r.map_err(|s| self.stop(s))?;
         out.check_finite(&format!("{} ({topic})", self.file))?;
         Ok(out)
     }
