@@ -4,9 +4,9 @@
 //! line) when `../shared/data` is absent.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use imunoise::cli::Ui;
-use imunoise::cli::avar_cmd::{compute, to_json};
+use imunoise::Ui;
 use imunoise::io::{ReadOptions, read_table};
+use imunoise::pipeline::estimate::{compute, to_json};
 use std::path::PathBuf;
 
 fn bench(c: &mut Criterion) {

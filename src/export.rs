@@ -639,3 +639,19 @@ pub fn write_all(
         })
         .collect()
 }
+
+/// Reads a results.json (or DIR/results.json) into an [`ImuNoise`].
+pub fn load(path: &std::path::Path) -> Result<ImuNoise> {
+    let p = if path.is_dir() {
+        path.join("results.json")
+    } else {
+        path.to_path_buf()
+    };
+    let file = p.display().to_string();
+    let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&file, e))?;
+    let doc: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::File {
+        file: file.clone(),
+        message: format!("not JSON: {e}"),
+    })?;
+    ImuNoise::from_results(&doc, &file)
+}

@@ -6,6 +6,8 @@
 //! - [`avar`]: the maximum-overlapping Allan variance estimator and its confidence intervals.
 //! - [`gmwm_prep`]: fitting composite models to the Allan variance.
 //!
+//! [`pipeline`] is the path from a file to results in plain structs (read, estimate, fit,
+//! analyze, report): the `imunoise` command and the Python package are two faces of it.
 //! The command's own layers live here too: [`io`] reads IMU logs (text, gzip, binary),
 //! [`error`] locates every input problem by file, line and column, [`units`] maps
 //! `--unit` and channel names to units, [`plot`] draws the SVG/PNG figures and [`cli`]
@@ -24,7 +26,10 @@ pub mod export;
 pub mod io;
 pub mod logs;
 pub mod output;
+pub mod pipeline;
 pub mod plot;
+pub mod ui;
 pub mod units;
 
 pub use error::{Error, Result};
+pub use ui::Ui;

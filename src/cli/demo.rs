@@ -368,7 +368,7 @@ pub fn estimate(n: usize, seed: u64, bootstrap: usize, ui: &Ui) -> Result<DemoRu
         bootstrap,
         seed: seed.wrapping_add(1),
         alpha,
-        weighting: super::fit::WeightingArg::Diagonal,
+        weighting: super::fit::FitWeighting::Diagonal,
     };
     let fits = super::fit::fit_all(&curves, &data.units, &settings, ui)?;
     // Simultaneous intervals: Bonferroni over every parameter of every channel.
@@ -545,6 +545,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         bootstrap: args.bootstrap,
         topic: None,
         timing: None,
+        robust: None,
     };
     super::analyze::write_report(&args.out, &inp, ui)?;
     w(format!(

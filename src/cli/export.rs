@@ -1,8 +1,8 @@
 //! `imunoise export`: the noise values of a `results.json` into estimators' config files.
 
 use super::Ui;
-use crate::error::{Error, Result};
-use crate::export::{ExportOptions, ImuNoise, Target, write_all};
+use crate::error::Result;
+use crate::export::{ExportOptions, Target, write_all};
 use std::path::PathBuf;
 
 /// Examples shown by `imunoise export --help`.
@@ -33,21 +33,7 @@ pub struct ExportArgs {
     pub options: ExportOptions,
 }
 
-/// Reads a results.json (or DIR/results.json) into an [`ImuNoise`].
-pub fn load(path: &std::path::Path) -> Result<ImuNoise> {
-    let p = if path.is_dir() {
-        path.join("results.json")
-    } else {
-        path.to_path_buf()
-    };
-    let file = p.display().to_string();
-    let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&file, e))?;
-    let doc: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::File {
-        file: file.clone(),
-        message: format!("not JSON: {e}"),
-    })?;
-    ImuNoise::from_results(&doc, &file)
-}
+pub use crate::export::load;
 
 /// Runs `imunoise export`.
 pub fn run(args: &ExportArgs, ui: &Ui) -> Result<()> {

@@ -1,14 +1,13 @@
 //! The `imunoise` command: argument parsing (clap) and the subcommands.
 //!
 //! Every subcommand prints machine-readable output on stdout and messages on stderr;
-//! errors return an [`Error`] whose [`Error::exit_code`] the binary exits with.
+//! errors return an [`crate::Error`] whose [`crate::Error::exit_code`] the binary exits with.
 
-use crate::error::{Error, Result};
-use crate::io::{self, BinaryType, ReadOptions, Table};
+use crate::error::Result;
+use crate::io::{BinaryType, Table};
 use crate::logs;
+use crate::pipeline::read::Input;
 use clap::{Args, Parser, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 pub mod analyze;
@@ -93,60 +92,7 @@ pub fn run(cli: Cli) -> Result<()> {
     }
 }
 
-/// Progress and notes on stderr: shown only when stderr is a terminal and not `--quiet`.
-#[derive(Debug, Clone, Copy)]
-pub struct Ui {
-    /// Whether progress bars are drawn.
-    pub progress: bool,
-    /// Whether notes are printed.
-    pub notes: bool,
-}
-
-impl Ui {
-    /// Decides from `--quiet` and whether stderr is a terminal.
-    pub fn new(quiet: bool) -> Self {
-        Ui {
-            progress: !quiet && std::io::stderr().is_terminal(),
-            notes: !quiet,
-        }
-    }
-
-    /// A spinner with a message (hidden when progress is off).
-    pub fn spinner(&self, msg: impl Into<String>) -> ProgressBar {
-        if !self.progress {
-            return ProgressBar::hidden();
-        }
-        let pb = ProgressBar::new_spinner();
-        if let Ok(style) = ProgressStyle::with_template("{spinner} {msg} {elapsed}") {
-            pb.set_style(style);
-        }
-        pb.set_message(msg.into());
-        pb.enable_steady_tick(std::time::Duration::from_millis(120));
-        pb
-    }
-
-    /// A bar of `len` steps with a message (hidden when progress is off).
-    pub fn bar(&self, len: u64, msg: impl Into<String>) -> ProgressBar {
-        if !self.progress {
-            return ProgressBar::hidden();
-        }
-        let pb = ProgressBar::new(len);
-        if let Ok(style) =
-            ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
-        {
-            pb.set_style(style.progress_chars("=> "));
-        }
-        pb.set_message(msg.into());
-        pb
-    }
-
-    /// Prints a note on stderr unless quiet.
-    pub fn note(&self, msg: impl AsRef<str>) {
-        if self.notes {
-            eprintln!("{}", msg.as_ref());
-        }
-    }
-}
+pub use crate::ui::Ui;
 
 /// A sampling rate in Hz: a finite number > 0.
 pub fn parse_rate(s: &str) -> std::result::Result<f64, String> {
@@ -236,222 +182,36 @@ pub struct InputArgs {
     pub gaps: logs::GapPolicy,
 }
 
-/// Unit of a text time column (`--time-unit`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum TimeUnit {
-    /// Seconds.
-    S,
-    /// Milliseconds.
-    Ms,
-    /// Microseconds.
-    Us,
-    /// Nanoseconds.
-    Ns,
-}
-
-impl TimeUnit {
-    /// Nanoseconds per unit.
-    pub fn ns(self) -> f64 {
-        match self {
-            TimeUnit::S => 1e9,
-            TimeUnit::Ms => 1e6,
-            TimeUnit::Us => 1e3,
-            TimeUnit::Ns => 1.0,
-        }
-    }
-}
+pub use crate::pipeline::read::TimeUnit;
 
 impl InputArgs {
-    /// The log format of the input, if it is a log (a folder is a ROS 2 bag). With
-    /// `--binary` the input is raw binary whatever its extension, and a `.bin` file is a
-    /// DataFlash log only when it starts with a DataFlash message header (A3 95).
-    pub fn log_format(&self) -> Option<logs::LogFormat> {
-        self.log_format.or_else(|| {
-            if self.binary.is_some() {
-                None
-            } else if self.file.is_dir() {
-                logs::storage_file(&self.file)
-                    .ok()
-                    .and_then(|p| logs::LogFormat::from_path(&p))
-                    .or(Some(logs::LogFormat::Mcap))
-            } else {
-                match logs::LogFormat::from_path(&self.file) {
-                    Some(logs::LogFormat::Dataflash) => {
-                        let mut head = [0u8; 2];
-                        let is_df = std::fs::File::open(&self.file)
-                            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
-                            .is_ok()
-                            && head == [0xA3, 0x95];
-                        is_df.then_some(logs::LogFormat::Dataflash)
-                    }
-                    other => other,
-                }
-            }
-        })
-    }
-
-    /// Reads the file as the flags say (with a spinner on a terminal). The returned table
-    /// has its rate set. Logs with several selected topics are an error here (see
-    /// [`InputArgs::read_all`]).
-    pub fn read(&self, ui: &Ui) -> Result<Table> {
-        let mut all = self.read_all(ui)?;
-        if all.len() > 1 {
-            return Err(Error::Usage(format!(
-                "{} topics selected; this subcommand reads one (analyze takes several)",
-                all.len()
-            )));
-        }
-        Ok(all.remove(0))
-    }
-
-    /// Reads the file: one table per selected topic for logs, one table otherwise; each
-    /// with its rate (from --rate or the stamps) and, for stamped input, its timing.
-    pub fn read_all(&self, ui: &Ui) -> Result<Vec<Table>> {
-        let size = std::fs::metadata(&self.file).map_or(String::new(), |m| {
-            format!(" ({:.1} MB)", m.len() as f64 / 1e6)
-        });
-        let pb = ui.spinner(format!("reading {}{size}", self.file.display()));
-        let t = match self.log_format() {
-            Some(fmt) => self.read_log(fmt, ui),
-            None => self.read_text_or_binary().map(|t| vec![t]),
-        };
-        pb.finish_and_clear();
-        t
-    }
-
-    fn read_text_or_binary(&self) -> Result<Table> {
-        if !self.topic.is_empty() {
-            return Err(Error::Usage(
-                "--topic is for logs (.mcap, .bag, .db3, .ulg, .bin)".to_string(),
-            ));
-        }
-        let mut columns = self.columns.as_deref().map(io::parse_columns).transpose()?;
-        let time_col = match &self.time_column {
-            None => None,
-            Some(_) if self.binary.is_some() => {
-                return Err(Error::Usage("--time-column is for text input".to_string()));
-            }
-            Some(tc) => {
-                let spec = io::parse_columns(tc)?;
-                if spec.len() != 1 || matches!(spec[0], io::ColumnSpec::Range(..)) {
-                    return Err(Error::Usage(format!(
-                        "--time-column {tc:?}: give one column name or index"
-                    )));
-                }
-                Some(spec[0].clone())
-            }
-        };
-        let mut time_first = false;
-        if let (Some(tc), Some(cols)) = (&time_col, columns.as_mut()) {
-            // Read the time column too, first; it is taken out below.
-            cols.insert(0, tc.clone());
-            time_first = true;
-        }
-        let opts = ReadOptions {
+    /// The library's read specification these flags describe.
+    pub fn spec(&self) -> Input {
+        Input {
+            file: self.file.clone(),
+            rate: self.rate,
+            columns: self.columns.clone(),
             binary: self.binary,
             channels: self.channels,
-            scale: None,
-            columns,
-            names: None,
-        };
-        let mut t = io::read_table(&self.file, &opts)?;
-        if let Some(tc) = &time_col {
-            let idx = if time_first {
-                0
-            } else {
-                io::resolve_columns(std::slice::from_ref(tc), &t.names)?[0]
-            };
-            let time = t.columns.remove(idx);
-            let tname = t.names.remove(idx);
-            if t.columns.is_empty() {
-                return Err(Error::Usage(format!(
-                    "--time-column {tname:?} is the only column; nothing left to analyse"
-                )));
-            }
-            let k = self.time_unit.ns();
-            let stamps: Vec<i64> = time.iter().map(|&v| (v * k).round() as i64).collect();
-            let (cols, timing) = logs::timing::prepare(
-                stamps,
-                std::mem::take(&mut t.columns),
-                self.rate,
-                self.gaps,
-                &t.file,
-            )?;
-            t.columns = cols;
-            t.rate_hz = Some(timing.rate_hz);
-            t.timing = Some(timing);
-        } else {
-            t.rate_hz = self.rate;
+            scale: self.scale,
+            names: self.names.clone(),
+            unit: self.unit.clone(),
+            topic: self.topic.clone(),
+            log_format: self.log_format,
+            time_column: self.time_column.clone(),
+            time_unit: self.time_unit,
+            gaps: self.gaps,
         }
-        self.finish(&mut t)?;
-        if t.rate_hz.is_none() {
-            t.rate()?;
-        }
-        Ok(t)
     }
 
-    /// `--scale` and `--names`, after the columns are final.
-    fn finish(&self, t: &mut Table) -> Result<()> {
-        if let Some(scale) = self.scale {
-            for c in &mut t.columns {
-                c.iter_mut().for_each(|v| *v *= scale);
-            }
-        }
-        if let Some(names) = &self.names {
-            let names: Vec<String> = names.split(',').map(|n| n.trim().to_string()).collect();
-            if names.len() != t.names.len() {
-                return Err(Error::Usage(format!(
-                    "--names gives {} names for {} channels",
-                    names.len(),
-                    t.names.len()
-                )));
-            }
-            t.names = names;
-        }
-        Ok(())
+    /// Reads the file as the flags say: see [`Input::read`].
+    pub fn read(&self, ui: &Ui) -> Result<Table> {
+        self.spec().read(ui)
     }
 
-    fn read_log(&self, fmt: logs::LogFormat, ui: &Ui) -> Result<Vec<Table>> {
-        if self.binary.is_some() || self.channels.is_some() || self.time_column.is_some() {
-            return Err(Error::Usage(format!(
-                "{}: --binary, --channels and --time-column are for text and raw input, not {:?} logs",
-                self.file.display(),
-                fmt
-            )));
-        }
-        let path = logs::storage_file(&self.file)?;
-        let file = path.display().to_string();
-        let reader = logs::open(&path, fmt)?;
-        let topics = logs::select_topics(reader.as_ref(), &file, &self.topic)?;
-        let mut out = Vec::new();
-        for topic in topics {
-            let series = reader.read_imu(&topic)?;
-            let what = format!("{file} ({topic})");
-            let (cols, timing) = logs::timing::prepare(
-                series.stamps_ns,
-                series.columns,
-                self.rate,
-                self.gaps,
-                &what,
-            )?;
-            ui.note(format!("{topic}: {}", timing.summary()));
-            let mut t = Table {
-                file: file.clone(),
-                names: series.names,
-                columns: cols,
-                rate_hz: Some(timing.rate_hz),
-                timing: Some(timing),
-                topic: Some(topic),
-            };
-            if let Some(spec) = &self.columns {
-                let idx = io::resolve_columns(&io::parse_columns(spec)?, &t.names)?;
-                t.names = idx.iter().map(|&i| t.names[i].clone()).collect();
-                t.columns = idx.iter().map(|&i| t.columns[i].clone()).collect();
-            }
-            self.finish(&mut t)?;
-            out.push(t);
-        }
-        Ok(out)
+    /// Reads every selected topic: see [`Input::read_all`].
+    pub fn read_all(&self, ui: &Ui) -> Result<Vec<Table>> {
+        self.spec().read_all(ui)
     }
 }
 
@@ -496,14 +256,4 @@ pub fn parse_scales(s: &str) -> std::result::Result<avar::Scales, String> {
     })
 }
 
-/// Maps an `avar` error of one channel to a message naming the file and channel.
-pub fn avar_error(file: &str, channel: &str, e: avar::AvarError) -> Error {
-    let hint = match e {
-        avar::AvarError::NotRepresentable { .. } => " (--scale F multiplies every sample by F)",
-        _ => "",
-    };
-    Error::File {
-        file: file.to_string(),
-        message: format!("channel {channel:?}: {e}{hint}"),
-    }
-}
+pub use crate::pipeline::estimate::avar_error;

@@ -1,0 +1,171 @@
+//! Analysing: everything for one recording at once. Each channel's Allan variance with CIs,
+//! the data-quality findings, the best sub-model by WIC fitted by GMWM with CIs, and the
+//! contamination check (classical against robust AV), with the robust fit on request. The
+//! result is an [`Analysis`]: plain data, its `results.json` document, and its report folder.
+
+use super::estimate::{ChannelCurves, check_quality, fit_curves, robust_curves};
+use super::fit::{ChannelFit, DEFAULT_MODEL, FitSettings, Method, attach_quality, fit_all_robust};
+use super::report::{ReportInput, RobustReport};
+use crate::error::{Error, Result};
+use crate::io::Table;
+use crate::ui::Ui;
+use avar::AllanVariance;
+use avar::robust::RobustAllanVariance;
+use gmwm_prep::robust::ContaminationCheck;
+use processes::Unit;
+use std::path::Path;
+
+/// The full model whose sub-models `analyze` selects from by default.
+pub const ANALYZE_MODEL: &str = "QN+WN+RW+2*AR1";
+
+/// What `analyze` does.
+///
+/// ```
+/// use imunoise::pipeline::analyze::AnalyzeSettings;
+/// let s = AnalyzeSettings::default();
+/// assert!(s.select && !s.robust);
+/// assert_eq!(s.efficiency, 0.6);
+/// ```
+#[derive(Debug, Clone)]
+pub struct AnalyzeSettings {
+    /// The fit. With `select` and the default model ([`DEFAULT_MODEL`]) the candidates are
+    /// the sub-models of [`ANALYZE_MODEL`].
+    pub fit: FitSettings,
+    /// Select the best sub-model by WIC (GMWM only); `false` fits `fit.model` as it is.
+    pub select: bool,
+    /// Fit the robust Allan variance too (the contamination check runs in any case).
+    pub robust: bool,
+    /// Gaussian efficiency of the robust AV, in [0.05, 0.99].
+    pub efficiency: f64,
+}
+
+impl Default for AnalyzeSettings {
+    fn default() -> Self {
+        AnalyzeSettings {
+            fit: FitSettings::default(),
+            select: true,
+            robust: false,
+            efficiency: avar::robust::DEFAULT_EFFICIENCY,
+        }
+    }
+}
+
+impl AnalyzeSettings {
+    /// The fit settings `analyze` uses: selection on for GMWM (unless `select` is off), and
+    /// the default model widened to [`ANALYZE_MODEL`] when selecting.
+    pub fn effective_fit(&self) -> FitSettings {
+        let mut s = self.fit.clone();
+        s.select = self.select && s.method == Method::Gmwm;
+        if s.select && s.model.replace(' ', "") == DEFAULT_MODEL {
+            s.model = ANALYZE_MODEL.to_string();
+        }
+        s
+    }
+}
+
+/// The result of [`analyze`]: the data, the curves and the fits, all channels in the order of
+/// the table.
+#[derive(Debug)]
+pub struct Analysis {
+    /// The data analysed.
+    pub table: Table,
+    /// Each channel's unit.
+    pub units: Vec<Unit>,
+    /// Each channel's Allan variance (dyadic scales, chi-square CIs).
+    pub curves: ChannelCurves,
+    /// Each channel's fit (its `warnings` start with the data-quality findings).
+    pub fits: Vec<ChannelFit>,
+    /// Each channel's robust Allan variance.
+    pub robust_curves: Vec<(String, RobustAllanVariance)>,
+    /// Each channel's contamination check.
+    pub checks: Vec<ContaminationCheck>,
+    /// The fits of the robust curves (with `robust`).
+    pub robust_fits: Option<Vec<ChannelFit>>,
+    /// The fit settings used (see [`AnalyzeSettings::effective_fit`]).
+    pub settings: FitSettings,
+    /// The robust AV's Gaussian efficiency.
+    pub efficiency: f64,
+}
+
+/// Analyses every channel of `table` (at its rate) with `units` as [`AnalyzeSettings`] say.
+pub fn analyze(
+    table: Table,
+    units: Vec<Unit>,
+    settings: &AnalyzeSettings,
+    ui: &Ui,
+) -> Result<Analysis> {
+    let rate = table.rate()?;
+    let fit = settings.effective_fit();
+    let robust = super::fit::robust_efficiency(settings.robust, settings.efficiency)?;
+    let curves = fit_curves(&table, fit.alpha, ui)?;
+    let quality = check_quality(&table, rate, ui)?;
+    let mut fits = fit_all_robust(&curves, &units, &fit, None, ui)?;
+    attach_quality(&mut fits, quality);
+    // the contamination check, always
+    let pb = ui.spinner("robust Allan variance");
+    let rcurves = robust_curves(&table, rate, fit.alpha, settings.efficiency)?;
+    let checks = rcurves
+        .iter()
+        .zip(&table.columns)
+        .map(|((n, r), x)| {
+            gmwm_prep::robust::contamination_check(x, r, 0.01, 5)
+                .map_err(|e| Error::Usage(format!("channel {n:?}: contamination check: {e}")))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    pb.finish_and_clear();
+    let robust_fits = match robust {
+        Some(e) => {
+            let rc: Vec<(String, AllanVariance)> = rcurves
+                .iter()
+                .map(|(n, r)| (n.clone(), r.robust.clone()))
+                .collect();
+            Some(fit_all_robust(&rc, &units, &fit, Some(e), ui)?)
+        }
+        None => None,
+    };
+    Ok(Analysis {
+        table,
+        units,
+        curves,
+        fits,
+        robust_curves: rcurves,
+        checks,
+        robust_fits,
+        settings: fit,
+        efficiency: settings.efficiency,
+    })
+}
+
+impl Analysis {
+    /// Everything the report is made of.
+    pub fn report_input(&self) -> Result<ReportInput<'_>> {
+        Ok(ReportInput {
+            source: &self.table.file,
+            rate_hz: self.table.rate()?,
+            names: &self.table.names,
+            columns: &self.table.columns,
+            units: &self.units,
+            curves: &self.curves,
+            fits: &self.fits,
+            extra_html: String::new(),
+            bootstrap: self.settings.bootstrap,
+            topic: self.table.topic.as_deref(),
+            timing: self.table.timing.as_ref(),
+            robust: Some(RobustReport {
+                curves: &self.robust_curves,
+                checks: &self.checks,
+                fits: self.robust_fits.as_deref(),
+            }),
+        })
+    }
+
+    /// The `results.json` document (see [`super::report::results_json`]).
+    pub fn results_json(&self) -> Result<serde_json::Value> {
+        super::report::results_json(&self.report_input()?)
+    }
+
+    /// Writes the report folder into `dir` (created if needed).
+    pub fn write_report(&self, dir: &Path, ui: &Ui) -> Result<()> {
+        super::report::write_report(dir, &self.report_input()?, ui)
+    }
+}

@@ -1,0 +1,530 @@
+//! Estimating: each channel's Allan variance (or another member of the stability family, or
+//! the robust AV) and the data-quality findings, with the writers of the `imunoise avar`
+//! output (JSON shape, CSV, text tables, overlay plot).
+
+use crate::error::{Error, Result};
+use crate::io::Table;
+use crate::ui::Ui;
+use avar::stability::{Stability, Statistic};
+use avar::{AllanVariance, AvarConfig, CiMethod, Estimator};
+use processes::Unit;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::io::Write;
+
+/// Maps an `avar` error of one channel to a message naming the file and channel.
+pub fn avar_error(file: &str, channel: &str, e: avar::AvarError) -> Error {
+    let hint = match e {
+        avar::AvarError::NotRepresentable { .. } => " (--scale F multiplies every sample by F)",
+        _ => "",
+    };
+    Error::File {
+        file: file.to_string(),
+        message: format!("channel {channel:?}: {e}{hint}"),
+    }
+}
+
+/// One point of the JSON output (exactly the documented keys).
+#[derive(Debug, Serialize)]
+pub struct PointJson {
+    /// Cluster size (samples).
+    pub m: u64,
+    /// Averaging time (s).
+    pub tau: f64,
+    /// Allan variance.
+    pub avar: f64,
+    /// Allan deviation.
+    pub adev: f64,
+    /// Lower CI bound of the AV (null without CI).
+    pub avar_lo: Option<f64>,
+    /// Upper CI bound of the AV (null without CI).
+    pub avar_hi: Option<f64>,
+    /// Equivalent degrees of freedom (null without a chi-square CI).
+    pub edf: Option<f64>,
+    /// Number of squared differences.
+    pub n_terms: u64,
+    /// Identified power-law exponent α (S_y ∝ f^α) with `--statistic` (null without a
+    /// chi-square CI); absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<Option<i32>>,
+}
+
+/// One channel of the JSON output.
+#[derive(Debug, Serialize)]
+pub struct ChannelJson {
+    /// Channel name.
+    pub name: String,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Number of (rate) samples.
+    pub n: usize,
+    /// `"overlapping"` or `"non_overlapping"`.
+    pub estimator: Estimator,
+    /// The statistic (`"oadev"`, `"mdev"`, …), with `--statistic` only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub statistic: Option<Statistic>,
+    /// The curve.
+    pub points: Vec<PointJson>,
+}
+
+/// The whole JSON document.
+#[derive(Debug, Serialize)]
+pub struct AvarJson {
+    /// One entry per channel, in the order of the input (or of --columns).
+    pub channels: Vec<ChannelJson>,
+}
+
+/// Builds the JSON document of named curves.
+pub fn to_json(curves: &[(String, AllanVariance)]) -> AvarJson {
+    AvarJson {
+        channels: curves
+            .iter()
+            .map(|(name, av)| ChannelJson {
+                name: name.clone(),
+                rate_hz: av.rate_hz,
+                n: av.n,
+                estimator: av.estimator,
+                points: av
+                    .points
+                    .iter()
+                    .map(|p| PointJson {
+                        m: p.m,
+                        tau: p.tau,
+                        avar: p.avar,
+                        adev: p.adev,
+                        avar_lo: p.avar_lo,
+                        avar_hi: p.avar_hi,
+                        edf: p.edf,
+                        n_terms: p.n_terms,
+                        alpha: None,
+                    })
+                    .collect(),
+                statistic: None,
+            })
+            .collect(),
+    }
+}
+
+/// One channel's curve of one statistic (the `--statistic` output).
+#[derive(Debug, Clone)]
+pub struct Curve {
+    /// Channel name.
+    pub name: String,
+    /// Estimator (overlapping or not) of the statistic.
+    pub estimator: Estimator,
+    /// CI family.
+    pub ci: CiMethod,
+    /// The curve.
+    pub stability: Stability,
+}
+
+impl Curve {
+    /// The curve of `statistic` (oadev or adev) from an Allan variance of channel `name`.
+    pub fn from_av(name: &str, statistic: Statistic, av: AllanVariance) -> Curve {
+        Curve {
+            name: name.to_string(),
+            estimator: av.estimator,
+            ci: av.ci,
+            stability: Stability {
+                statistic,
+                rate_hz: av.rate_hz,
+                n: av.n,
+                input: av.input,
+                ci: av.ci,
+                alpha: av.alpha,
+                points: av
+                    .points
+                    .into_iter()
+                    .map(|p| avar::stability::StabilityPoint {
+                        m: p.m,
+                        tau: p.tau,
+                        var: p.avar,
+                        dev: p.adev,
+                        var_lo: p.avar_lo,
+                        var_hi: p.avar_hi,
+                        dev_lo: p.adev_lo,
+                        dev_hi: p.adev_hi,
+                        edf: p.edf,
+                        n_terms: p.n_terms,
+                        alpha: p.noise_alpha,
+                    })
+                    .collect(),
+            },
+        }
+    }
+}
+
+/// The JSON document of `--statistic` curves (one channel entry per channel and statistic).
+pub fn curves_json(curves: &[Curve]) -> AvarJson {
+    AvarJson {
+        channels: curves
+            .iter()
+            .map(|c| ChannelJson {
+                name: c.name.clone(),
+                rate_hz: c.stability.rate_hz,
+                n: c.stability.n,
+                estimator: c.estimator,
+                statistic: Some(c.stability.statistic),
+                points: c
+                    .stability
+                    .points
+                    .iter()
+                    .map(|p| PointJson {
+                        m: p.m,
+                        tau: p.tau,
+                        avar: p.var,
+                        adev: p.dev,
+                        avar_lo: p.var_lo,
+                        avar_hi: p.var_hi,
+                        edf: p.edf,
+                        n_terms: p.n_terms,
+                        alpha: Some(p.alpha),
+                    })
+                    .collect(),
+            })
+            .collect(),
+    }
+}
+
+/// Writes `--statistic` curves as CSV: today's columns, then `statistic` and `alpha`.
+pub fn write_curves_csv(out: &mut impl Write, curves: &[Curve]) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "channel,m,tau,avar,adev,avar_lo,avar_hi,adev_lo,adev_hi,edf,n_terms,statistic,alpha"
+    )?;
+    for c in curves {
+        for p in &c.stability.points {
+            writeln!(
+                out,
+                "{},{},{},{:e},{:e},{},{},{},{},{},{},{},{}",
+                c.name,
+                p.m,
+                p.tau,
+                p.var,
+                p.dev,
+                opt(p.var_lo),
+                opt(p.var_hi),
+                opt(p.dev_lo),
+                opt(p.dev_hi),
+                p.edf.map_or(String::new(), |e| format!("{e:.3}")),
+                p.n_terms,
+                c.stability.statistic,
+                p.alpha.map_or(String::new(), |a| a.to_string())
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes `--statistic` curves as aligned text tables (one per channel and statistic).
+pub fn write_curves_table(
+    out: &mut impl Write,
+    curves: &[Curve],
+    alpha: f64,
+) -> std::io::Result<()> {
+    for (i, c) in curves.iter().enumerate() {
+        if i > 0 {
+            writeln!(out)?;
+        }
+        let level = 100.0 * (1.0 - alpha);
+        let ci = match c.ci {
+            CiMethod::ChiSquare => format!("{level:.1}% chi-square CI"),
+            CiMethod::Gaussian => format!("{level:.1}% Gaussian CI (Lemma 4.4)"),
+            CiMethod::None => "no CI".to_string(),
+        };
+        let s = &c.stability;
+        writeln!(
+            out,
+            "{}: {}, n = {}, rate = {} Hz, {ci}",
+            c.name,
+            s.statistic.name().to_uppercase(),
+            s.n,
+            s.rate_hz,
+        )?;
+        writeln!(
+            out,
+            "{:>10} {:>12} {:>12} {:>12} {:>12} {:>9} {:>10} {:>5}",
+            "m", "tau [s]", "dev", "dev_lo", "dev_hi", "edf", "n_terms", "alpha"
+        )?;
+        let f = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.5e}"));
+        for p in &s.points {
+            writeln!(
+                out,
+                "{:>10} {:>12} {:>12.5e} {:>12} {:>12} {:>9} {:>10} {:>5}",
+                p.m,
+                format!("{:.4}", p.tau),
+                p.dev,
+                f(p.dev_lo),
+                f(p.dev_hi),
+                p.edf.map_or("-".to_string(), |e| format!("{e:.1}")),
+                p.n_terms,
+                p.alpha.map_or("-".to_string(), |a| a.to_string())
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// Computes every requested statistic of every channel of `table` (channels in parallel).
+/// `oadev` (overlapping) and `adev` (non-overlapping) are the AV with the configured CI exactly
+/// as in the default output (`config.estimator` is not used: the statistic names it); the other
+/// statistics come from [`avar::stability::stability`].
+pub fn compute_statistics(
+    table: &Table,
+    rate_hz: f64,
+    config: &AvarConfig,
+    statistics: &[Statistic],
+    ui: &Ui,
+) -> Result<Vec<Curve>> {
+    let pb = ui.bar((table.columns.len() * statistics.len()) as u64, "stability");
+    let res: Vec<Result<Vec<Curve>>> = table
+        .columns
+        .par_iter()
+        .zip(&table.names)
+        .map(|(col, name)| {
+            statistics
+                .iter()
+                .map(|&st| {
+                    let r = match st {
+                        Statistic::Oadev | Statistic::Adev => {
+                            let cfg = AvarConfig {
+                                estimator: if st == Statistic::Adev {
+                                    Estimator::NonOverlapping
+                                } else {
+                                    Estimator::Overlapping
+                                },
+                                ..config.clone()
+                            };
+                            avar::allan_variance(col, rate_hz, &cfg)
+                                .map(|av| Curve::from_av(name, st, av))
+                        }
+                        _ => avar::stability::stability(col, rate_hz, st, config).map(|s| Curve {
+                            name: name.clone(),
+                            estimator: if st.overlapping() {
+                                Estimator::Overlapping
+                            } else {
+                                Estimator::NonOverlapping
+                            },
+                            ci: config.ci,
+                            stability: s,
+                        }),
+                    };
+                    pb.inc(1);
+                    r.map_err(|e| avar_error(&table.file, &format!("{name} ({st})"), e))
+                })
+                .collect()
+        })
+        .collect();
+    pb.finish_and_clear();
+    let mut out = Vec::new();
+    for r in res {
+        out.extend(r?);
+    }
+    Ok(out)
+}
+
+/// The overlay plot of curves: one line (with its CI band) per channel and statistic.
+pub fn plot_curves(curves: &[Curve], title: &str) -> String {
+    let series: Vec<crate::plot::StabilitySeries> = curves
+        .iter()
+        .map(|c| crate::plot::StabilitySeries {
+            label: if curves.iter().all(|d| d.name == c.name) {
+                c.stability.statistic.name().to_uppercase()
+            } else {
+                format!("{} {}", c.name, c.stability.statistic.name().to_uppercase())
+            },
+            points: c
+                .stability
+                .points
+                .iter()
+                .map(|p| {
+                    (
+                        p.tau,
+                        p.dev,
+                        p.dev_lo.unwrap_or(f64::NAN),
+                        p.dev_hi.unwrap_or(f64::NAN),
+                    )
+                })
+                .collect(),
+        })
+        .collect();
+    crate::plot::stability_svg(title, &series, "stab")
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or(String::new(), |x| format!("{x:e}"))
+}
+
+/// Writes the curves as CSV (long format, one row per channel and scale).
+pub fn write_csv(out: &mut impl Write, curves: &[(String, AllanVariance)]) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "channel,m,tau,avar,adev,avar_lo,avar_hi,adev_lo,adev_hi,edf,n_terms"
+    )?;
+    for (name, av) in curves {
+        for p in &av.points {
+            writeln!(
+                out,
+                "{name},{},{},{:e},{:e},{},{},{},{},{},{}",
+                p.m,
+                p.tau,
+                p.avar,
+                p.adev,
+                opt(p.avar_lo),
+                opt(p.avar_hi),
+                opt(p.adev_lo),
+                opt(p.adev_hi),
+                p.edf.map_or(String::new(), |e| format!("{e:.3}")),
+                p.n_terms
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes the curves as aligned text tables (deviations with their CI).
+pub fn write_table(
+    out: &mut impl Write,
+    curves: &[(String, AllanVariance)],
+    alpha: f64,
+) -> std::io::Result<()> {
+    for (i, (name, av)) in curves.iter().enumerate() {
+        if i > 0 {
+            writeln!(out)?;
+        }
+        let level = 100.0 * (1.0 - alpha);
+        let ci = match av.ci {
+            CiMethod::ChiSquare => format!("{level:.0}% chi-square CI"),
+            CiMethod::Gaussian => format!("{level:.0}% Gaussian CI (Lemma 4.4)"),
+            CiMethod::None => "no CI".to_string(),
+        };
+        writeln!(
+            out,
+            "{name}: n = {}, rate = {} Hz, {:?} estimator, {ci}",
+            av.n, av.rate_hz, av.estimator,
+        )?;
+        writeln!(
+            out,
+            "{:>10} {:>12} {:>12} {:>12} {:>12} {:>9} {:>10}",
+            "m", "tau [s]", "adev", "adev_lo", "adev_hi", "edf", "n_terms"
+        )?;
+        let f = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.5e}"));
+        for p in &av.points {
+            writeln!(
+                out,
+                "{:>10} {:>12} {:>12.5e} {:>12} {:>12} {:>9} {:>10}",
+                p.m,
+                format!("{:.4}", p.tau),
+                p.adev,
+                f(p.adev_lo),
+                f(p.adev_hi),
+                p.edf.map_or("-".to_string(), |e| format!("{e:.1}")),
+                p.n_terms
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// Computes the Allan variance of every channel of `table` (in parallel).
+pub fn compute(
+    table: &Table,
+    rate_hz: f64,
+    config: &AvarConfig,
+    ui: &Ui,
+) -> Result<Vec<(String, AllanVariance)>> {
+    let pb = ui.bar(table.columns.len() as u64, "Allan var.");
+    let res: Vec<Result<(String, AllanVariance)>> = table
+        .columns
+        .par_iter()
+        .zip(&table.names)
+        .map(|(col, name)| {
+            let r = avar::allan_variance(col, rate_hz, config)
+                .map(|av| (name.clone(), av))
+                .map_err(|e| avar_error(&table.file, name, e));
+            pb.inc(1);
+            r
+        })
+        .collect();
+    pb.finish_and_clear();
+    res.into_iter().collect()
+}
+
+/// Each channel's name with its Allan variance.
+pub type ChannelCurves = Vec<(String, AllanVariance)>;
+
+/// Reads the input of `fit`/`analyze`, resolves each channel's unit and computes its Allan
+/// variance on the default (dyadic) scales with chi-square CIs at level 1 − `alpha`.
+pub fn read_curves(
+    input: &super::read::Input,
+    alpha: f64,
+    ui: &Ui,
+) -> Result<(Table, Vec<Unit>, ChannelCurves)> {
+    let table = input.read(ui)?;
+    let units = input.units(&table)?;
+    let curves = fit_curves(&table, alpha, ui)?;
+    Ok((table, units, curves))
+}
+
+/// The curves `fit` and `analyze` fit: each channel's Allan variance on the default (dyadic)
+/// scales with chi-square CIs at level 1 − `alpha`, at the table's rate.
+pub fn fit_curves(table: &Table, alpha: f64, ui: &Ui) -> Result<ChannelCurves> {
+    let cfg = AvarConfig {
+        alpha,
+        ..AvarConfig::default()
+    };
+    compute(table, table.rate()?, &cfg, ui)
+}
+
+/// The data-quality pass ([`avar::quality`]) of every channel of `table` at `rate` Hz: one list
+/// of findings per channel (spikes, level shifts, a dominant trend, each with its times and how
+/// it biases the AV), printed as notes before any fitting. Channels shorter than 64 samples are
+/// not examined.
+pub fn check_quality(table: &Table, rate: f64, ui: &Ui) -> Result<Vec<Vec<String>>> {
+    let out = table
+        .names
+        .par_iter()
+        .zip(&table.columns)
+        .map(|(name, x)| {
+            if x.len() < 64 {
+                return Ok(Vec::new());
+            }
+            let q = avar::quality::data_quality(x, rate, &Default::default())
+                .map_err(|e| avar_error(&table.file, name, e))?;
+            Ok(q.findings
+                .iter()
+                .map(|f| format!("data quality: {f}"))
+                .collect())
+        })
+        .collect::<Result<Vec<Vec<String>>>>()?;
+    for (name, f) in table.names.iter().zip(&out) {
+        for w in f {
+            ui.note(format!("note: channel {name:?}: {w}"));
+        }
+    }
+    Ok(out)
+}
+
+/// Each channel's robust AV (beside the classical one), on the default dyadic scales with
+/// chi-square CIs at level 1 − `alpha` and EDF × efficiency.
+pub fn robust_curves(
+    table: &Table,
+    rate: f64,
+    alpha: f64,
+    efficiency: f64,
+) -> Result<Vec<(String, avar::robust::RobustAllanVariance)>> {
+    let cfg = AvarConfig {
+        alpha,
+        ..AvarConfig::default()
+    };
+    table
+        .names
+        .iter()
+        .zip(&table.columns)
+        .map(|(n, x)| {
+            avar::robust::robust_allan_variance(x, rate, &cfg, efficiency)
+                .map(|r| (n.clone(), r))
+                .map_err(|e| Error::Usage(format!("channel {n:?}: robust AV: {e}")))
+        })
+        .collect()
+}

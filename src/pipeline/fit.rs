@@ -1,0 +1,919 @@
+//! Fitting: a noise model per channel (GMWM, AVLR or the IEEE 952 read-off) with CIs, per
+//! sample and in IEEE units, the J test, WIC when selecting; joint fits of several
+//! recordings with tests of equality; and the writers of the `imunoise fit` output.
+
+use super::estimate::{ChannelCurves, read_curves, robust_curves};
+use super::read::Input;
+use crate::error::{Error, Result};
+use crate::ui::Ui;
+use avar::AllanVariance;
+use gmwm_prep::bootstrap::{BootstrapOptions, parametric_bootstrap_with_progress};
+use gmwm_prep::gmwm::{self, CovMatrix, GmwmFit, GmwmOptions};
+use gmwm_prep::inference::{delta_method, diagonal_covariance, fit_covariance, select_by_wic};
+use gmwm_prep::report::{FitReport, IeeeValue};
+use gmwm_prep::{AvCurve, FitError};
+use processes::{Model, Process, ProcessKind, Unit};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::io::Write;
+
+/// Fitting methods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// Generalized method of wavelet moments on the Allan variance (consistent).
+    Gmwm,
+    /// Allan-variance linear regression on automatic slope windows (R avar's avlr).
+    Avlr,
+    /// IEEE Std 952 read-off of N, K, Q, R (and B) on the Allan deviation.
+    Ieee952,
+}
+
+/// The GMWM weighting matrix Ω (`--weighting`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum FitWeighting {
+    /// Ω = diag(1/Var(AV)) from the AV confidence intervals: fast (a few ms per fit).
+    #[default]
+    Diagonal,
+    /// Ω = diag(V(θ̂))⁻¹ with V the exact covariance of the AV estimates under the fitted
+    /// model, iterated.
+    ModelDiagonal,
+    /// Ω = V(θ̂)⁻¹, full (uses the correlation between scales), iterated: the efficient GMWM,
+    /// with the smallest bias and RMSE in the Monte Carlo report, about 0.1 s per fit.
+    ModelFull,
+}
+
+impl FitWeighting {
+    /// The GMWM weighting this choice means.
+    pub fn weighting(self) -> gmwm::Weighting {
+        match self {
+            Self::Diagonal => gmwm::Weighting::Diagonal,
+            Self::ModelDiagonal => gmwm::Weighting::ModelDiagonal,
+            Self::ModelFull => gmwm::Weighting::ModelFull,
+        }
+    }
+}
+
+/// How a fit's confidence intervals were computed: the `ci_method` field of the JSON.
+///
+/// The delta method gives θ̂ ± z_{1−α/2}·se on each parameter's unconstrained scale with
+/// Cov(θ̂) = B V Bᵀ, where V is the covariance matrix of the Allan variance estimates; the
+/// variants differ in V.
+///
+/// ```
+/// use imunoise::pipeline::fit::CiMethod;
+/// assert_eq!(serde_json::to_string(&CiMethod::DeltaBootstrapCov).unwrap(), "\"delta_bootstrap_cov\"");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CiMethod {
+    /// Delta method, V = the model-implied covariance of the AV estimates at θ̂.
+    DeltaModelCov,
+    /// Delta method, V = the sample covariance of the AV of B parametric-bootstrap replicates.
+    DeltaBootstrapCov,
+    /// Delta method, V = the AV estimates' own variances on the diagonal (ignores the
+    /// correlation between scales: optimistic).
+    DeltaDiagonal,
+    /// θ̂ ± z_{1−α/2}·sd with sd from a parametric bootstrap (AVLR).
+    BootstrapSd,
+    /// No intervals.
+    None,
+}
+
+impl CiMethod {
+    /// A short phrase for table headers, e.g. "delta method, V = 40-replicate bootstrap covariance".
+    pub fn describe(self, bootstrap: usize) -> String {
+        match self {
+            CiMethod::DeltaModelCov => {
+                "delta method, V = model-implied covariance of the AV at the fit".into()
+            }
+            CiMethod::DeltaBootstrapCov => {
+                format!(
+                    "delta method, V = {bootstrap}-replicate parametric-bootstrap covariance of the AV"
+                )
+            }
+            CiMethod::DeltaDiagonal => {
+                "delta method, V = diagonal AV variances (ignores scale correlation: optimistic)"
+                    .into()
+            }
+            CiMethod::BootstrapSd => {
+                format!("estimate ± z·sd of a {bootstrap}-replicate parametric bootstrap")
+            }
+            CiMethod::None => "no CIs".into(),
+        }
+    }
+}
+
+/// A GMWM fit with the moment covariance V its CIs came from: enough to recompute the
+/// delta-method intervals at another level (the demo's simultaneous intervals).
+#[derive(Debug, Clone)]
+pub struct GmwmInference {
+    /// The fit.
+    pub fit: GmwmFit,
+    /// Covariance matrix V of the AV estimates used by the delta method.
+    pub v: CovMatrix,
+}
+
+/// Delta-method intervals of one fit at one level.
+#[derive(Debug, Clone)]
+pub struct LevelCis {
+    /// Per-sample parameter intervals, in the order of [`ChannelFit::parameters`].
+    pub parameters: Vec<(f64, f64)>,
+    /// IEEE equivalents with their intervals at this level.
+    pub ieee: BTreeMap<String, IeeeValue>,
+}
+
+/// Fit settings shared by `fit`, `analyze` and `demo` (and the Python `fit`).
+///
+/// ```
+/// use imunoise::pipeline::fit::{FitSettings, Method};
+/// let s = FitSettings { model: "WN+RW".into(), ..FitSettings::default() };
+/// assert_eq!(s.method, Method::Gmwm);
+/// assert_eq!(s.alpha, 0.05);
+/// ```
+#[derive(Debug, Clone)]
+pub struct FitSettings {
+    /// Model template (slots to estimate), e.g. "WN+RW+AR1" or "QN+WN+RW+2*AR1".
+    pub model: String,
+    /// Fitting method.
+    pub method: Method,
+    /// Select the best sub-model of `model` by WIC (GMWM only).
+    pub select: bool,
+    /// GMWM weighting matrix Ω.
+    pub weighting: FitWeighting,
+    /// Parametric bootstrap replications B for the covariance of the AV estimates behind
+    /// the CIs (GMWM) or for the CIs themselves (AVLR); 0: none.
+    pub bootstrap: usize,
+    /// Seed of the bootstrap simulations.
+    pub seed: u64,
+    /// CI level: intervals cover 1 − alpha.
+    pub alpha: f64,
+}
+
+/// The default model template of `fit`.
+pub const DEFAULT_MODEL: &str = "QN+WN+RW+AR1";
+
+impl Default for FitSettings {
+    fn default() -> Self {
+        FitSettings {
+            model: DEFAULT_MODEL.to_string(),
+            method: Method::Gmwm,
+            select: false,
+            weighting: FitWeighting::Diagonal,
+            bootstrap: 0,
+            seed: 1,
+            alpha: 0.05,
+        }
+    }
+}
+
+/// Checks a Gaussian efficiency of the robust AV and returns `Some(efficiency)` when
+/// `robust`, else `None`.
+pub fn robust_efficiency(robust: bool, efficiency: f64) -> Result<Option<f64>> {
+    let (lo, hi) = avar::robust::EFFICIENCY_RANGE;
+    if !(efficiency.is_finite() && (lo..=hi).contains(&efficiency)) {
+        return Err(Error::Usage(format!(
+            "--efficiency must lie in [{lo}, {hi}], got {efficiency}"
+        )));
+    }
+    Ok(robust.then_some(efficiency))
+}
+
+/// One parameter in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct ParamJson {
+    /// Process code.
+    pub process: String,
+    /// Parameter name.
+    pub name: String,
+    /// Per-sample value.
+    pub value: f64,
+    /// Lower CI bound.
+    pub ci_lo: Option<f64>,
+    /// Upper CI bound.
+    pub ci_hi: Option<f64>,
+}
+
+/// The J test in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct JTestJson {
+    /// J statistic.
+    pub statistic: f64,
+    /// P-value.
+    pub p_value: f64,
+}
+
+/// One fitted scale in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct FittedJson {
+    /// Cluster size.
+    pub m: u64,
+    /// Fitted (model) Allan variance.
+    pub avar: f64,
+}
+
+/// One channel's fit in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelFit {
+    /// Channel name.
+    pub name: String,
+    /// `gmwm`, `avlr` or `ieee952`.
+    pub method: String,
+    /// Fitted model, per-sample values.
+    pub model: String,
+    /// Whether the optimizer converged.
+    pub converged: bool,
+    /// Parameters with CIs.
+    pub parameters: Vec<ParamJson>,
+    /// IEEE equivalents (N, Q, K, R, B) with CIs where available.
+    pub ieee: BTreeMap<String, IeeeValue>,
+    /// J test (GMWM).
+    pub j_test: Option<JTestJson>,
+    /// How the CIs were computed (see [`CiMethod`]).
+    pub ci_method: CiMethod,
+    /// Coverage level of each CI, 1 − alpha (null without CIs).
+    pub ci_level: Option<f64>,
+    /// WIC of the selected model (with --select).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wic: Option<f64>,
+    /// What the user should know about this fit in words: components the data do not
+    /// determine, data-quality findings (level shifts, trends, spikes). Empty: omitted.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub warnings: Vec<String>,
+    /// The fitted curve.
+    pub fitted: Vec<FittedJson>,
+    /// Each component's fitted curve (for plots; not in the JSON).
+    #[serde(skip)]
+    pub components: Vec<(String, Vec<f64>)>,
+    /// The channel unit (not in the JSON).
+    #[serde(skip)]
+    pub unit: Unit,
+    /// The GMWM fit and its V, to recompute intervals at other levels (not in the JSON).
+    #[serde(skip)]
+    pub inference: Option<GmwmInference>,
+}
+
+impl ChannelFit {
+    /// The delta-method intervals of a GMWM fit at level 1 − `alpha` (None for other
+    /// methods, which keep only the intervals they were computed with).
+    ///
+    /// ```no_run
+    /// # fn f(fit: &imunoise::pipeline::fit::ChannelFit) -> imunoise::Result<()> {
+    /// // Bonferroni: each of K = 24 intervals at level 1 − 0.05/24 covers jointly with ≥ 95%.
+    /// if let Some(sim) = fit.cis_at(0.05 / 24.0)? {
+    ///     println!("{:?}", sim.parameters);
+    /// }
+    /// # Ok(()) }
+    /// ```
+    pub fn cis_at(&self, alpha: f64) -> Result<Option<LevelCis>> {
+        let Some(g) = &self.inference else {
+            return Ok(None);
+        };
+        let inf = delta_method(&g.fit, &g.v, alpha).map_err(|e| fit_err(&self.name, e))?;
+        let r = FitReport::from_gmwm(&g.fit, Some(&inf), &self.unit);
+        Ok(Some(LevelCis {
+            parameters: inf.ci,
+            ieee: r.ieee,
+        }))
+    }
+}
+
+/// The JSON document of `imunoise fit`.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitJson {
+    /// One entry per channel.
+    pub channels: Vec<ChannelFit>,
+}
+
+fn fit_err(name: &str, e: FitError) -> Error {
+    Error::Usage(format!("channel {name:?}: fit: {e}"))
+}
+
+/// How a channel fit's intervals came about (for [`from_report`]).
+struct CiInfo {
+    method: CiMethod,
+    alpha: f64,
+    inference: Option<GmwmInference>,
+}
+
+fn from_report(
+    name: &str,
+    r: &FitReport,
+    wic: Option<f64>,
+    comps: &[ProcessKind],
+    ci: CiInfo,
+) -> ChannelFit {
+    let components = comps
+        .iter()
+        .enumerate()
+        .map(|(c, k)| {
+            (
+                k.code().to_string(),
+                r.fitted
+                    .iter()
+                    .map(|p| p.components.get(c).copied().unwrap_or(f64::NAN))
+                    .collect(),
+            )
+        })
+        .collect();
+    ChannelFit {
+        name: name.to_string(),
+        method: r.method.clone(),
+        model: r.model.clone(),
+        converged: r.converged,
+        parameters: r
+            .parameters
+            .iter()
+            .map(|p| ParamJson {
+                process: p.process.clone(),
+                name: p.name.clone(),
+                value: p.value,
+                ci_lo: p.ci_lo,
+                ci_hi: p.ci_hi,
+            })
+            .collect(),
+        ieee: r.ieee.clone(),
+        warnings: Vec::new(),
+        j_test: r.j_test.map(|j| JTestJson {
+            statistic: j.statistic,
+            p_value: j.p_value,
+        }),
+        ci_method: ci.method,
+        ci_level: (ci.method != CiMethod::None).then_some(1.0 - ci.alpha),
+        wic,
+        fitted: r
+            .fitted
+            .iter()
+            .map(|p| FittedJson {
+                m: p.m,
+                avar: p.avar,
+            })
+            .collect(),
+        components,
+        unit: r.unit.clone(),
+        inference: ci.inference,
+    }
+}
+
+/// Fits one channel's Allan variance curve as `settings` say. `on_replicate` is called once
+/// per finished bootstrap replicate (for a progress bar; `&|| {}` for none).
+pub fn fit_channel(
+    name: &str,
+    av: &AllanVariance,
+    unit: &Unit,
+    settings: &FitSettings,
+    on_replicate: &(dyn Fn() + Sync),
+) -> Result<ChannelFit> {
+    fit_channel_robust(name, av, unit, settings, None, on_replicate)
+}
+
+/// [`fit_channel`] on a robust AV curve of Gaussian efficiency `robust` (None: classical):
+/// the model covariance behind the CIs is inflated by 1/e. No bootstrap with a robust AV.
+pub fn fit_channel_robust(
+    name: &str,
+    av: &AllanVariance,
+    unit: &Unit,
+    settings: &FitSettings,
+    robust: Option<f64>,
+    on_replicate: &(dyn Fn() + Sync),
+) -> Result<ChannelFit> {
+    let e = |x| fit_err(name, x);
+    let curve = AvCurve::from_avar(av).map_err(e)?;
+    let template: Model = settings.model.parse()?;
+    if robust.is_some() && settings.bootstrap > 0 {
+        return Err(Error::Usage(
+            "--bootstrap cannot be combined with --robust (the bootstrap replicates would use \
+             the classical AV); the robust CIs use the model covariance"
+                .into(),
+        ));
+    }
+    match settings.method {
+        Method::Gmwm => {
+            let opts = GmwmOptions {
+                weighting: settings.weighting.weighting(),
+                robust,
+                ..GmwmOptions::default()
+            };
+            let v0 = diagonal_covariance(&curve);
+            let (template, wic) = if settings.select {
+                let cands = select_by_wic(&curve, &template, &opts, &v0).map_err(e)?;
+                let best = cands.first().ok_or_else(|| {
+                    Error::Usage(format!("channel {name:?}: no sub-model could be fitted"))
+                })?;
+                (best.template.parse::<Model>()?, Some(best.wic))
+            } else {
+                (template, None)
+            };
+            let f = gmwm::fit(&curve, &template, &opts).map_err(e)?;
+            let (v, method) = if settings.bootstrap > 0 {
+                let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
+                b.alpha = settings.alpha;
+                let boot =
+                    parametric_bootstrap_with_progress(&f, &template, &opts, &b, on_replicate)
+                        .map_err(e)?;
+                (boot.av_cov, CiMethod::DeltaBootstrapCov)
+            } else {
+                // The exact covariance of the AV estimates under the fitted model. It exists
+                // for every model the fit can return; should it fail, the diagonal V is used
+                // and `ci_method` says so.
+                match fit_covariance(&f) {
+                    Ok(v) => (v, CiMethod::DeltaModelCov),
+                    Err(_) => (v0, CiMethod::DeltaDiagonal),
+                }
+            };
+            let inf = delta_method(&f, &v, settings.alpha).map_err(e)?;
+            let r = FitReport::from_gmwm(&f, Some(&inf), unit);
+            let kinds = f.kinds.clone();
+            let warnings = undetermined(&f);
+            let ci = CiInfo {
+                method,
+                alpha: settings.alpha,
+                inference: Some(GmwmInference { fit: f, v }),
+            };
+            let mut out = from_report(name, &r, wic, &kinds, ci);
+            out.warnings = warnings;
+            Ok(out)
+        }
+        Method::Avlr => {
+            let w = gmwm_prep::avlr::AvlrWindows::auto(&curve).map_err(e)?;
+            let mut f = gmwm_prep::avlr::avlr(&curve, &w).map_err(e)?;
+            let mut method = CiMethod::None;
+            if settings.bootstrap > 0 {
+                let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
+                b.alpha = settings.alpha;
+                f = gmwm_prep::bootstrap::avlr_bootstrap(&f, &curve.m(), &b).map_err(e)?;
+                (0..settings.bootstrap).for_each(|_| on_replicate());
+                method = CiMethod::BootstrapSd;
+            }
+            let r = FitReport::from_avlr(&f, &curve.m(), unit);
+            let kinds = f.model.kinds();
+            let ci = CiInfo {
+                method,
+                alpha: settings.alpha,
+                inference: None,
+            };
+            Ok(from_report(name, &r, None, &kinds, ci))
+        }
+        Method::Ieee952 => ieee952(name, av, unit),
+    }
+}
+
+/// Warnings for the components of a GMWM fit that the data do not determine.
+fn undetermined(f: &gmwm_prep::gmwm::GmwmFit) -> Vec<String> {
+    let (lo, hi) = (
+        f.tau.first().copied().unwrap_or(f64::NAN),
+        f.tau.last().copied().unwrap_or(f64::NAN),
+    );
+    gmwm_prep::diagnose::negligible_components(f)
+        .into_iter()
+        .map(|(code, share)| {
+            format!(
+                "{code} contributes at most {share:.1e} of the fitted AV at any scale (τ = {lo} … {hi} s): the data do not determine its parameters, whatever their CIs say; try --select or a model without {code}"
+            )
+        })
+        .collect()
+}
+
+/// The IEEE 952 read-off as a fit: N, K, Q, R mapped to per-sample WN, RW, QN, DR
+/// parameters (REFERENCES §5: σ² = N²/Δt, γ² = K²Δt, Q² = (Q/Δt)², ω = RΔt); B is reported
+/// in `ieee` only (it has no per-sample counterpart). No CIs.
+pub fn ieee952(name: &str, av: &AllanVariance, unit: &Unit) -> Result<ChannelFit> {
+    use gmwm_prep::units::IeeeTerm;
+    let e = |x| fit_err(name, x);
+    let ro = gmwm_prep::ieee::read_off_adev(&av.taus(), &av.adevs(), unit).map_err(e)?;
+    let dt = 1.0 / av.rate_hz;
+    let mut procs: Vec<Process> = Vec::new();
+    let mut ieee = BTreeMap::new();
+    for est in &ro.terms {
+        let v = est.value;
+        let p: Option<Process> = match est.term {
+            IeeeTerm::Q => Some(processes::QuantizationNoise::new((v / dt).powi(2))?.into()),
+            IeeeTerm::N => Some(processes::WhiteNoise::new(v * v / dt)?.into()),
+            IeeeTerm::K => Some(processes::RandomWalk::new(v * v * dt)?.into()),
+            IeeeTerm::R => Some(processes::Drift::new(v * dt)?.into()),
+            IeeeTerm::B => None,
+        };
+        procs.extend(p);
+        let (val, u) = est
+            .ieee
+            .first()
+            .map_or((est.value, est.unit.clone()), |q| (q.value, q.unit.clone()));
+        ieee.insert(
+            est.term.symbol().to_string(),
+            IeeeValue {
+                value: val,
+                unit: u,
+                ci_lo: None,
+                ci_hi: None,
+            },
+        );
+    }
+    if procs.is_empty() {
+        return Err(Error::Usage(format!(
+            "channel {name:?}: no IEEE 952 slope region found on the Allan deviation"
+        )));
+    }
+    let model = Model::from_processes(procs.clone())?;
+    let m: Vec<u64> = av.points.iter().map(|p| p.m).collect();
+    let fitted = gmwm_prep::theory::model_avar(&model, &m, av.rate_hz).map_err(e)?;
+    let mut components = Vec::new();
+    for p in &procs {
+        let c = gmwm_prep::theory::model_avar(&Model::from(*p), &m, av.rate_hz).map_err(e)?;
+        components.push((p.kind().code().to_string(), c));
+    }
+    Ok(ChannelFit {
+        name: name.to_string(),
+        method: "ieee952".into(),
+        model: model.to_string(),
+        converged: true,
+        parameters: procs
+            .iter()
+            .flat_map(|p| {
+                let k = p.kind();
+                k.param_names()
+                    .iter()
+                    .zip(p.params())
+                    .map(move |(n, v)| ParamJson {
+                        process: k.code().to_string(),
+                        name: n.to_string(),
+                        value: v,
+                        ci_lo: None,
+                        ci_hi: None,
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect(),
+        ieee,
+        warnings: Vec::new(),
+        j_test: None,
+        ci_method: CiMethod::None,
+        ci_level: None,
+        wic: None,
+        fitted: m
+            .iter()
+            .zip(&fitted)
+            .map(|(&m, &a)| FittedJson { m, avar: a })
+            .collect(),
+        components,
+        unit: unit.clone(),
+        inference: None,
+    })
+}
+
+/// Fits every channel (in parallel).
+pub fn fit_all(
+    curves: &[(String, AllanVariance)],
+    units: &[Unit],
+    settings: &FitSettings,
+    ui: &Ui,
+) -> Result<Vec<ChannelFit>> {
+    fit_all_robust(curves, units, settings, None, ui)
+}
+
+/// [`fit_all`] on robust AV curves of Gaussian efficiency `robust` (None: classical).
+pub fn fit_all_robust(
+    curves: &[(String, AllanVariance)],
+    units: &[Unit],
+    settings: &FitSettings,
+    robust: Option<f64>,
+    ui: &Ui,
+) -> Result<Vec<ChannelFit>> {
+    use rayon::prelude::*;
+    if !(settings.alpha > 0.0 && settings.alpha < 1.0) {
+        return Err(Error::Usage(format!(
+            "--alpha must lie in (0, 1), got {}",
+            settings.alpha
+        )));
+    }
+    // One step per channel fit, plus one per bootstrap replicate when bootstrapping.
+    let boots = match settings.method {
+        Method::Ieee952 => 0,
+        _ => settings.bootstrap as u64,
+    };
+    let per_channel = 1 + boots;
+    let msg = if boots > 0 {
+        "fit+bootstrap"
+    } else {
+        "fitting"
+    };
+    if settings.select && settings.method != Method::Gmwm {
+        return Err(Error::Usage(
+            "--select works with --method gmwm only (it compares GMWM fits by WIC)".into(),
+        ));
+    }
+    let pb = ui.bar(curves.len() as u64 * per_channel, msg);
+    let tick = || pb.inc(1);
+    let out: Vec<Result<ChannelFit>> = curves
+        .par_iter()
+        .zip(units)
+        .map(|((name, av), unit)| {
+            let r = fit_channel_robust(name, av, unit, settings, robust, &tick);
+            pb.inc(1);
+            r
+        })
+        .collect();
+    pb.finish_and_clear();
+    out.into_iter().collect()
+}
+
+/// A coverage level as a percentage with at most two decimals: 0.95 → "95%",
+/// 1 − 0.05/24 → "99.79%".
+///
+/// ```
+/// use imunoise::pipeline::fit::percent;
+/// assert_eq!(percent(0.95), "95%");
+/// assert_eq!(percent(1.0 - 0.05 / 24.0), "99.79%");
+/// ```
+pub fn percent(level: f64) -> String {
+    let s = format!("{:.2}", 100.0 * level);
+    format!("{}%", s.trim_end_matches('0').trim_end_matches('.'))
+}
+
+fn ci(lo: Option<f64>, hi: Option<f64>) -> String {
+    match (lo, hi) {
+        (Some(a), Some(b)) => format!("[{a:.4e}, {b:.4e}]"),
+        _ => "-".into(),
+    }
+}
+
+/// Writes fits as text tables.
+/// `bootstrap` is the number of replicates, for the CI method's description.
+pub fn write_table(
+    out: &mut impl Write,
+    fits: &[ChannelFit],
+    alpha: f64,
+    bootstrap: usize,
+) -> std::io::Result<()> {
+    for (i, f) in fits.iter().enumerate() {
+        if i > 0 {
+            writeln!(out)?;
+        }
+        writeln!(
+            out,
+            "{} [{}]: {} fit{}: {}",
+            f.name,
+            if f.unit.symbol().is_empty() {
+                "unitless"
+            } else {
+                f.unit.symbol()
+            },
+            f.method,
+            if f.converged { "" } else { " (NOT converged)" },
+            f.model
+        )?;
+        let ci_head = match f.ci_method {
+            CiMethod::None => "no CI".to_string(),
+            m => format!("{} CI ({})", percent(1.0 - alpha), m.describe(bootstrap)),
+        };
+        writeln!(
+            out,
+            "  {:<5} {:<7} {:>12}  {ci_head}",
+            "proc", "param", "per sample",
+        )?;
+        for p in &f.parameters {
+            writeln!(
+                out,
+                "  {:<5} {:<7} {:>12.4e}  {}",
+                p.process,
+                p.name,
+                p.value,
+                ci(p.ci_lo, p.ci_hi)
+            )?;
+        }
+        for (k, v) in &f.ieee {
+            writeln!(
+                out,
+                "  IEEE {k} = {:.4e} {}  {}",
+                v.value,
+                v.unit,
+                ci(v.ci_lo, v.ci_hi)
+            )?;
+        }
+        if let Some(j) = &f.j_test {
+            writeln!(
+                out,
+                "  J-test: J = {:.3}, p = {:.3}",
+                j.statistic, j.p_value
+            )?;
+        }
+        if let Some(w) = f.wic {
+            writeln!(out, "  WIC of the selected model: {w:.4}")?;
+        }
+        for w in &f.warnings {
+            writeln!(out, "  note: {w}")?;
+        }
+    }
+    Ok(())
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Writes fits as CSV: a header line, then one row per parameter (per sample) and per IEEE
+/// term (process `IEEE`), with empty CI cells where there is none.
+pub fn write_csv(out: &mut impl Write, fits: &[ChannelFit]) -> std::io::Result<()> {
+    writeln!(out, "channel,process,name,value,ci_lo,ci_hi,unit,ci_method")?;
+    let o = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:e}"));
+    for f in fits {
+        let method = serde_json::to_value(f.ci_method)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default();
+        let name = csv_field(&f.name);
+        for p in &f.parameters {
+            writeln!(
+                out,
+                "{name},{},{},{:e},{},{},per sample,{method}",
+                p.process,
+                p.name,
+                p.value,
+                o(p.ci_lo),
+                o(p.ci_hi)
+            )?;
+        }
+        for (k, v) in &f.ieee {
+            writeln!(
+                out,
+                "{name},IEEE,{k},{:e},{},{},{},{method}",
+                v.value,
+                o(v.ci_lo),
+                o(v.ci_hi),
+                csv_field(&v.unit)
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// One channel of a joint fit of several recordings (`imunoise fit A B …`).
+#[derive(Debug, Clone, Serialize)]
+pub struct JointChannel {
+    /// Channel name.
+    pub name: String,
+    /// The recordings, in order.
+    pub files: Vec<String>,
+    /// The joint fit (same shape as one channel of a single-file fit).
+    pub fit: ChannelFit,
+    /// Each recording fitted alone.
+    pub single: Vec<ChannelFit>,
+    /// Wald test of equal parameters across recordings.
+    pub wald: gmwm_prep::multi::ChiSquareTest,
+    /// J-type test of equal Allan variance curves across recordings.
+    pub moment_test: gmwm_prep::multi::ChiSquareTest,
+}
+
+/// The JSON document of `imunoise fit A B …`.
+#[derive(Debug, Clone, Serialize)]
+pub struct JointJson {
+    /// One entry per channel.
+    pub joint: Vec<JointChannel>,
+}
+
+/// Fits one model to each channel of several recordings of one sensor (GMWM only; no
+/// selection, no bootstrap): the inputs are read alike (same channels), their Allan variances
+/// (robust ones with `robust = Some(efficiency)`) pooled with their covariances.
+pub fn fit_joint(
+    inputs: &[Input],
+    settings: &FitSettings,
+    robust: Option<f64>,
+    ui: &Ui,
+) -> Result<Vec<JointChannel>> {
+    if settings.method != Method::Gmwm || settings.select || settings.bootstrap > 0 {
+        return Err(Error::Usage(
+            "several files: the joint fit works with --method gmwm, without --select and \
+             without --bootstrap"
+                .into(),
+        ));
+    }
+    if !(settings.alpha > 0.0 && settings.alpha < 1.0) {
+        return Err(Error::Usage(format!(
+            "--alpha must lie in (0, 1), got {}",
+            settings.alpha
+        )));
+    }
+    let Some(first) = inputs.first() else {
+        return Err(Error::Usage(
+            "a joint fit needs at least one recording".into(),
+        ));
+    };
+    let mut per_file: Vec<(Vec<String>, Vec<Unit>, ChannelCurves)> = Vec::new();
+    for input in inputs {
+        let (table, units, mut curves) = read_curves(input, settings.alpha, ui)?;
+        if let Some(e) = robust {
+            let r = robust_curves(&table, table.rate()?, settings.alpha, e)?;
+            curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
+        }
+        if let Some((names0, _, _)) = per_file.first()
+            && *names0 != table.names
+        {
+            return Err(Error::Usage(format!(
+                "{}: channels {:?} differ from those of {} ({:?})",
+                input.file.display(),
+                table.names,
+                first.file.display(),
+                names0
+            )));
+        }
+        per_file.push((table.names.clone(), units, curves));
+    }
+    let template: Model = settings.model.parse()?;
+    let opts = GmwmOptions {
+        weighting: settings.weighting.weighting(),
+        robust,
+        ..GmwmOptions::default()
+    };
+    let (names, units, _) = &per_file[0];
+    let mut out = Vec::new();
+    for (k, name) in names.iter().enumerate() {
+        let e = |x| fit_err(name, x);
+        let cs: Vec<AvCurve> = per_file
+            .iter()
+            .map(|(_, _, c)| AvCurve::from_avar(&c[k].1))
+            .collect::<std::result::Result<_, _>>()
+            .map_err(e)?;
+        let j = gmwm_prep::multi::fit_joint(&cs, &template, &opts, settings.alpha).map_err(e)?;
+        let mk = |f: &GmwmFit, inf: &gmwm_prep::inference::Inference, v: CovMatrix| {
+            let r = FitReport::from_gmwm(f, Some(inf), &units[k]);
+            let ci = CiInfo {
+                method: CiMethod::DeltaModelCov,
+                alpha: settings.alpha,
+                inference: Some(GmwmInference { fit: f.clone(), v }),
+            };
+            from_report(name, &r, None, &f.kinds, ci)
+        };
+        let joint = mk(&j.fit, &j.inference, j.pooled_cov.clone());
+        let single = j
+            .single
+            .iter()
+            .map(|s| {
+                let v = fit_covariance(&s.fit).map_err(e)?;
+                Ok(mk(&s.fit, &s.inference, v))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        out.push(JointChannel {
+            name: name.clone(),
+            files: inputs
+                .iter()
+                .map(|i| i.file.display().to_string())
+                .collect(),
+            fit: joint,
+            single,
+            wald: j.wald,
+            moment_test: j.moments,
+        });
+    }
+    Ok(out)
+}
+
+/// Prepends each channel's data-quality findings to its fit's warnings.
+pub fn attach_quality(fits: &mut [ChannelFit], quality: Vec<Vec<String>>) {
+    for (f, mut q) in fits.iter_mut().zip(quality) {
+        q.append(&mut f.warnings);
+        f.warnings = q;
+    }
+}
+
+/// Writes joint fits as text tables.
+pub fn write_joint_table(
+    out: &mut impl Write,
+    joint: &[JointChannel],
+    alpha: f64,
+) -> std::io::Result<()> {
+    for j in joint {
+        writeln!(
+            out,
+            "{}: one model for {} recordings",
+            j.name,
+            j.files.len()
+        )?;
+        write_table(out, std::slice::from_ref(&j.fit), alpha, 0)?;
+        for (f, s) in j.files.iter().zip(&j.single) {
+            writeln!(out, "  alone, {f}:")?;
+            for p in &s.parameters {
+                writeln!(
+                    out,
+                    "    {:<5} {:<7} {:>12.4e}  {}",
+                    p.process,
+                    p.name,
+                    p.value,
+                    ci(p.ci_lo, p.ci_hi)
+                )?;
+            }
+        }
+        writeln!(
+            out,
+            "  equal parameters (Wald): W = {:.3}, dof = {}, p = {:.4}",
+            j.wald.statistic, j.wald.dof, j.wald.p_value
+        )?;
+        writeln!(
+            out,
+            "  equal AV curves (J-type): J = {:.3}, dof = {}, p = {:.4}\n",
+            j.moment_test.statistic, j.moment_test.dof, j.moment_test.p_value
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,296 @@
+//! Reading: a file (text, gzip, raw binary or a log) into a [`Table`] with its rate, as
+//! [`Input`] says. The `imunoise` command's input flags map one to one onto [`Input`]'s
+//! fields.
+
+use crate::error::{Error, Result};
+use crate::io::{self, BinaryType, ReadOptions, Table};
+use crate::logs;
+use crate::ui::Ui;
+use std::path::PathBuf;
+
+/// What to read and how: the library form of the command's input flags.
+///
+/// ```no_run
+/// use imunoise::pipeline::read::Input;
+/// let input = Input { rate: Some(100.0), ..Input::new("imu.csv.gz") };
+/// let table = input.read(&imunoise::Ui::quiet())?;
+/// println!("{} channels at {} Hz", table.columns.len(), table.rate()?);
+/// # Ok::<(), imunoise::Error>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct Input {
+    /// The file (a folder for a ROS 2 bag; `-` for standard input).
+    pub file: PathBuf,
+    /// Sampling rate in Hz; required for input without time stamps. For stamped input the
+    /// rate comes from the stamps (median Δt) and a rate more than 1 % away is an error.
+    pub rate: Option<f64>,
+    /// Columns to read: header names or 1-based indices and ranges (`gyro_x,acc_z`, `1-3`).
+    pub columns: Option<String>,
+    /// Raw little-endian binary of this type, row-major.
+    pub binary: Option<BinaryType>,
+    /// Channels per row of binary input.
+    pub channels: Option<usize>,
+    /// A factor every value is multiplied by.
+    pub scale: Option<f64>,
+    /// Channel names (comma list, after `columns`), replacing the header's.
+    pub names: Option<String>,
+    /// Units: one for all channels or a comma list (see [`crate::units`]); default: from
+    /// the channel names' suffixes.
+    pub unit: Option<String>,
+    /// IMU topics of a log to read (empty: the only IMU topic).
+    pub topic: Vec<String>,
+    /// The log format when the extension does not tell.
+    pub log_format: Option<logs::LogFormat>,
+    /// Text input: the column holding time stamps.
+    pub time_column: Option<String>,
+    /// Unit of `time_column`.
+    pub time_unit: TimeUnit,
+    /// What to do with gaps in time-stamped input.
+    pub gaps: logs::GapPolicy,
+}
+
+impl Input {
+    /// Reads `file` with every option at its default (text, gzip or a log by extension).
+    pub fn new(file: impl Into<PathBuf>) -> Self {
+        Input {
+            file: file.into(),
+            rate: None,
+            columns: None,
+            binary: None,
+            channels: None,
+            scale: None,
+            names: None,
+            unit: None,
+            topic: Vec::new(),
+            log_format: None,
+            time_column: None,
+            time_unit: TimeUnit::S,
+            gaps: logs::GapPolicy::Refuse,
+        }
+    }
+
+    /// Each channel's unit: `unit` if given, else from the channel names (see
+    /// [`crate::units::channel_units`]).
+    pub fn units(&self, table: &Table) -> Result<Vec<processes::Unit>> {
+        crate::units::channel_units(&table.names, self.unit.as_deref())
+    }
+}
+
+/// Unit of a text time column (`--time-unit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum TimeUnit {
+    /// Seconds.
+    S,
+    /// Milliseconds.
+    Ms,
+    /// Microseconds.
+    Us,
+    /// Nanoseconds.
+    Ns,
+}
+
+impl TimeUnit {
+    /// Nanoseconds per unit.
+    pub fn ns(self) -> f64 {
+        match self {
+            TimeUnit::S => 1e9,
+            TimeUnit::Ms => 1e6,
+            TimeUnit::Us => 1e3,
+            TimeUnit::Ns => 1.0,
+        }
+    }
+}
+
+impl Input {
+    /// The log format of the input, if it is a log (a folder is a ROS 2 bag). With
+    /// `--binary` the input is raw binary whatever its extension, and a `.bin` file is a
+    /// DataFlash log only when it starts with a DataFlash message header (A3 95).
+    pub fn log_format(&self) -> Option<logs::LogFormat> {
+        self.log_format.or_else(|| {
+            if self.binary.is_some() {
+                None
+            } else if self.file.is_dir() {
+                logs::storage_file(&self.file)
+                    .ok()
+                    .and_then(|p| logs::LogFormat::from_path(&p))
+                    .or(Some(logs::LogFormat::Mcap))
+            } else {
+                match logs::LogFormat::from_path(&self.file) {
+                    Some(logs::LogFormat::Dataflash) => {
+                        let mut head = [0u8; 2];
+                        let is_df = std::fs::File::open(&self.file)
+                            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+                            .is_ok()
+                            && head == [0xA3, 0x95];
+                        is_df.then_some(logs::LogFormat::Dataflash)
+                    }
+                    other => other,
+                }
+            }
+        })
+    }
+
+    /// Reads the file as the flags say (with a spinner on a terminal). The returned table
+    /// has its rate set. Logs with several selected topics are an error here (see
+    /// [`InputArgs::read_all`]).
+    pub fn read(&self, ui: &Ui) -> Result<Table> {
+        let mut all = self.read_all(ui)?;
+        if all.len() > 1 {
+            return Err(Error::Usage(format!(
+                "{} topics selected; this subcommand reads one (analyze takes several)",
+                all.len()
+            )));
+        }
+        Ok(all.remove(0))
+    }
+
+    /// Reads the file: one table per selected topic for logs, one table otherwise; each
+    /// with its rate (from --rate or the stamps) and, for stamped input, its timing.
+    pub fn read_all(&self, ui: &Ui) -> Result<Vec<Table>> {
+        let size = std::fs::metadata(&self.file).map_or(String::new(), |m| {
+            format!(" ({:.1} MB)", m.len() as f64 / 1e6)
+        });
+        let pb = ui.spinner(format!("reading {}{size}", self.file.display()));
+        let t = match self.log_format() {
+            Some(fmt) => self.read_log(fmt, ui),
+            None => self.read_text_or_binary().map(|t| vec![t]),
+        };
+        pb.finish_and_clear();
+        t
+    }
+
+    fn read_text_or_binary(&self) -> Result<Table> {
+        if !self.topic.is_empty() {
+            return Err(Error::Usage(
+                "--topic is for logs (.mcap, .bag, .db3, .ulg, .bin)".to_string(),
+            ));
+        }
+        let mut columns = self.columns.as_deref().map(io::parse_columns).transpose()?;
+        let time_col = match &self.time_column {
+            None => None,
+            Some(_) if self.binary.is_some() => {
+                return Err(Error::Usage("--time-column is for text input".to_string()));
+            }
+            Some(tc) => {
+                let spec = io::parse_columns(tc)?;
+                if spec.len() != 1 || matches!(spec[0], io::ColumnSpec::Range(..)) {
+                    return Err(Error::Usage(format!(
+                        "--time-column {tc:?}: give one column name or index"
+                    )));
+                }
+                Some(spec[0].clone())
+            }
+        };
+        let mut time_first = false;
+        if let (Some(tc), Some(cols)) = (&time_col, columns.as_mut()) {
+            // Read the time column too, first; it is taken out below.
+            cols.insert(0, tc.clone());
+            time_first = true;
+        }
+        let opts = ReadOptions {
+            binary: self.binary,
+            channels: self.channels,
+            scale: None,
+            columns,
+            names: None,
+        };
+        let mut t = io::read_table(&self.file, &opts)?;
+        if let Some(tc) = &time_col {
+            let idx = if time_first {
+                0
+            } else {
+                io::resolve_columns(std::slice::from_ref(tc), &t.names)?[0]
+            };
+            let time = t.columns.remove(idx);
+            let tname = t.names.remove(idx);
+            if t.columns.is_empty() {
+                return Err(Error::Usage(format!(
+                    "--time-column {tname:?} is the only column; nothing left to analyse"
+                )));
+            }
+            let k = self.time_unit.ns();
+            let stamps: Vec<i64> = time.iter().map(|&v| (v * k).round() as i64).collect();
+            let (cols, timing) = logs::timing::prepare(
+                stamps,
+                std::mem::take(&mut t.columns),
+                self.rate,
+                self.gaps,
+                &t.file,
+            )?;
+            t.columns = cols;
+            t.rate_hz = Some(timing.rate_hz);
+            t.timing = Some(timing);
+        } else {
+            t.rate_hz = self.rate;
+        }
+        self.finish(&mut t)?;
+        if t.rate_hz.is_none() {
+            t.rate()?;
+        }
+        Ok(t)
+    }
+
+    /// `--scale` and `--names`, after the columns are final.
+    fn finish(&self, t: &mut Table) -> Result<()> {
+        if let Some(scale) = self.scale {
+            for c in &mut t.columns {
+                c.iter_mut().for_each(|v| *v *= scale);
+            }
+        }
+        if let Some(names) = &self.names {
+            let names: Vec<String> = names.split(',').map(|n| n.trim().to_string()).collect();
+            if names.len() != t.names.len() {
+                return Err(Error::Usage(format!(
+                    "--names gives {} names for {} channels",
+                    names.len(),
+                    t.names.len()
+                )));
+            }
+            t.names = names;
+        }
+        Ok(())
+    }
+
+    fn read_log(&self, fmt: logs::LogFormat, ui: &Ui) -> Result<Vec<Table>> {
+        if self.binary.is_some() || self.channels.is_some() || self.time_column.is_some() {
+            return Err(Error::Usage(format!(
+                "{}: --binary, --channels and --time-column are for text and raw input, not {:?} logs",
+                self.file.display(),
+                fmt
+            )));
+        }
+        let path = logs::storage_file(&self.file)?;
+        let file = path.display().to_string();
+        let reader = logs::open(&path, fmt)?;
+        let topics = logs::select_topics(reader.as_ref(), &file, &self.topic)?;
+        let mut out = Vec::new();
+        for topic in topics {
+            let series = reader.read_imu(&topic)?;
+            let what = format!("{file} ({topic})");
+            let (cols, timing) = logs::timing::prepare(
+                series.stamps_ns,
+                series.columns,
+                self.rate,
+                self.gaps,
+                &what,
+            )?;
+            ui.note(format!("{topic}: {}", timing.summary()));
+            let mut t = Table {
+                file: file.clone(),
+                names: series.names,
+                columns: cols,
+                rate_hz: Some(timing.rate_hz),
+                timing: Some(timing),
+                topic: Some(topic),
+            };
+            if let Some(spec) = &self.columns {
+                let idx = io::resolve_columns(&io::parse_columns(spec)?, &t.names)?;
+                t.names = idx.iter().map(|&i| t.names[i].clone()).collect();
+                t.columns = idx.iter().map(|&i| t.columns[i].clone()).collect();
+            }
+            self.finish(&mut t)?;
+            out.push(t);
+        }
+        Ok(out)
+    }
+}

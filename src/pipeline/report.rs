@@ -1,0 +1,774 @@
+//! The report folder of an analysis: `report.html` (self-contained), `results.json`,
+//! `avar.csv`, a Kalibr-style `imu.yaml` and the plots (SVG, and PNG with the `png`
+//! feature), from a [`ReportInput`]; and the pieces the report is made of (the read-off
+//! marks, how long to record, the Kalibr YAML text).
+
+use super::fit::ChannelFit;
+use crate::error::{Error, Result};
+use crate::plot::{AdevPlot, Series, acf_svg, adev_svg, timeseries_svg};
+use crate::ui::Ui;
+use avar::AllanVariance;
+use processes::{Sensor, Unit};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One channel in `results.json`.
+#[derive(Debug, Serialize)]
+pub struct ChannelResult<'a> {
+    /// Channel name.
+    pub name: &'a str,
+    /// Unit.
+    pub unit: &'a Unit,
+    /// Sensor kind.
+    pub sensor: Sensor,
+    /// Number of samples.
+    pub n: usize,
+    /// Allan variance curve (same point shape as `imunoise avar`).
+    pub avar: Vec<super::estimate::PointJson>,
+    /// The fit (same shape as one channel of `imunoise fit --format json`).
+    pub fit: &'a ChannelFit,
+}
+
+/// `results.json`.
+#[derive(Debug, Serialize)]
+pub struct Results<'a> {
+    /// Source of the data.
+    pub source: &'a str,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// The topic (or log message) analysed, for logs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub topic: Option<&'a str>,
+    /// What the time stamps said (rate source, reordered, duplicates, gaps, policy), for
+    /// time-stamped input.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timing: Option<&'a crate::logs::Timing>,
+    /// Channels.
+    pub channels: Vec<ChannelResult<'a>>,
+}
+
+/// Everything the report is made of.
+pub struct ReportInput<'a> {
+    /// Title / source of the data.
+    pub source: &'a str,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Channel names.
+    pub names: &'a [String],
+    /// Channel samples.
+    pub columns: &'a [Vec<f64>],
+    /// Units.
+    pub units: &'a [Unit],
+    /// AV curves.
+    pub curves: &'a [(String, AllanVariance)],
+    /// Fits.
+    pub fits: &'a [ChannelFit],
+    /// Extra HTML inserted after the summary (e.g. the demo's truth table).
+    pub extra_html: String,
+    /// Bootstrap replicates behind the CIs (0: none), for their description.
+    pub bootstrap: usize,
+    /// The topic (or log message) analysed, for logs.
+    pub topic: Option<&'a str>,
+    /// What the time stamps said, for time-stamped input.
+    pub timing: Option<&'a crate::logs::Timing>,
+    /// The classical-vs-robust comparison (analyze's contamination check), if made.
+    pub robust: Option<RobustReport<'a>>,
+}
+
+/// The robust part of a report: each channel's robust AV, the contamination check and, when
+/// the robust curve was fitted too, its fit.
+#[derive(Debug, Clone, Copy)]
+pub struct RobustReport<'a> {
+    /// Each channel's robust Allan variance.
+    pub curves: &'a [(String, avar::robust::RobustAllanVariance)],
+    /// Each channel's classical-vs-robust check.
+    pub checks: &'a [gmwm_prep::robust::ContaminationCheck],
+    /// The fits of the robust curves (with `--robust`).
+    pub fits: Option<&'a [ChannelFit]>,
+}
+
+/// A channel name as a file-name stem: ASCII letters, digits, `-` and `_` kept, the rest `_`.
+///
+/// ```
+/// assert_eq!(imunoise::pipeline::report::file_safe("gyro x/°"), "gyro_x__");
+/// ```
+pub fn file_safe(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// A number with 4 significant digits: fixed notation between 1e-3 and 1e5, else scientific.
+pub fn num(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 {
+        "0".to_string()
+    } else if (1e-3..1e5).contains(&a) {
+        let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
+        format!("{x:.digits$}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+fn html_esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// The Kalibr `imu.yaml` text: noise density N (from WN) and random walk K (from RW) of
+/// gyroscopes (rad/s/√Hz, rad/s²/√Hz) and accelerometers (m/s²/√Hz, m/s³/√Hz), the
+/// largest over the axes of each sensor (conservative, as Kalibr takes one value per sensor).
+pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
+    let mut vals: [Vec<f64>; 4] = Default::default(); // gN, gK, aN, aK
+    let mut fallbacks: Vec<String> = Vec::new();
+    for (k, f) in inp.fits.iter().enumerate() {
+        let unit = &inp.units[k];
+        let to_si = match unit {
+            Unit::DegPerSec => std::f64::consts::PI / 180.0,
+            Unit::G => gmwm_prep::units::STANDARD_GRAVITY,
+            Unit::RadPerSec | Unit::MetrePerSec2 => 1.0,
+            _ => continue,
+        };
+        let base = if unit.is_angular_rate() { 0 } else { 2 };
+        let (mut has_n, mut has_k) = (false, false);
+        for p in &f.parameters {
+            match (p.process.as_str(), p.name.as_str()) {
+                ("WN", "sigma2") => {
+                    vals[base].push((p.value / inp.rate_hz).sqrt() * to_si);
+                    has_n = true;
+                }
+                ("RW", "gamma2") => {
+                    vals[base + 1].push((p.value * inp.rate_hz).sqrt() * to_si);
+                    has_k = true;
+                }
+                _ => {}
+            }
+        }
+        // A fitted model without WN (or RW) still has a noise density (random walk) on the
+        // Allan deviation: fall back to the IEEE 952 read-off, and say so.
+        if !(has_n && has_k) {
+            let (_, av) = &inp.curves[k];
+            if let Ok(ro) = gmwm_prep::ieee::read_off_adev(&av.taus(), &av.adevs(), unit) {
+                use gmwm_prep::units::IeeeTerm;
+                for (has, term, slot) in
+                    [(has_n, IeeeTerm::N, base), (has_k, IeeeTerm::K, base + 1)]
+                {
+                    if !has && let Some(e) = ro.get(term) {
+                        vals[slot].push(e.value * to_si);
+                        fallbacks.push(format!(
+                            "{} {} from the IEEE 952 read-off (the fitted model has no {})",
+                            inp.names[k],
+                            term.symbol(),
+                            if term == IeeeTerm::N { "WN" } else { "RW" }
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    let line = |key: &str, v: &[f64], unit: &str, what: &str| match v
+        .iter()
+        .copied()
+        .fold(None, |m: Option<f64>, x| Some(m.map_or(x, |m| m.max(x))))
+    {
+        Some(x) => format!("{key}: {x:.6e}   # [{unit}] {what}\n"),
+        None => {
+            format!("# {key}: not estimated (no such channel or component in the fitted models)\n")
+        }
+    };
+    let mut s = String::new();
+    s.push_str("# Kalibr-style IMU noise model estimated by imunoise from the Allan variance\n");
+    let _ = writeln!(s, "# source: {}", inp.source);
+    s.push_str("# continuous-time values, largest over the axes of each sensor\n");
+    for f in &fallbacks {
+        let _ = writeln!(s, "# note: {f}");
+    }
+    s.push_str("rostopic: /imu0\n");
+    let _ = writeln!(s, "update_rate: {:.6}   # [Hz]", inp.rate_hz);
+    s.push_str(&line(
+        "accelerometer_noise_density",
+        &vals[2],
+        "m/s^2/sqrt(Hz)",
+        "white noise N",
+    ));
+    s.push_str(&line(
+        "accelerometer_random_walk",
+        &vals[3],
+        "m/s^3/sqrt(Hz)",
+        "bias random walk K",
+    ));
+    s.push_str(&line(
+        "gyroscope_noise_density",
+        &vals[0],
+        "rad/s/sqrt(Hz)",
+        "white noise N",
+    ));
+    s.push_str(&line(
+        "gyroscope_random_walk",
+        &vals[1],
+        "rad/s^2/sqrt(Hz)",
+        "bias random walk K",
+    ));
+    s
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    crate::output::write_file(path, bytes)
+}
+
+/// Writes an SVG and (with the `png` feature) its PNG rendering.
+fn write_plot(dir: &Path, stem: &str, svg: &str) -> Result<()> {
+    write_file(&dir.join(format!("{stem}.svg")), svg.as_bytes())?;
+    #[cfg(feature = "png")]
+    {
+        let png =
+            crate::plot::svg_to_png(svg, 1.5).map_err(|e| Error::Usage(format!("{stem}: {e}")))?;
+        write_file(&dir.join(format!("{stem}.png")), &png)?;
+    }
+    Ok(())
+}
+
+/// The read-off points of a channel: N at τ = 1 s (σ(1) on the −1/2 line), K at τ = 3 s
+/// (σ(3) on the +1/2 line), from the fitted WN and RW (else the IEEE 952 read-off), and B at
+/// the minimum of the Allan deviation (B = σ_min / 0.6643).
+pub fn read_off_marks(
+    av: &AllanVariance,
+    f: &ChannelFit,
+    unit: &Unit,
+    rate_hz: f64,
+) -> Vec<crate::plot::Mark> {
+    use crate::plot::Mark;
+    let param = |p: &str, n: &str| {
+        f.parameters
+            .iter()
+            .find(|x| x.process == p && x.name == n)
+            .map(|x| x.value)
+    };
+    let ro = gmwm_prep::ieee::read_off_adev(&av.taus(), &av.adevs(), unit).ok();
+    let from_ro =
+        |t: gmwm_prep::units::IeeeTerm| ro.as_ref().and_then(|r| r.get(t)).map(|e| e.value);
+    let n = param("WN", "sigma2")
+        .map(|s2| (s2 / rate_hz).sqrt())
+        .or_else(|| from_ro(gmwm_prep::units::IeeeTerm::N));
+    let k = param("RW", "gamma2")
+        .map(|g2| (g2 * rate_hz).sqrt())
+        .or_else(|| from_ro(gmwm_prep::units::IeeeTerm::K));
+    let mut marks = Vec::new();
+    if let Some(n) = n {
+        marks.push(Mark {
+            label: format!("N = {}", num(n)),
+            tau: 1.0,
+            sigma: n,
+        });
+    }
+    if let Some(k) = k {
+        marks.push(Mark {
+            label: format!("K = {}", num(k)),
+            tau: 3.0,
+            sigma: k,
+        });
+    }
+    if let Some(p) = av
+        .points
+        .iter()
+        .filter(|p| p.adev > 0.0)
+        .min_by(|a, b| a.adev.total_cmp(&b.adev))
+    {
+        marks.push(Mark {
+            label: format!(
+                "B = {}",
+                num(p.adev / crate::export::BIAS_INSTABILITY_FACTOR)
+            ),
+            tau: p.tau,
+            sigma: p.adev,
+        });
+    }
+    marks
+}
+
+/// How long to record for a relative 95 % CI half-width `h` on the Allan deviation at the
+/// bias-instability τ (the minimum): the chi-square EDF ν there gives a half-width of about
+/// 1.96/√(2ν); ν grows in proportion to the record length when T ≫ m, so the length needed
+/// is T·ν_needed/ν with ν_needed = 1.96²/(2h²). Returns (τ_B, current half-width, hours needed).
+pub fn record_length_for(
+    av: &AllanVariance,
+    n: usize,
+    rate_hz: f64,
+    h: f64,
+) -> Option<(f64, f64, f64)> {
+    let p = av
+        .points
+        .iter()
+        .filter(|p| p.adev > 0.0)
+        .min_by(|a, b| a.adev.total_cmp(&b.adev))?;
+    let edf = p.edf.filter(|e| *e > 0.0)?;
+    let z = 1.959_963_984_540_054;
+    let now = z / (2.0 * edf).sqrt();
+    let need = z * z / (2.0 * h * h);
+    Some((p.tau, now, n as f64 / rate_hz * need / edf / 3600.0))
+}
+
+/// Writes the whole report into `dir`.
+pub fn write_report(dir: &Path, inp: &ReportInput<'_>, ui: &Ui) -> Result<()> {
+    crate::output::create_dir(dir, "--out")?;
+    let pb = ui.spinner("report and plots");
+    // avar.csv
+    let mut csv = Vec::new();
+    super::estimate::write_csv(&mut csv, inp.curves).map_err(|e| Error::write("avar.csv", e))?;
+    write_file(&dir.join("avar.csv"), &csv)?;
+    write_file(
+        &dir.join("results.json"),
+        serde_json::to_string_pretty(&results_json(inp)?)?.as_bytes(),
+    )?;
+    write_file(&dir.join("imu.yaml"), kalibr_yaml(inp).as_bytes())?;
+    write_html(dir, inp)?;
+    pb.finish_and_clear();
+    Ok(())
+}
+
+/// The `results.json` document of a report: source, rate, topic and timing, and per channel its
+/// unit, sensor, sample count, Allan variance curve, fit and (with a robust part) the robust
+/// entry. This is what the Python `analyze` returns as a dict.
+pub fn results_json(inp: &ReportInput<'_>) -> Result<serde_json::Value> {
+    let json = super::estimate::to_json(inp.curves);
+    let results = Results {
+        source: inp.source,
+        rate_hz: inp.rate_hz,
+        topic: inp.topic,
+        timing: inp.timing,
+        channels: json
+            .channels
+            .into_iter()
+            .enumerate()
+            .map(|(k, c)| ChannelResult {
+                name: &inp.names[k],
+                unit: &inp.units[k],
+                sensor: crate::units::sensor_of(&inp.names[k], &inp.units[k]),
+                n: c.n,
+                avar: c.points,
+                fit: &inp.fits[k],
+            })
+            .collect(),
+    };
+    let mut doc = serde_json::to_value(&results)?;
+    let Some(rob) = &inp.robust else {
+        return Ok(doc);
+    };
+    let rjson = super::estimate::to_json(
+        &rob.curves
+            .iter()
+            .map(|(n, r)| (n.clone(), r.robust.clone()))
+            .collect::<Vec<_>>(),
+    );
+    if let Some(chs) = doc["channels"].as_array_mut() {
+        for (k, (ch, pts)) in chs.iter_mut().zip(rjson.channels).enumerate() {
+            let (_, r) = &rob.curves[k];
+            let entry = RobustResult {
+                efficiency: r.efficiency,
+                check: &rob.checks[k],
+                avar: pts.points,
+                no_root_m: r
+                    .robust
+                    .points
+                    .iter()
+                    .zip(&r.root_found)
+                    .filter(|(_, ok)| !**ok)
+                    .map(|(p, _)| p.m)
+                    .collect(),
+                fit: rob.fits.map(|f| &f[k]),
+            };
+            ch["robust"] = serde_json::to_value(&entry)?;
+        }
+    }
+    Ok(doc)
+}
+
+/// Writes the plots and `report.html`.
+fn write_html(dir: &Path, inp: &ReportInput<'_>) -> Result<()> {
+    let mut html = String::new();
+    let _ = write!(
+        html,
+        r#"<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>imunoise report: {src}</title>
+<style>body{{font-family:"DejaVu Sans",Verdana,Arial,sans-serif;margin:24px;max-width:1600px;color:#222}}
+table{{border-collapse:collapse;margin:8px 0 18px}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right;font-size:13px}}
+th{{background:#f0f0f0}}td.l,th.l{{text-align:left}}.plots{{display:flex;flex-wrap:wrap;gap:8px}}.plots svg{{border:1px solid #ddd;max-width:100%;height:auto}}
+h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{color:#C00000;font-weight:bold}}</style></head><body>
+<h1>imunoise report</h1><p>Source: <code>{src}</code>, {rate} Hz, {n} samples per channel ({h:.2} h). Allan variance: book eq. 4.2 (maximum overlap), dyadic scales, 95% chi-square CIs. Fit: {method}.</p>
+"#,
+        src = html_esc(inp.source),
+        rate = inp.rate_hz,
+        n = inp.columns.first().map_or(0, Vec::len),
+        h = inp.columns.first().map_or(0, Vec::len) as f64 / inp.rate_hz / 3600.0,
+        method = inp.fits.first().map_or("-".to_string(), |f| {
+            let ci = match f.ci_method {
+                super::fit::CiMethod::None => "no CIs".to_string(),
+                m => format!(
+                    "{} CIs by {}",
+                    super::fit::percent(f.ci_level.unwrap_or(0.95)),
+                    m.describe(inp.bootstrap)
+                ),
+            };
+            format!("{}, {}", f.method, html_esc(&ci))
+        })
+    );
+    // IEEE noise table.
+    html.push_str("<h2>Noise terms (IEEE Std 952 units)</h2><table><tr><th class=l>channel</th><th class=l>unit</th><th class=l>fitted model (per sample)</th><th>N (ARW/VRW)</th><th>K (RRW)</th><th>Q</th><th>R</th><th class=l>J-test p</th></tr>\n");
+    for (k, f) in inp.fits.iter().enumerate() {
+        let cell = |key: &str| {
+            f.ieee.get(key).map_or("-".to_string(), |v| {
+                let ci = match (v.ci_lo, v.ci_hi) {
+                    (Some(a), Some(b)) => {
+                        format!("<br><small>[{}, {}]</small>", num(a), num(b))
+                    }
+                    _ => String::new(),
+                };
+                format!("{} {}{ci}", num(v.value), html_esc(&v.unit))
+            })
+        };
+        let _ = writeln!(
+            html,
+            "<tr><td class=l>{}</td><td class=l>{}</td><td class=l><small>{}</small></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
+            html_esc(&inp.names[k]),
+            html_esc(inp.units[k].symbol()),
+            html_esc(&f.model),
+            cell("N"),
+            cell("K"),
+            cell("Q"),
+            cell("R"),
+            f.j_test
+                .as_ref()
+                .map_or("-".into(), |j| format!("{:.3}", j.p_value))
+        );
+    }
+    html.push_str("</table>\n");
+    // What the user should know before trusting the numbers: data quality, undetermined terms.
+    let remarks: Vec<String> = inp
+        .fits
+        .iter()
+        .flat_map(|f| {
+            f.warnings
+                .iter()
+                .map(move |w| format!("<li><b>{}</b>: {}</li>", html_esc(&f.name), html_esc(w)))
+        })
+        .collect();
+    if !remarks.is_empty() {
+        html.push_str("<h2>Remarks</h2><ul>\n");
+        html.push_str(&remarks.join("\n"));
+        html.push_str("</ul>\n");
+    }
+    // How long to record.
+    html.push_str("<h2>How long to record</h2><p>For a ±10 % (95 %) interval on the Allan deviation at the bias-instability τ (its minimum); the EDF there grows in proportion to the record length.</p><ul>\n");
+    for (k, (name, av)) in inp.curves.iter().enumerate() {
+        let n = inp.columns.get(k).map_or(0, Vec::len);
+        if let Some((tau, now, hours)) = record_length_for(av, n, inp.rate_hz, 0.10) {
+            let _ = writeln!(
+                html,
+                "<li>{}: τ<sub>B</sub> = {} s, now ±{:.1} % with {:.2} h; ±10 % needs about {:.2} h.</li>",
+                html_esc(name),
+                num(tau),
+                now * 100.0,
+                n as f64 / inp.rate_hz / 3600.0,
+                hours
+            );
+        }
+    }
+    html.push_str("</ul>\n");
+    if let Some(t) = inp.timing {
+        let _ = writeln!(
+            html,
+            "<h2>Time stamps</h2><p>{}{}</p>",
+            inp.topic.map_or(String::new(), |t| format!(
+                "Topic <code>{}</code>: ",
+                html_esc(t)
+            )),
+            html_esc(&t.summary())
+        );
+    }
+    if let Some(rob) = &inp.robust {
+        html.push_str(&robust_section(dir, inp, rob)?);
+    }
+    html.push_str(&inp.extra_html);
+    // Parameter table.
+    let level = inp
+        .fits
+        .iter()
+        .find_map(|f| f.ci_level)
+        .map_or("no".to_string(), super::fit::percent);
+    let _ = writeln!(
+        html,
+        "<h2>Parameters (per sample, {level} CI)</h2><table><tr><th class=l>channel</th><th class=l>process</th><th class=l>parameter</th><th>value</th><th>CI low</th><th>CI high</th></tr>"
+    );
+    for (k, f) in inp.fits.iter().enumerate() {
+        for p in &f.parameters {
+            let o = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4e}"));
+            let _ = writeln!(
+                html,
+                "<tr><td class=l>{}</td><td class=l>{}</td><td class=l>{}</td><td>{:.4e}</td><td>{}</td><td>{}</td></tr>",
+                html_esc(&inp.names[k]),
+                p.process,
+                p.name,
+                p.value,
+                o(p.ci_lo),
+                o(p.ci_hi)
+            );
+        }
+    }
+    html.push_str("</table>\n<h2>Allan deviation</h2><div class=plots>\n");
+    let mut series_html = String::from("<h2>Time series</h2><div class=plots>\n");
+    let mut acf_html = String::from("<h2>Autocorrelation</h2><div class=plots>\n");
+    for (k, name) in inp.names.iter().enumerate() {
+        let stem = file_safe(name);
+        let (_, av) = &inp.curves[k];
+        let f = &inp.fits[k];
+        let nan = f64::NAN;
+        let tau: Vec<f64> = av.points.iter().map(|p| p.tau).collect();
+        let tau_of = |m: u64| m as f64 / inp.rate_hz;
+        let plot = AdevPlot {
+            title: format!("{name}: Allan deviation"),
+            unit: inp.units[k].symbol().to_string(),
+            observed: av
+                .points
+                .iter()
+                .map(|p| {
+                    (
+                        p.tau,
+                        p.adev,
+                        p.adev_lo.unwrap_or(nan),
+                        p.adev_hi.unwrap_or(nan),
+                    )
+                })
+                .collect(),
+            fitted: Some(Series {
+                label: format!("fitted model ({})", f.method),
+                points: f
+                    .fitted
+                    .iter()
+                    .map(|p| (tau_of(p.m), p.avar.max(0.0).sqrt()))
+                    .collect(),
+            }),
+            components: f
+                .components
+                .iter()
+                .map(|(code, v)| Series {
+                    label: code.clone(),
+                    points: tau
+                        .iter()
+                        .zip(v)
+                        .map(|(&t, &a)| (t, a.max(0.0).sqrt()))
+                        .collect(),
+                })
+                .collect(),
+            marks: read_off_marks(av, f, &inp.units[k], inp.rate_hz),
+        };
+        let svg = adev_svg(&plot, &format!("ad{k}"));
+        write_plot(dir, &format!("adev_{stem}"), &svg)?;
+        html.push_str(&svg);
+        let x = &inp.columns[k];
+        let ts = timeseries_svg(
+            &format!("{name}: time series"),
+            inp.units[k].symbol(),
+            x,
+            inp.rate_hz,
+            &format!("ts{k}"),
+        );
+        write_plot(dir, &format!("series_{stem}"), &ts)?;
+        series_html.push_str(&ts);
+        let lags = (x.len() / 4)
+            .clamp(2, (inp.rate_hz * 30.0) as usize + 1)
+            .min(4000);
+        let acf = spectral::empirical::autocorrelation(x, lags - 1)
+            .map_err(|e| Error::Usage(format!("{name}: ACF: {e}")))?;
+        let a = acf_svg(
+            &format!("{name}: sample ACF"),
+            &acf,
+            x.len(),
+            inp.rate_hz,
+            &format!("acf{k}"),
+        );
+        write_plot(dir, &format!("acf_{stem}"), &a)?;
+        acf_html.push_str(&a);
+    }
+    html.push_str("</div>\n");
+    html.push_str(&series_html);
+    html.push_str("</div>\n");
+    html.push_str(&acf_html);
+    html.push_str("</div>\n<p><small>Made by imunoise. Dotted grey lines: IEEE 952 slope guides (−1 quantization, −1/2 white noise, +1/2 rate random walk, +1 ramp). Shaded band: 95% CI of the estimated Allan deviation.</small></p></body></html>\n");
+    write_file(&dir.join("report.html"), html.as_bytes())
+}
+
+/// One channel's robust entry in `results.json` (with `--robust` or when contaminated).
+#[derive(Debug, Serialize)]
+pub struct RobustResult<'a> {
+    /// Gaussian efficiency of the robust AV.
+    pub efficiency: f64,
+    /// The classical-vs-robust comparison.
+    pub check: &'a gmwm_prep::robust::ContaminationCheck,
+    /// The robust AV (τ, AV, CI).
+    pub avar: Vec<super::estimate::PointJson>,
+    /// Scales where the robust estimating equation had no root (fallback used).
+    pub no_root_m: Vec<u64>,
+    /// The fit of the robust curve (with --robust).
+    pub fit: Option<&'a ChannelFit>,
+}
+
+fn adev_series(label: &str, rate: f64, fitted: &[super::fit::FittedJson]) -> Series {
+    Series {
+        label: label.to_string(),
+        points: fitted
+            .iter()
+            .map(|p| (p.m as f64 / rate, p.avar.max(0.0).sqrt()))
+            .collect(),
+    }
+}
+
+fn fmt_ci(lo: Option<f64>, hi: Option<f64>) -> String {
+    match (lo, hi) {
+        (Some(a), Some(b)) => format!("[{a:.4e}, {b:.4e}]"),
+        _ => "-".into(),
+    }
+}
+
+/// The "classical vs robust" section of the report, writing the robust plots.
+fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> Result<String> {
+    let (names, units, rate) = (inp.names, inp.units, inp.rate_hz);
+    let (robust, checks, classical_fits, robust_fits) =
+        (rob.curves, rob.checks, inp.fits, rob.fits);
+    let mut h = String::from("<h2>Classical vs robust Allan variance (contamination check)</h2>\n");
+    let _ = writeln!(
+        h,
+        "<p>Robust AV: Tukey biweight M-estimator of scale per scale at Gaussian efficiency {} (c = {:.3}); its CIs are the chi-square ones with EDF × efficiency. A scale is flagged when z = (classical − robust)/sd exceeds the one-sided 1 % threshold with Bonferroni over the scales (sd from the classical EDF and the 1/e variance bound: conservative).</p>",
+        robust.first().map_or(0.0, |r| r.1.efficiency),
+        robust.first().map_or(0.0, |r| r.1.biweight.c),
+    );
+    for (k, name) in names.iter().enumerate() {
+        let (_, r) = &robust[k];
+        let chk = &checks[k];
+        let cls = if chk.contaminated { " class=no" } else { "" };
+        let _ = writeln!(
+            h,
+            "<h3>{}</h3><p{cls}>{}</p>",
+            html_esc(name),
+            html_esc(&chk.message)
+        );
+        if !chk.windows.is_empty() {
+            h.push_str("<table><tr><th>window start (s)</th><th>end (s)</th><th>share of the excess</th><th>largest |D|/σ̂</th></tr>\n");
+            for w in &chk.windows {
+                let _ = writeln!(
+                    h,
+                    "<tr><td>{:.2}</td><td>{:.2}</td><td>{:.1} %</td><td>{:.1}</td></tr>",
+                    w.start_s,
+                    w.end_s,
+                    100.0 * w.share,
+                    w.max_z
+                );
+            }
+            h.push_str("</table>\n");
+        }
+        h.push_str("<table><tr><th>m</th><th>τ (s)</th><th>classical AV</th><th>robust AV</th><th>robust CI</th><th>ratio</th><th>z</th><th>rejected</th></tr>\n");
+        for (i, s) in chk.scales.iter().enumerate() {
+            let p = &r.robust.points[i];
+            let flag = if s.z > chk.threshold { " class=no" } else { "" };
+            let _ = writeln!(
+                h,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td{flag}>{:.2}</td><td>{}</td></tr>",
+                s.m,
+                num(s.tau),
+                num(s.classical),
+                num(s.robust),
+                fmt_ci(p.avar_lo, p.avar_hi),
+                s.ratio,
+                s.z,
+                r.rejected[i]
+            );
+        }
+        h.push_str("</table>\n");
+        if let Some(rf) = robust_fits {
+            let (c, q) = (&classical_fits[k], &rf[k]);
+            let _ = writeln!(
+                h,
+                "<table><tr><th class=l></th><th class=l>classical fit</th><th class=l>robust fit</th></tr><tr><td class=l>model</td><td class=l><small>{}</small></td><td class=l><small>{}</small></td></tr>",
+                html_esc(&c.model),
+                html_esc(&q.model)
+            );
+            let rows = c.parameters.len().max(q.parameters.len());
+            for i in 0..rows {
+                let cell = |f: &ChannelFit| {
+                    f.parameters.get(i).map_or("".to_string(), |p| {
+                        format!(
+                            "{} {} = {:.4e} {}",
+                            p.process,
+                            p.name,
+                            p.value,
+                            fmt_ci(p.ci_lo, p.ci_hi)
+                        )
+                    })
+                };
+                let _ = writeln!(
+                    h,
+                    "<tr><td></td><td class=l>{}</td><td class=l>{}</td></tr>",
+                    cell(c),
+                    cell(q)
+                );
+            }
+            let jp = |f: &ChannelFit| {
+                f.j_test
+                    .as_ref()
+                    .map_or("-".into(), |j| format!("{:.3}", j.p_value))
+            };
+            let _ = writeln!(
+                h,
+                "<tr><td class=l>J-test p</td><td class=l>{}</td><td class=l>{}</td></tr></table>",
+                jp(c),
+                jp(q)
+            );
+        }
+        if robust_fits.is_none() {
+            continue;
+        }
+        let nan = f64::NAN;
+        let mut components = vec![Series {
+            label: "classical AD".into(),
+            points: r.classical.points.iter().map(|p| (p.tau, p.adev)).collect(),
+        }];
+        components.push(adev_series(
+            "classical fit",
+            rate,
+            &classical_fits[k].fitted,
+        ));
+        let plot = AdevPlot {
+            title: format!("{name}: robust (band) vs classical Allan deviation"),
+            unit: units[k].symbol().to_string(),
+            observed: r
+                .robust
+                .points
+                .iter()
+                .map(|p| {
+                    (
+                        p.tau,
+                        p.adev,
+                        p.adev_lo.unwrap_or(nan),
+                        p.adev_hi.unwrap_or(nan),
+                    )
+                })
+                .collect(),
+            fitted: robust_fits.map(|rf| adev_series("robust fit", rate, &rf[k].fitted)),
+            components,
+            marks: Vec::new(),
+        };
+        let svg = adev_svg(&plot, &format!("rob{k}"));
+        write_plot(dir, &format!("adev_robust_{}", file_safe(name)), &svg)?;
+        h.push_str("<div class=plots>");
+        h.push_str(&svg);
+        h.push_str("</div>\n");
+    }
+    Ok(h)
+}
