@@ -137,6 +137,35 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// `analyze` on a log (`log_args`: the file and any --topic) and on the same data as CSV at
+/// `rate` give the same channels in results.json (AV, fit, IEEE values, robust check), number
+/// for number, and the same rate. Returns the log's results.json.
+fn analyze_equals_csv(
+    dir: &tempfile::TempDir,
+    log_args: &[&str],
+    csv: &Path,
+    rate: &str,
+) -> serde_json::Value {
+    let (ra, rb) = (p(dir, "analyze_log"), p(dir, "analyze_csv"));
+    let fit = ["--model", "WN+RW", "--no-select", "-q"];
+    ok(&[&["analyze"][..], log_args, &["--out", s(&ra)], &fit[..]].concat());
+    ok(&[
+        &["analyze", s(csv), "--rate", rate, "--out", s(&rb)][..],
+        &fit[..],
+    ]
+    .concat());
+    let res = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("results.json")).unwrap()).unwrap()
+    };
+    let (ja, jb) = (res(&ra), res(&rb));
+    assert_eq!(
+        ja["channels"], jb["channels"],
+        "{log_args:?}: analyze differs from CSV"
+    );
+    assert_eq!(ja["rate_hz"], jb["rate_hz"]);
+    ja
+}
+
 #[test]
 fn mcap_equals_csv_bit_for_bit_and_rate_from_stamps() {
     let dir = tempfile::tempdir().unwrap();
@@ -150,21 +179,7 @@ fn mcap_equals_csv_bit_for_bit_and_rate_from_stamps() {
     let v: serde_json::Value = serde_json::from_str(&a).unwrap();
     assert_eq!(v["channels"][0]["rate_hz"], 200.0);
     assert_eq!(v["channels"][0]["n"], 20_000);
-    // analyze: the same channels in results.json (AV, fit, IEEE values), number for number.
-    let (ra, rb) = (p(&dir, "ra"), p(&dir, "rb"));
-    let fit = ["--model", "WN+RW", "--no-select", "-q"];
-    ok(&[&["analyze", s(&mc), "--out", s(&ra)][..], &fit[..]].concat());
-    ok(&[
-        &["analyze", s(&csv), "--rate", "200", "--out", s(&rb)][..],
-        &fit[..],
-    ]
-    .concat());
-    let res = |d: &Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(d.join("results.json")).unwrap()).unwrap()
-    };
-    let (ja, jb) = (res(&ra), res(&rb));
-    assert_eq!(ja["channels"], jb["channels"]);
-    assert_eq!(ja["rate_hz"], jb["rate_hz"]);
+    let ja = analyze_equals_csv(&dir, &[s(&mc)], &csv, "200");
     assert_eq!(ja["timing"]["rate_source"], "stamps");
     // A ROS 2 bag folder (metadata.yaml + the storage file) reads the same.
     let bagdir = p(&dir, "bagdir");
@@ -567,6 +582,7 @@ fn ros1_bag_equals_csv_and_bad_bags_exit_2() {
     let a = ok(&["avar", s(&bag), "--format", "json", "-q"]);
     let b = ok(&["avar", s(&csv), "--rate", "400", "--format", "json", "-q"]);
     assert_eq!(a, b, "bag and CSV give the same AV JSON, byte for byte");
+    analyze_equals_csv(&dir, &[s(&bag)], &csv, "400");
     let v: serde_json::Value =
         serde_json::from_str(&ok(&["topics", s(&bag), "--format", "json"])).unwrap();
     assert_eq!(v[1]["name"], "/imu0");
@@ -653,6 +669,7 @@ fn db3_equals_csv_and_bad_files_exit_2() {
     let a = ok(&["avar", s(&db), "--format", "json", "-q"]);
     let b = ok(&["avar", s(&csv), "--rate", "250", "--format", "json", "-q"]);
     assert_eq!(a, b, "db3 and CSV give the same AV JSON, byte for byte");
+    analyze_equals_csv(&dir, &[s(&db)], &csv, "250");
     let v: serde_json::Value =
         serde_json::from_str(&ok(&["topics", s(&db), "--format", "json"])).unwrap();
     assert_eq!(v[0]["count"], 10_000);
@@ -732,6 +749,7 @@ fn ulog_equals_csv_and_bad_files_exit_2() {
     let a = ok(&["avar", s(&ul), "--format", "json", "-q"]);
     let b = ok(&["avar", s(&csv), "--rate", "250", "--format", "json", "-q"]);
     assert_eq!(a, b, "ULog and CSV give the same AV JSON, byte for byte");
+    analyze_equals_csv(&dir, &[s(&ul)], &csv, "250");
     let v: serde_json::Value =
         serde_json::from_str(&ok(&["topics", s(&ul), "--format", "json"])).unwrap();
     assert_eq!(v[0]["name"], "sensor_combined");
@@ -824,6 +842,7 @@ fn dataflash_equals_csv_and_bad_files_exit_2() {
         a, b,
         "DataFlash and CSV give the same AV JSON, byte for byte"
     );
+    analyze_equals_csv(&dir, &[s(&df), "--topic", "IMU[0]"], &csv, "400");
     let v: serde_json::Value =
         serde_json::from_str(&ok(&["topics", s(&df), "--format", "json"])).unwrap();
     assert_eq!(v[0]["name"], "BARO");

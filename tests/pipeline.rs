@@ -127,3 +127,67 @@ fn analysis_of_the_library_is_the_commands_results_json() {
     }
     assert!(cli["channels"][0]["robust"]["check"].is_object());
 }
+
+#[test]
+fn how_long_to_record_aims_at_the_chosen_halfwidth() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_log(dir.path());
+    let out = dir.path().join("r");
+    imunoise(&[
+        "analyze",
+        path.to_str().unwrap(),
+        "--rate",
+        "100",
+        "--model",
+        "WN+RW",
+        "--no-select",
+        "--record-halfwidth",
+        "0.05",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    for ch in v["channels"].as_array().unwrap() {
+        let r = &ch["record_length"];
+        assert_eq!(r["halfwidth_target"], 0.05);
+        // τ_B is the minimum of the AD; its EDF ν gives now = z/√(2ν) and needed = T·z²/(2h²ν)
+        let pts = ch["avar"].as_array().unwrap();
+        let p = pts
+            .iter()
+            .min_by(|a, b| {
+                a["adev"]
+                    .as_f64()
+                    .unwrap()
+                    .total_cmp(&b["adev"].as_f64().unwrap())
+            })
+            .unwrap();
+        let (edf, z) = (p["edf"].as_f64().unwrap(), 1.959_963_984_540_054_f64);
+        assert_eq!(r["tau_b"], p["tau"]);
+        let hours = (1u64 << 15) as f64 / 100.0 / 3600.0;
+        let rel = |a: f64, b: f64| ((a - b) / b).abs();
+        assert!(rel(r["halfwidth_now"].as_f64().unwrap(), z / (2.0 * edf).sqrt()) < 1e-12);
+        let need = hours * z * z / (2.0 * 0.05 * 0.05) / edf;
+        assert!(rel(r["hours_needed"].as_f64().unwrap(), need) < 1e-12);
+    }
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        html.contains("For a ±5 % (95 %) interval"),
+        "report names the target"
+    );
+    // outside (0, 1): a usage error
+    let bad = Command::new(env!("CARGO_BIN_EXE_imunoise"))
+        .args([
+            "analyze",
+            path.to_str().unwrap(),
+            "--rate",
+            "100",
+            "--record-halfwidth",
+            "1.5",
+        ])
+        .args(["--out", dir.path().join("bad").to_str().unwrap(), "-q"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--record-halfwidth must lie in (0, 1)"));
+}

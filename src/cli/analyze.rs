@@ -7,8 +7,8 @@ use super::{InputArgs, Ui};
 use crate::error::{Error, Result};
 pub use crate::pipeline::analyze::{ANALYZE_MODEL, Analysis, AnalyzeSettings, analyze};
 pub use crate::pipeline::report::{
-    ChannelResult, ReportInput, Results, RobustReport, RobustResult, file_safe, kalibr_yaml, num,
-    read_off_marks, record_length_for, results_json, write_report,
+    ChannelResult, RecordLength, ReportInput, Results, RobustReport, RobustResult, file_safe,
+    kalibr_yaml, num, read_off_marks, record_length, results_json, write_report,
 };
 use std::path::PathBuf;
 
@@ -58,6 +58,11 @@ pub struct AnalyzeArgs {
     /// kalibr replaces the plain imu.yaml with the commented one).
     #[arg(long, value_name = "LIST")]
     pub export: Option<String>,
+    /// "How long to record": the relative half-width of the 95 % CI on the Allan deviation at
+    /// the bias-instability τ (its minimum) to aim at, e.g. 0.05 for ±5 %. The report and
+    /// results.json (`record_length`) give the record length in hours that reaches it.
+    #[arg(long, value_name = "H", default_value_t = 0.1)]
+    pub record_halfwidth: f64,
     /// Aggregation and inflation for --export.
     #[command(flatten)]
     pub export_options: crate::export::ExportOptions,
@@ -87,6 +92,7 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         select: !args.no_select,
         robust: args.robust.robust,
         efficiency: args.robust.efficiency,
+        record_halfwidth: args.record_halfwidth,
     };
     let spec = args.input.spec();
     let table = spec.read(ui)?;

@@ -546,6 +546,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         topic: None,
         timing: None,
         robust: None,
+        record_halfwidth: 0.1,
     };
     super::analyze::write_report(&args.out, &inp, ui)?;
     w(format!(

@@ -24,6 +24,7 @@ pub const ANALYZE_MODEL: &str = "QN+WN+RW+2*AR1";
 /// use imunoise::pipeline::analyze::AnalyzeSettings;
 /// let s = AnalyzeSettings::default();
 /// assert!(s.select && !s.robust);
+/// assert_eq!(s.record_halfwidth, 0.1);
 /// assert_eq!(s.efficiency, 0.6);
 /// ```
 #[derive(Debug, Clone)]
@@ -37,6 +38,9 @@ pub struct AnalyzeSettings {
     pub robust: bool,
     /// Gaussian efficiency of the robust AV, in [0.05, 0.99].
     pub efficiency: f64,
+    /// Relative half-width of the 95 % CI on the Allan deviation at the bias-instability τ
+    /// that "how long to record" aims at, in (0, 1).
+    pub record_halfwidth: f64,
 }
 
 impl Default for AnalyzeSettings {
@@ -46,6 +50,7 @@ impl Default for AnalyzeSettings {
             select: true,
             robust: false,
             efficiency: avar::robust::DEFAULT_EFFICIENCY,
+            record_halfwidth: 0.1,
         }
     }
 }
@@ -85,6 +90,8 @@ pub struct Analysis {
     pub settings: FitSettings,
     /// The robust AV's Gaussian efficiency.
     pub efficiency: f64,
+    /// The target of "how long to record" (see [`AnalyzeSettings::record_halfwidth`]).
+    pub record_halfwidth: f64,
 }
 
 /// Analyses every channel of `table` (at its rate) with `units` as [`AnalyzeSettings`] say.
@@ -95,6 +102,12 @@ pub fn analyze(
     ui: &Ui,
 ) -> Result<Analysis> {
     let rate = table.rate()?;
+    let h = settings.record_halfwidth;
+    if !(h > 0.0 && h < 1.0) {
+        return Err(Error::Usage(format!(
+            "--record-halfwidth must lie in (0, 1), e.g. 0.1 for ±10 %, got {h}"
+        )));
+    }
     let fit = settings.effective_fit();
     let robust = super::fit::robust_efficiency(settings.robust, settings.efficiency)?;
     let curves = fit_curves(&table, fit.alpha, ui)?;
@@ -133,6 +146,7 @@ pub fn analyze(
         robust_fits,
         settings: fit,
         efficiency: settings.efficiency,
+        record_halfwidth: h,
     })
 }
 
@@ -156,6 +170,7 @@ impl Analysis {
                 checks: &self.checks,
                 fits: self.robust_fits.as_deref(),
             }),
+            record_halfwidth: self.record_halfwidth,
         })
     }
 

@@ -28,6 +28,8 @@ pub struct ChannelResult<'a> {
     pub avar: Vec<super::estimate::PointJson>,
     /// The fit (same shape as one channel of `imunoise fit --format json`).
     pub fit: &'a ChannelFit,
+    /// How long to record for the report's target precision at τ_B.
+    pub record_length: Option<RecordLength>,
 }
 
 /// `results.json`.
@@ -74,6 +76,9 @@ pub struct ReportInput<'a> {
     pub timing: Option<&'a crate::logs::Timing>,
     /// The classical-vs-robust comparison (analyze's contamination check), if made.
     pub robust: Option<RobustReport<'a>>,
+    /// Relative half-width of the 95 % CI on the Allan deviation at the bias-instability τ
+    /// that the "how long to record" section aims at (0.1: ±10 %).
+    pub record_halfwidth: f64,
 }
 
 /// The robust part of a report: each channel's robust AV, the contamination check and, when
@@ -295,16 +300,38 @@ pub fn read_off_marks(
     marks
 }
 
+/// How long to record for a chosen precision of the Allan deviation at the bias-instability
+/// τ (see [`record_length`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RecordLength {
+    /// τ_B (s): where the Allan deviation has its minimum.
+    pub tau_b: f64,
+    /// Relative half-width of the 95 % CI on the Allan deviation at τ_B now, ≈ 1.96/√(2ν).
+    pub halfwidth_now: f64,
+    /// The relative half-width aimed at.
+    pub halfwidth_target: f64,
+    /// Length of this record (h).
+    pub hours_now: f64,
+    /// Record length (h) that gives `halfwidth_target`.
+    pub hours_needed: f64,
+}
+
 /// How long to record for a relative 95 % CI half-width `h` on the Allan deviation at the
 /// bias-instability τ (the minimum): the chi-square EDF ν there gives a half-width of about
 /// 1.96/√(2ν); ν grows in proportion to the record length when T ≫ m, so the length needed
-/// is T·ν_needed/ν with ν_needed = 1.96²/(2h²). Returns (τ_B, current half-width, hours needed).
-pub fn record_length_for(
-    av: &AllanVariance,
-    n: usize,
-    rate_hz: f64,
-    h: f64,
-) -> Option<(f64, f64, f64)> {
+/// is T·ν_needed/ν with ν_needed = 1.96²/(2h²). `None` without a minimum with an EDF.
+///
+/// ```
+/// use imunoise::avar::{allan_variance, AvarConfig};
+/// use imunoise::pipeline::report::record_length;
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default()).unwrap();
+/// let r = record_length(&av, x.len(), 100.0, 0.1).unwrap();
+/// // halving the half-width needs four times the record
+/// let r2 = record_length(&av, x.len(), 100.0, 0.05).unwrap();
+/// assert!((r2.hours_needed / r.hours_needed - 4.0).abs() < 1e-12);
+/// ```
+pub fn record_length(av: &AllanVariance, n: usize, rate_hz: f64, h: f64) -> Option<RecordLength> {
     let p = av
         .points
         .iter()
@@ -312,9 +339,15 @@ pub fn record_length_for(
         .min_by(|a, b| a.adev.total_cmp(&b.adev))?;
     let edf = p.edf.filter(|e| *e > 0.0)?;
     let z = 1.959_963_984_540_054;
-    let now = z / (2.0 * edf).sqrt();
+    let hours_now = n as f64 / rate_hz / 3600.0;
     let need = z * z / (2.0 * h * h);
-    Some((p.tau, now, n as f64 / rate_hz * need / edf / 3600.0))
+    Some(RecordLength {
+        tau_b: p.tau,
+        halfwidth_now: z / (2.0 * edf).sqrt(),
+        halfwidth_target: h,
+        hours_now,
+        hours_needed: hours_now * need / edf,
+    })
 }
 
 /// Writes the whole report into `dir`.
@@ -356,6 +389,12 @@ pub fn results_json(inp: &ReportInput<'_>) -> Result<serde_json::Value> {
                 n: c.n,
                 avar: c.points,
                 fit: &inp.fits[k],
+                record_length: record_length(
+                    &inp.curves[k].1,
+                    c.n,
+                    inp.rate_hz,
+                    inp.record_halfwidth,
+                ),
             })
             .collect(),
     };
@@ -466,18 +505,24 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         html.push_str("</ul>\n");
     }
     // How long to record.
-    html.push_str("<h2>How long to record</h2><p>For a ±10 % (95 %) interval on the Allan deviation at the bias-instability τ (its minimum); the EDF there grows in proportion to the record length.</p><ul>\n");
+    let h = inp.record_halfwidth;
+    let _ = writeln!(
+        html,
+        "<h2>How long to record</h2><p>For a ±{} % (95 %) interval on the Allan deviation at the bias-instability τ (its minimum); the EDF there grows in proportion to the record length.</p><ul>",
+        100.0 * h
+    );
     for (k, (name, av)) in inp.curves.iter().enumerate() {
         let n = inp.columns.get(k).map_or(0, Vec::len);
-        if let Some((tau, now, hours)) = record_length_for(av, n, inp.rate_hz, 0.10) {
+        if let Some(r) = record_length(av, n, inp.rate_hz, h) {
             let _ = writeln!(
                 html,
-                "<li>{}: τ<sub>B</sub> = {} s, now ±{:.1} % with {:.2} h; ±10 % needs about {:.2} h.</li>",
+                "<li>{}: τ<sub>B</sub> = {} s, now ±{:.1} % with {:.2} h; ±{} % needs about {:.2} h.</li>",
                 html_esc(name),
-                num(tau),
-                now * 100.0,
-                n as f64 / inp.rate_hz / 3600.0,
-                hours
+                num(r.tau_b),
+                r.halfwidth_now * 100.0,
+                r.hours_now,
+                100.0 * h,
+                r.hours_needed
             );
         }
     }
