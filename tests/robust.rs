@@ -80,6 +80,15 @@ fn mtig_outliers_classical_vs_robust() {
         "classical fit: {}\nrobust fit:    {}",
         cl.model, r.fit.model
     );
+    // heavy-tailed noise, not isolated spikes: 5 % of the samples lie beyond 6 robust SDs of
+    // their neighbours' median, more than MAX_SPIKE_FRACTION, so none is replaced
+    let sp = &r.avar.spikes;
+    eprintln!(
+        "beyond the spike threshold: {} (residual SD {:.4e})",
+        sp.beyond, sp.residual_sd
+    );
+    assert!(sp.indices.is_empty());
+    assert!(sp.beyond as f64 > avar::robust::MAX_SPIKE_FRACTION * x.len() as f64);
     let n_in = inside(&r.curve, &r.fit.fitted);
     eprintln!(
         "robust fit inside the robust CIs at {n_in}/{} scales",
