@@ -81,7 +81,7 @@ fn mtig_outliers_classical_vs_robust() {
         cl.model, r.fit.model
     );
     // heavy-tailed noise, not isolated spikes: 5 % of the samples lie beyond 6 robust SDs of
-    // their neighbours' median, more than MAX_SPIKE_FRACTION, so none is replaced
+    // their neighbours' mean, more than MAX_SPIKE_FRACTION, so none is replaced
     let sp = &r.avar.spikes;
     eprintln!(
         "beyond the spike threshold: {} (residual SD {:.4e})",
