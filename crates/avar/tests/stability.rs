@@ -624,6 +624,43 @@ fn fast_paths_match_the_reference_across_blocks() {
 }
 
 #[test]
+fn nonoverlapping_pyramid_matches_the_reference() {
+    // rate data at power-of-two scales take the block-sum pyramid (several 2^14-sample jobs,
+    // an incomplete last one, scales beyond 2^10 paired from its sums): against the plain
+    // HVAR reference and the AV's own non-overlapping estimator (a second implementation)
+    let y = mixed(70_001, 17);
+    let cfg = no_ci(Scales::Octave, InputKind::Rate);
+    let h = stability(&y, 2.0, Statistic::Hdev, &cfg).unwrap();
+    assert_eq!(h.points.last().unwrap().m, 8192);
+    for p in &h.points {
+        let r = hdev::hvar_reference(&y, 2.0, InputKind::Rate, p.m, false).unwrap();
+        assert!(
+            rel(p.var, r) < TOL_REFERENCE,
+            "hdev m={}: {} vs {r}",
+            p.m,
+            p.var
+        );
+    }
+    let a = stability(&y, 2.0, Statistic::Adev, &cfg).unwrap();
+    let av = avar::allan_variance(
+        &y,
+        2.0,
+        &AvarConfig {
+            estimator: avar::Estimator::NonOverlapping,
+            scales: Scales::Explicit(a.points.iter().map(|p| p.m).collect()),
+            ci: CiMethod::None,
+            ..AvarConfig::default()
+        },
+    )
+    .unwrap();
+    for (p, q) in a.points.iter().zip(&av.points) {
+        assert_eq!(p.m, q.m);
+        assert_eq!(p.n_terms, q.n_terms);
+        assert!(rel(p.var, q.avar) < TOL_REFERENCE, "adev m={}", p.m);
+    }
+}
+
+#[test]
 fn offset_proof() {
     let y = mixed(40_000, 13);
     let mean = y.iter().sum::<f64>() / y.len() as f64;
