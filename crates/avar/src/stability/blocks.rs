@@ -65,34 +65,53 @@ pub(crate) fn nonoverlapping_vars(y: &[f64], ms: &[u64], order: usize) -> Option
     let reach = (order - 1) << small_top;
     let n_chunks = t.div_ceil(CHUNK);
     // per chunk: the partial sums of every requested small level, and its level-10 sums
+    let want0 = levels.iter().position(|&k| k == 0);
     let parts: Vec<(Vec<f64>, Vec<f64>)> = (0..n_chunks)
         .into_par_iter()
-        .map(|c| {
-            let lo = c * CHUNK;
-            let hi = (lo + CHUNK + reach).min(t);
-            let mut cur: Vec<f64> = y[lo..hi].iter().map(|v| v - r).collect();
-            let mut sums = vec![0.0f64; levels.len()];
-            let own = (lo + CHUNK).min(t) - lo;
-            for k in 0..=small_top {
-                if k > 0 {
-                    let half: Vec<f64> = cur.chunks_exact(2).map(|p| p[0] + p[1]).collect();
-                    cur = half;
+        .map_init(
+            || vec![0.0f64; (CHUNK + reach) / 2 + 1],
+            |buf, c| {
+                let lo = c * CHUNK;
+                let hi = (lo + CHUNK + reach).min(t);
+                let own = (lo + CHUNK).min(t) - lo;
+                let z = &y[lo..hi];
+                let mut sums = vec![0.0f64; levels.len()];
+                if let Some(i) = want0 {
+                    // m = 1: the samples themselves (their differences need no reference)
+                    let n_terms = z.len().saturating_sub(order - 1).min(own);
+                    sums[i] = sum_sq_diffs(z, order, 0, n_terms);
                 }
-                for (slot, &lk) in sums.iter_mut().zip(&levels) {
-                    if lk == k {
-                        // terms whose first block starts in this chunk and whose last block is
-                        // complete within the series
-                        let first_blocks = own.div_ceil(1 << k);
-                        let n_terms = cur.len().saturating_sub(order - 1).min(first_blocks);
-                        *slot = sum_sq_diffs(&cur, order, 0, n_terms);
+                if small_top == 0 {
+                    let top_own = own.min(z.len());
+                    return (sums, z[..top_own].iter().map(|v| v - r).collect());
+                }
+                // level 1 from the samples, then each level in place over the one below
+                let mut len = z.len() / 2;
+                for (o, p) in buf[..len].iter_mut().zip(z.chunks_exact(2)) {
+                    *o = (p[0] - r) + (p[1] - r);
+                }
+                for k in 1..=small_top {
+                    if k > 1 {
+                        len /= 2;
+                        for j in 0..len {
+                            buf[j] = buf[2 * j] + buf[2 * j + 1];
+                        }
+                    }
+                    for (slot, &lk) in sums.iter_mut().zip(&levels) {
+                        if lk == k {
+                            // terms whose first block starts in this chunk and whose last
+                            // block is complete within the series
+                            let first_blocks = own.div_ceil(1 << k);
+                            let n_terms = len.saturating_sub(order - 1).min(first_blocks);
+                            *slot = sum_sq_diffs(&buf[..len], order, 0, n_terms);
+                        }
                     }
                 }
-            }
-            // level small_top sums of the blocks that start in this chunk
-            let top_own = (own >> small_top).min(cur.len());
-            cur.truncate(top_own);
-            (sums, cur)
-        })
+                // level small_top sums of the blocks that start in this chunk
+                let top_own = (own >> small_top).min(len);
+                (sums, buf[..top_own].to_vec())
+            },
+        )
         .collect();
     let mut out = vec![0.0f64; ms.len()];
     for (i, &k) in levels.iter().enumerate() {
