@@ -661,6 +661,75 @@ fn nonoverlapping_pyramid_matches_the_reference() {
 }
 
 #[test]
+fn mdev_far_scales_match_an_exact_integer_reference() {
+    // small-integer rate samples: phase x and its running sum S are integers (|S| < 2^53), so
+    // the window sums w_j = S_{j+3m} − 3S_{j+2m} + 3S_{j+m} − S_j and Σ w_j² (in i128) are
+    // exact: a reference in O(T) for scales too long for the O(T·m) literal one. The scales
+    // 2^14·{1, 2, 3} take the far walk (one, two, three residue classes).
+    let t = 300_000usize;
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let y: Vec<f64> = (0..t)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % 17) as f64 - 8.0
+        })
+        .collect();
+    let mut x = vec![0i64; t + 1];
+    for k in 0..t {
+        x[k + 1] = x[k] + y[k] as i64;
+    }
+    let mut sx = vec![0i64; t + 2];
+    for k in 0..=t {
+        sx[k + 1] = sx[k] + x[k];
+    }
+    let ms = vec![16_384u64, 32_768, 49_152, 1000];
+    let s = stability(
+        &y,
+        1.0,
+        Statistic::Mdev,
+        &no_ci(Scales::Explicit(ms.clone()), InputKind::Rate),
+    )
+    .unwrap();
+    assert_eq!(s.points.len(), ms.len());
+    for p in &s.points {
+        let m = p.m as usize;
+        let n = t + 1;
+        let nt = n - 3 * m + 1;
+        let mut acc: i128 = 0;
+        for j in 0..nt {
+            let w = (sx[j + 3 * m] - 3 * sx[j + 2 * m] + 3 * sx[j + m] - sx[j]) as i128;
+            acc += w * w;
+        }
+        let want = acc as f64 / (2.0 * (m as f64).powi(4) * nt as f64);
+        assert_eq!(p.n_terms, nt as u64);
+        assert!(
+            rel(p.var, want) < TOL_REFERENCE,
+            "m={m}: {} vs {want}",
+            p.var
+        );
+    }
+    // the walk's classes run in parallel: the same bits with one thread
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| {
+            stability(
+                &y,
+                1.0,
+                Statistic::Mdev,
+                &no_ci(Scales::Explicit(ms.clone()), InputKind::Rate),
+            )
+            .unwrap()
+        });
+    for (p, q) in s.points.iter().zip(&one.points) {
+        assert_eq!(p.var.to_bits(), q.var.to_bits(), "m={}", p.m);
+    }
+}
+
+#[test]
 fn offset_proof() {
     let y = mixed(40_000, 13);
     let mean = y.iter().sum::<f64>() / y.len() as f64;
