@@ -730,6 +730,34 @@ fn mdev_far_scales_match_an_exact_integer_reference() {
 }
 
 #[test]
+fn nonoverlapping_pyramid_scales_exactly() {
+    // the pyramid path (rate data ≥ 2^14 samples, power-of-two scales) keeps the family's
+    // exact 2^k scaling, and a variance beyond f64 is an error
+    let y = mixed(40_000, 18);
+    let cfg = AvarConfig {
+        scales: Scales::Octave,
+        ..AvarConfig::default()
+    };
+    for st in [Statistic::Adev, Statistic::Hdev] {
+        let a = stability(&y, 1.0, st, &cfg).unwrap();
+        for k in [-450, 450] {
+            let z: Vec<f64> = y.iter().map(|v| v * 2f64.powi(k)).collect();
+            let b = stability(&z, 1.0, st, &cfg).unwrap();
+            for (p, q) in a.points.iter().zip(&b.points) {
+                assert_eq!(q.var, p.var * 2f64.powi(2 * k), "{st} k={k} m={}", p.m);
+                assert_eq!(q.var_hi, p.var_hi.map(|v| v * 2f64.powi(2 * k)));
+                assert_eq!(q.alpha, p.alpha);
+            }
+        }
+        let z: Vec<f64> = y.iter().map(|v| v * 2f64.powi(1000)).collect();
+        assert!(matches!(
+            stability(&z, 1.0, st, &cfg),
+            Err(avar::AvarError::NotRepresentable { .. })
+        ));
+    }
+}
+
+#[test]
 fn offset_proof() {
     let y = mixed(40_000, 13);
     let mean = y.iter().sum::<f64>() / y.len() as f64;
