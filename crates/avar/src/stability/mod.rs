@@ -21,8 +21,9 @@
 //! formula, O(T·m)) and the fast path (O(T) per scale, parallel over scales, deterministic for
 //! any thread count, offset-proof: the rate series is centred with its exact mean before it is
 //! integrated). ADEV and HDEV of rate data at power-of-two scales skip the cumulative sum:
-//! a pyramid of block sums reads the series once. The scale grid comes from [`crate::Scales`] (the same configuration as the AV),
-//! limited to the cluster sizes each statistic admits ([`Statistic::max_m`]).
+//! a pyramid of block sums reads the series once. The scale grid comes from
+//! [`crate::Scales`] (the same configuration as the AV), limited to the cluster sizes each
+//! statistic admits ([`Statistic::max_m`]).
 //!
 //! ```
 //! use avar::stability::{stability, Statistic};
