@@ -149,9 +149,16 @@ fn run_family(args: &[String], sizes: &[usize], python: &Path, dir: &Path) -> Re
         ci: CiMethod::None,
         ..AvarConfig::default()
     };
+    let load = || {
+        std::fs::read_to_string("/proc/loadavg")
+            .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+            .unwrap_or_else(|_| "unknown".into())
+    };
     println!(
-        "# stability family speed ({} threads; octave τ, no CI; best of 3, alternated with OADEV)\n",
-        rayon::current_num_threads()
+        "# stability family speed ({} threads; octave τ, no CI; best of 3, alternated with OADEV; \
+         load average at start: {})\n",
+        rayon::current_num_threads(),
+        load()
     );
     println!(
         "| T | statistic | scales | time | OADEV same run | ratio to OADEV | allantools | speed-up | max rel. diff |"
@@ -228,6 +235,7 @@ fn run_family(args: &[String], sizes: &[usize], python: &Path, dir: &Path) -> Re
         }
         let _ = std::fs::remove_file(&file);
     }
+    println!("\nload average at the end: {}", load());
     Ok(())
 }
 

@@ -20,8 +20,10 @@
 //! Each statistic has a module with its plain reference function (a literal evaluation of the
 //! formula, O(T·m)) and the fast path (O(T) per scale, parallel over scales, deterministic for
 //! any thread count, offset-proof: the rate series is centred with its exact mean before it is
-//! integrated). The scale grid comes from [`crate::Scales`] (the same configuration as the AV),
-//! limited to the cluster sizes each statistic admits ([`Statistic::max_m`]).
+//! integrated). ADEV and HDEV of rate data at power-of-two scales skip the cumulative sum:
+//! a pyramid of block sums reads the series once. The scale grid comes from
+//! [`crate::Scales`] (the same configuration as the AV), limited to the cluster sizes each
+//! statistic admits ([`Statistic::max_m`]).
 //!
 //! ```
 //! use avar::stability::{stability, Statistic};
@@ -35,6 +37,7 @@
 //! assert_eq!(s.points[0].n_terms, 1001 - 3 * 10 + 1);
 //! ```
 
+mod blocks;
 pub mod edf;
 pub mod hdev;
 pub mod mdev;
@@ -47,7 +50,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{AvarConfig, CiMethod, Estimator, InputKind, Scales};
 use crate::error::AvarError;
 use crate::haar::chi2_interval;
-use crate::{Cumulative, check_len, cumulative, validate_rate_alpha};
+use crate::{Cumulative, MIN_SAMPLES, check_len, cumulative, validate_rate_alpha};
 
 /// A member of the frequency-stability family.
 ///
@@ -339,6 +342,32 @@ fn stability_unscaled(
     statistic: Statistic,
     config: &AvarConfig,
 ) -> Result<Stability, AvarError> {
+    // ADEV and HDEV of rate data at power-of-two scales: the block-sum pyramid, one read of
+    // the series (the cumulative sum is built only for a chi-square interval)
+    if matches!(statistic, Statistic::Adev | Statistic::Hdev)
+        && config.input == InputKind::Rate
+        && config.ci != CiMethod::Gaussian
+        && data.len() >= MIN_SAMPLES
+        && let Ok(ms) = statistic.cluster_sizes(&config.scales, data.len())
+        && let Some(vars) = blocks::nonoverlapping_vars(data, &ms, statistic.diff_order() as usize)
+    {
+        let t = data.len();
+        let mut points = new_points(statistic, &ms, vars, t, rate_hz);
+        if config.ci == CiMethod::ChiSquare {
+            let mut scratch = Vec::new();
+            let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;
+            apply_chi_square(&cum, statistic, config.input, config.alpha, &mut points);
+        }
+        return Ok(Stability {
+            statistic,
+            rate_hz,
+            n: t,
+            input: config.input,
+            ci: config.ci,
+            alpha: config.alpha,
+            points,
+        });
+    }
     if matches!(statistic, Statistic::Adev | Statistic::Oadev) {
         let est = if statistic == Statistic::Adev {
             Estimator::NonOverlapping
@@ -412,8 +441,30 @@ fn stability_unscaled(
         Statistic::Totdev => totdev::totvar_fast(&cum, &ms),
         Statistic::Adev | Statistic::Oadev => unreachable!("handled above"),
     };
-    let mut points: Vec<StabilityPoint> = ms
-        .iter()
+    let mut points = new_points(statistic, &ms, vars, t, rate_hz);
+    if config.ci == CiMethod::ChiSquare {
+        apply_chi_square(&cum, statistic, config.input, config.alpha, &mut points);
+    }
+    Ok(Stability {
+        statistic,
+        rate_hz,
+        n: t,
+        input: config.input,
+        ci: config.ci,
+        alpha: config.alpha,
+        points,
+    })
+}
+
+/// The points of a curve from its variances (no interval yet).
+fn new_points(
+    statistic: Statistic,
+    ms: &[u64],
+    vars: Vec<f64>,
+    t: usize,
+    rate_hz: f64,
+) -> Vec<StabilityPoint> {
+    ms.iter()
         .zip(vars)
         .map(|(&m, var)| StabilityPoint {
             m,
@@ -428,19 +479,7 @@ fn stability_unscaled(
             n_terms: statistic.n_terms(t, m),
             alpha: None,
         })
-        .collect();
-    if config.ci == CiMethod::ChiSquare {
-        apply_chi_square(&cum, statistic, config.input, config.alpha, &mut points);
-    }
-    Ok(Stability {
-        statistic,
-        rate_hz,
-        n: t,
-        input: config.input,
-        ci: config.ci,
-        alpha: config.alpha,
-        points,
-    })
+        .collect()
 }
 
 /// Several statistics of one series (e.g. for an overlay plot), in the order given.

@@ -5,18 +5,24 @@
 //!   autocorrelation method on the m-averaged frequencies (rate input; α = p) or the phase
 //!   decimated by m (angle input; α = p + 2), differenced until δ = r1/(1 + r1) < 0.25 or
 //!   d = d_max (2 for the Allan family, 3 for Hadamard), p = −round(2δ) − 2d;
-//! * below that: the B1 ratio (standard variance over Allan variance of the m-averaged
-//!   frequencies) against its expectation B1(N, μ) (N = number of terms of the statistic)
-//!   for the power laws μ = 2..−2
-//!   (boundaries at the geometric means, the arithmetic mean between μ = 2 and 1), and, where
-//!   B1 cannot tell white from flicker PM (μ = −2), the ratio R(n) = MVAR/AVAR against
-//!   1/m (white PM) and 3.37/(1.04 + 3 ln(π m)) (flicker PM).
+//! * below that: the B1 ratio (standard variance over the non-overlapping Allan variance of
+//!   the m-averaged frequencies) against its expectation B1(N, μ) (N = number of terms of the
+//!   statistic) for the power laws μ = 2..−2 (boundaries at the geometric means, the
+//!   arithmetic mean between μ = 2 and 1), and, where B1 cannot tell white from flicker PM
+//!   (μ = −2), the ratio R(n) = MVAR/AVAR against 1/m (white PM) and
+//!   3.37/(1.04 + 3 ln(π m)) (flicker PM), for every statistic;
+//! * at the longest averaging times, where fewer than 2·r m-averages remain (r = the
+//!   statistic's octave stop ratio, [`Statistic::octave_stop_ratio`]: ⌊T/m⌋ < 10 for ADEV and
+//!   HDEV, < 8 for OADEV, MDEV, TDEV, OHDEV, < 4 for TOTDEV), no identification: the α of the
+//!   previous (shorter) τ of the grid is kept (identified as above when it is the first point).
 //!
 //! No trend is removed (Stable32 leaves preprocessing to the user); α is clamped to −2..=2.
 //!
-//! Agreement with Stable32's published tables (tests/stability.rs): every row with 30 or more
-//! analysis points gets Stable32's α; below 30 (the B1 region) Stable32's exact B1 variant is
-//! not public and 64–82 % of the rows of the all-τ tables agree.
+//! Agreement with Stable32's published tables (tests/stability.rs): every row of the 22 OCXO
+//! and PHASE.DAT tables, 1389 of them in the B1 region and the carried-over tail, gets
+//! Stable32's α. The last two rules are not spelled out in NIST SP 1065; they are what those
+//! tables show (with R(n) for the modified variances only, 1101 of the 1389 rows agree;
+//! without the carried-over tail, 1089).
 
 use rayon::prelude::*;
 
@@ -127,7 +133,14 @@ pub fn rn_alpha(rn: f64, m: u64) -> i32 {
     if rn > (fpm * wpm).sqrt() { 1 } else { 2 }
 }
 
-/// The identified α at every point of a curve (parallel over points).
+/// True when Stable32 keeps the α of the previous τ at cluster size m (fewer than 2·r
+/// m-averages of the T rate samples, r = the statistic's octave stop ratio).
+fn carried_over(statistic: Statistic, t: usize, m: u64) -> bool {
+    (t as u64 / m) < 2 * statistic.octave_stop_ratio()
+}
+
+/// The identified α at every point of a curve (parallel over points, then the long-τ tail
+/// takes the α of the point before it, in the order of `points`).
 pub(crate) fn identify_all(
     cum: &Cumulative<'_>,
     statistic: Statistic,
@@ -135,10 +148,21 @@ pub(crate) fn identify_all(
     points: &[StabilityPoint],
 ) -> Vec<i32> {
     let phase_input = input == InputKind::Angle;
-    points
+    let t = cum.c.len() - 1;
+    let own: Vec<Option<i32>> = points
         .par_iter()
-        .map(|p| identify_one(cum, statistic, p.m as usize, p.n_terms, phase_input))
-        .collect()
+        .enumerate()
+        .map(|(i, p)| {
+            (i == 0 || !carried_over(statistic, t, p.m))
+                .then(|| identify_one(cum, statistic, p.m as usize, p.n_terms, phase_input))
+        })
+        .collect();
+    let mut out = Vec::with_capacity(points.len());
+    for a in own {
+        let prev = out.last().copied();
+        out.push(a.or(prev).unwrap_or(0));
+    }
+    out
 }
 
 fn identify_one(
@@ -166,13 +190,13 @@ fn identify_one(
     };
     let alpha = match acf {
         Some(a) => a,
-        None => b1_alpha(c, m, n_terms, statistic),
+        None => b1_alpha(c, m, n_terms),
     };
     alpha.clamp(-2, 2)
 }
 
 /// B1 (and R(n)) identification at cluster size m from the cumulative sums.
-fn b1_alpha(c: &[f64], m: usize, n_terms: u64, statistic: Statistic) -> i32 {
+fn b1_alpha(c: &[f64], m: usize, n_terms: u64) -> i32 {
     let t = c.len() - 1;
     let k = t / m;
     if k < 2 {
@@ -188,12 +212,15 @@ fn b1_alpha(c: &[f64], m: usize, n_terms: u64, statistic: Statistic) -> i32 {
     // N of the expected ratio: the number of terms of the statistic (the choice that agrees
     // best with Stable32's tables; with N = ⌊T/m⌋ fewer rows agree)
     let mu = b1_mu(svar / avar, n_terms as usize);
-    if mu == -2 && statistic.modified() {
+    if mu == -2 {
         if 3 * m > t + 1 {
-            // MVAR undefined at this m (TOTDEV beyond T/3): B1 alone, white PM
+            // MVAR undefined at this m (only TOTDEV reaches beyond T/3, where its α is carried
+            // over in any grid with a shorter τ): B1 alone, white PM
             return 2;
         }
-        // R(n) = MVAR/AVAR (overlapping AV), both from the same cumulative sums
+        // R(n) = MVAR/AVAR (overlapping AV), both from the same cumulative sums, for every
+        // statistic (as Stable32's tables show: with R(n) for MVAR/TVAR only, the OADEV, ADEV,
+        // HDEV and OHDEV rows of PHASE.DAT's white/flicker PM region come out α = 2, not 1)
         let mut mv = Neumaier::default();
         let mut av = Neumaier::default();
         let d = |i: usize| (c[i + 2 * m] - c[i + m]) - (c[i + m] - c[i]);

@@ -6,7 +6,7 @@
 //! long τ (EDF ≈ 1.5·T/τ for white FM against ≈ 1.1·T/τ for the overlapping AV).
 
 use super::{
-    BLOCK, Statistic, check_m, fused_sums, plain_phase, split_near_far, sum_in_blocks,
+    BLOCK, Stability, Statistic, check_m, fused_sums, plain_phase, split_near_far, sum_in_blocks,
     sum_in_blocks_walk, sumsq_range,
 };
 use crate::Cumulative;
@@ -51,6 +51,75 @@ pub fn totvar_reference(
     }
     let tau = m as f64 / rate_hz;
     Ok(s / (2.0 * tau * tau * (n - 2) as f64))
+}
+
+/// TOTVAR's bias factor B = TOTVAR/AVAR = 1 − a·τ/T (T = the record length, T rate samples
+/// times τ0) for the identified power law α: a = 0 for white FM and the PM noises,
+/// a = 1/(3 ln 2) ≈ 0.481 for flicker FM (α = −1), a = 3/4 for random-walk FM (α = −2)
+/// (NIST SP 1065 §5.2.11, Howe's total variance).
+///
+/// ```
+/// use avar::stability::totdev::bias_factor;
+/// assert_eq!(bias_factor(0, 100, 1000), 1.0);
+/// assert!((bias_factor(-2, 100, 1000) - (1.0 - 0.075)).abs() < 1e-15);
+/// ```
+pub fn bias_factor(alpha: i32, m: u64, t: usize) -> f64 {
+    let a = match alpha {
+        -1 => 1.0 / (3.0 * std::f64::consts::LN_2),
+        a if a <= -2 => 0.75,
+        _ => 0.0,
+    };
+    1.0 - a * m as f64 / t as f64
+}
+
+/// The bias-corrected TOTDEV curve as Stable32 reports it when it identifies the noise: at
+/// every point TOTVAR and its bounds are divided by [`bias_factor`] of the identified α (the
+/// EDF is unchanged). `curve` must be a TOTDEV curve computed with a chi-square interval
+/// (the correction needs the identified α at each point).
+///
+/// ```
+/// use avar::stability::{stability, totdev::bias_corrected, Statistic};
+/// use avar::{AvarConfig, Scales};
+/// // a random walk in frequency (α = −2): TOTVAR underestimates the AV by 3/4·τ/T
+/// let mut s = 7u64;
+/// let mut acc = 0.0;
+/// let y: Vec<f64> = (0..4000).map(|_| { s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+///     acc += (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5; acc }).collect();
+/// let cfg = AvarConfig { scales: Scales::Explicit(vec![100]), ..Default::default() };
+/// let raw = stability(&y, 1.0, Statistic::Totdev, &cfg).unwrap();
+/// let fixed = bias_corrected(&raw).unwrap();
+/// let p = &raw.points[0];
+/// assert_eq!(p.alpha, Some(-2));
+/// assert!((fixed.points[0].var * (1.0 - 0.75 * 100.0 / 4000.0) / p.var - 1.0).abs() < 1e-12);
+/// ```
+pub fn bias_corrected(curve: &Stability) -> Result<Stability, AvarError> {
+    if curve.statistic != Statistic::Totdev {
+        return Err(AvarError::InvalidStatistic(format!(
+            "the total-variance bias correction applies to totdev, not to {}",
+            curve.statistic
+        )));
+    }
+    let mut out = curve.clone();
+    for p in &mut out.points {
+        let Some(alpha) = p.alpha else {
+            return Err(AvarError::InvalidStatistic(
+                "the total-variance bias correction needs the identified noise (compute the \
+                 curve with the chi-square interval)"
+                    .into(),
+            ));
+        };
+        let b = bias_factor(alpha, p.m, curve.n);
+        let r = b.sqrt();
+        p.var /= b;
+        p.dev /= r;
+        for v in [&mut p.var_lo, &mut p.var_hi].into_iter().flatten() {
+            *v /= b;
+        }
+        for v in [&mut p.dev_lo, &mut p.dev_hi].into_iter().flatten() {
+            *v /= r;
+        }
+    }
+    Ok(out)
 }
 
 /// TOTVAR at each m without materialising the reflection: the terms whose lagged points fall
