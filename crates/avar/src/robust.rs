@@ -570,11 +570,12 @@ fn hashed_normal(t: u64) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
-/// Replaces isolated spikes of rate samples (module doc, "Spikes first"): a sample t is a spike
-/// when its residual r_t = x_t − x̄_t lies farther than `threshold`·σ̂_r from the residuals'
-/// median, x̄_t the mean of its 2w neighbours (w = [`SPIKE_HALF_WINDOW`]) and σ̂_r =
-/// 1.4826·MAD of the residuals. A spike becomes μ_t + s·z_t: μ_t the mean of the nearest w
-/// unflagged samples on each side (n of them), z_t a standard normal fixed by t, and
+/// Replaces isolated spikes of rate samples (module doc, "Spikes first"): a sample t is a
+/// candidate when its residual r_t = x_t − x̄_t lies farther than `threshold`·σ̂_r from the
+/// residuals' median, x̄_t the mean of its 2w neighbours (w = [`SPIKE_HALF_WINDOW`]) and σ̂_r =
+/// 1.4826·MAD of the residuals; it is a spike when x_t − μ_t is still that far, μ_t the mean of
+/// the nearest w non-candidates on each side (n of them; the neighbours of a huge spike are
+/// candidates but not spikes). A spike becomes μ_t + s·z_t: z_t a standard normal fixed by t, and
 /// s² = σ̂_r²(1 − 1/n)/(1 + 1/(2w)), which gives the replaced sample a white-noise residual of
 /// the clean samples' variance (σ̂_r² estimates σ²(1 + 1/(2w)) for white noise σ², and μ_t
 /// carries σ²/n of it). Cost: O(T), two selections and one pass.
@@ -646,52 +647,65 @@ pub fn replace_spikes(
         return Ok((Cow::Borrowed(data), none(0.0, 0)));
     }
     let lim = threshold * sd;
-    let flagged: Vec<usize> = (0..t).filter(|&i| (resid[i] - med).abs() > lim).collect();
-    if flagged.is_empty() || flagged.len() as f64 > MAX_SPIKE_FRACTION * t as f64 {
-        return Ok((Cow::Borrowed(data), none(sd, flagged.len())));
+    // pass 1: candidates against all their neighbours (a spike of size A moves its
+    // neighbours' residuals by A/(2w), so beside a huge spike they are candidates too)
+    let candidates: Vec<usize> = (0..t).filter(|&i| (resid[i] - med).abs() > lim).collect();
+    if candidates.is_empty() {
+        return Ok((Cow::Borrowed(data), none(sd, 0)));
     }
-    let mut is_flagged = vec![false; t];
-    for &i in &flagged {
-        is_flagged[i] = true;
+    let mut is_cand = vec![false; t];
+    for &i in &candidates {
+        is_cand[i] = true;
     }
-    let mut y = data.to_vec();
-    for &i in &flagged {
-        // the nearest w unflagged samples on each side (searching at most 8w away)
+    // the mean of the nearest w non-candidates on each side (searching at most 8w away), and
+    // how many there are
+    let nearest_mean = |i: usize| -> (f64, usize) {
         let (mut sum, mut n) = (0.0, 0usize);
-        let mut taken = 0;
-        let mut j = i;
+        let (mut taken, mut j) = (0, i);
         while taken < w && j > 0 && i - j < 8 * w {
             j -= 1;
-            if !is_flagged[j] {
+            if !is_cand[j] {
                 sum += data[j];
                 n += 1;
                 taken += 1;
             }
         }
-        taken = 0;
-        j = i;
+        (taken, j) = (0, i);
         while taken < w && j + 1 < t && j - i < 8 * w {
             j += 1;
-            if !is_flagged[j] {
+            if !is_cand[j] {
                 sum += data[j];
                 n += 1;
                 taken += 1;
             }
         }
-        if n == 0 {
-            continue; // a solid block of spikes: left to the M-estimator
-        }
+        (if n > 0 { sum / n as f64 } else { f64::NAN }, n)
+    };
+    // pass 2: a candidate is a spike when it is still beyond the threshold against the
+    // non-candidates; a solid block with no such neighbour is left to the M-estimator
+    let spikes: Vec<(usize, f64, usize)> = candidates
+        .iter()
+        .filter_map(|&i| {
+            let (mu, n) = nearest_mean(i);
+            (n > 0 && (data[i] - mu - med).abs() > lim).then_some((i, mu, n))
+        })
+        .collect();
+    if spikes.is_empty() || spikes.len() as f64 > MAX_SPIKE_FRACTION * t as f64 {
+        return Ok((Cow::Borrowed(data), none(sd, spikes.len())));
+    }
+    let mut y = data.to_vec();
+    for &(i, mu, n) in &spikes {
         let nf = n as f64;
         let s2 = sd * sd * (1.0 - 1.0 / nf) / (1.0 + 1.0 / (2.0 * w as f64));
-        y[i] = sum / nf + s2.max(0.0).sqrt() * hashed_normal(i as u64);
+        y[i] = mu + s2.max(0.0).sqrt() * hashed_normal(i as u64);
     }
     Ok((
         Cow::Owned(y),
         SpikeReplacement {
-            indices: flagged.iter().map(|&i| i as u64).collect(),
+            indices: spikes.iter().map(|s| s.0 as u64).collect(),
             residual_sd: sd,
             threshold,
-            beyond: flagged.len() as u64,
+            beyond: spikes.len() as u64,
         },
     ))
 }
