@@ -18,15 +18,24 @@
 //!
 //! Progress bars and notes go through a [`crate::Ui`]; [`crate::Ui::quiet`] silences them.
 //!
-//! ```no_run
-//! use imunoise::pipeline::{analyze, read::Input};
+//! ```
+//! use imunoise::pipeline::{analyze, read::Input, simulate};
 //! let ui = imunoise::Ui::quiet();
-//! let input = Input { rate: Some(100.0), ..Input::new("imu.csv.gz") };
+//! // a gyro channel in °/s at 100 Hz: white noise plus a rate random walk, as CSV
+//! let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+//! let cols = simulate::simulate_channels(&model, 1 << 14, 100.0, 1, 1)?;
+//! let dir = tempfile::tempdir()?;
+//! let path = dir.path().join("gyro.csv");
+//! simulate::write_csv(&mut std::fs::File::create(&path)?, &["gyro_x_dps".into()], &cols)?;
+//! // read, analyse, and get results.json as a value
+//! let input = Input { rate: Some(100.0), ..Input::new(&path) };
 //! let table = input.read(&ui)?;
 //! let units = input.units(&table)?;
-//! let analysis = analyze::analyze(table, units, &analyze::AnalyzeSettings::default(), &ui)?;
-//! println!("{}", analysis.results_json()?);
-//! # Ok::<(), imunoise::Error>(())
+//! let a = analyze::analyze(table, units, &analyze::AnalyzeSettings::default(), &ui)?;
+//! let json = a.results_json()?;
+//! assert_eq!(json["channels"][0]["unit"], "deg/s");
+//! assert!(json["channels"][0]["fit"]["model"].as_str().unwrap().contains("WN"));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 pub mod analyze;

@@ -132,7 +132,7 @@ impl Input {
 
     /// Reads the file as the flags say (with a spinner on a terminal). The returned table
     /// has its rate set. Logs with several selected topics are an error here (see
-    /// [`InputArgs::read_all`]).
+    /// [`Input::read_all`]).
     pub fn read(&self, ui: &Ui) -> Result<Table> {
         let mut all = self.read_all(ui)?;
         if all.len() > 1 {
