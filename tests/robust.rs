@@ -334,7 +334,24 @@ fn cli_analyze_robust_names_the_window() {
     let (a, b) = (w["start_s"].as_f64().unwrap(), w["end_s"].as_f64().unwrap());
     assert!(a <= 300.5 && 300.5 <= b, "{w}");
     assert_eq!(rob["fit"]["method"], "gmwm");
+    // the 20 spikes of 30σ (every 5th sample from 30000: isolated, 4 clean samples between)
+    // are replaced before the robust AV, and named
+    assert_eq!(rob["spikes_replaced"], 20, "{rob}");
+    let times: Vec<f64> = rob["spike_times_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_f64().unwrap())
+        .collect();
+    let want: Vec<f64> = (30_000..30_100)
+        .step_by(5)
+        .map(|i| i as f64 / 100.0)
+        .collect();
+    assert_eq!(times, want);
     let html = std::fs::read_to_string(out_dir.join("report.html")).unwrap();
+    assert!(html.contains(
+        "20 isolated spikes (more than 6 robust SDs from their neighbours) were replaced"
+    ));
     assert!(html.contains("Classical vs robust"));
     assert!(html.contains("robust fit"));
     assert!(out_dir.join("adev_robust_ch1.svg").exists());

@@ -423,6 +423,8 @@ pub fn results_json(inp: &ReportInput<'_>) -> Result<serde_json::Value> {
                     .filter(|(_, ok)| !**ok)
                     .map(|(p, _)| p.m)
                     .collect(),
+                spikes_replaced: r.spikes.indices.len() as u64,
+                spike_times_s: spike_times(r, inp.rate_hz),
                 fit: rob.fits.map(|f| &f[k]),
             };
             ch["robust"] = serde_json::to_value(&entry)?;
@@ -661,8 +663,22 @@ pub struct RobustResult<'a> {
     pub avar: Vec<super::estimate::PointJson>,
     /// Scales where the robust estimating equation had no root (fallback used).
     pub no_root_m: Vec<u64>,
+    /// Isolated spikes replaced before the robust AV ([`avar::robust::replace_spikes`]).
+    pub spikes_replaced: u64,
+    /// Times (s from the first sample) of the first 20 replaced spikes.
+    pub spike_times_s: Vec<f64>,
     /// The fit of the robust curve (with --robust).
     pub fit: Option<&'a ChannelFit>,
+}
+
+/// The times (s) of the first 20 spikes replaced before a robust AV.
+fn spike_times(r: &avar::robust::RobustAllanVariance, rate_hz: f64) -> Vec<f64> {
+    r.spikes
+        .indices
+        .iter()
+        .take(20)
+        .map(|&i| i as f64 / rate_hz)
+        .collect()
 }
 
 fn adev_series(label: &str, rate: f64, fitted: &[super::fit::FittedJson]) -> Series {
@@ -704,6 +720,33 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
             html_esc(name),
             html_esc(&chk.message)
         );
+        let sp = &r.spikes;
+        if !sp.indices.is_empty() {
+            let times: Vec<String> = spike_times(r, rate)
+                .iter()
+                .map(|t| format!("{t:.3}"))
+                .collect();
+            let _ = writeln!(
+                h,
+                "<p>{} isolated spikes (more than {} robust SDs from their neighbours) were replaced before the robust AV, at t = {}{} s.</p>",
+                sp.indices.len(),
+                sp.threshold,
+                times.join(", "),
+                if sp.indices.len() > times.len() {
+                    ", …"
+                } else {
+                    ""
+                }
+            );
+        } else if sp.beyond > 0 {
+            let _ = writeln!(
+                h,
+                "<p>{} samples lie more than {} robust SDs from their neighbours: more than {} % of the record, so the noise is heavy-tailed rather than spiky, and none was replaced.</p>",
+                sp.beyond,
+                sp.threshold,
+                100.0 * avar::robust::MAX_SPIKE_FRACTION
+            );
+        }
         if !chk.windows.is_empty() {
             h.push_str("<table><tr><th>window start (s)</th><th>end (s)</th><th>share of the excess</th><th>largest |D|/σ̂</th></tr>\n");
             for w in &chk.windows {
