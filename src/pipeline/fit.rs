@@ -635,6 +635,18 @@ fn ci(lo: Option<f64>, hi: Option<f64>) -> String {
     }
 }
 
+/// One parameter row of the text tables: process, name, per-sample value, CI.
+fn write_param_row(out: &mut impl Write, indent: &str, p: &ParamJson) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "{indent}{:<5} {:<7} {:>12.4e}  {}",
+        p.process,
+        p.name,
+        p.value,
+        ci(p.ci_lo, p.ci_hi)
+    )
+}
+
 /// Writes fits as text tables.
 /// `bootstrap` is the number of replicates, for the CI method's description.
 pub fn write_table(
@@ -670,14 +682,7 @@ pub fn write_table(
             "proc", "param", "per sample",
         )?;
         for p in &f.parameters {
-            writeln!(
-                out,
-                "  {:<5} {:<7} {:>12.4e}  {}",
-                p.process,
-                p.name,
-                p.value,
-                ci(p.ci_lo, p.ci_hi)
-            )?;
+            write_param_row(out, "  ", p)?;
         }
         for (k, v) in &f.ieee {
             writeln!(
@@ -894,14 +899,7 @@ pub fn write_joint_table(
         for (f, s) in j.files.iter().zip(&j.single) {
             writeln!(out, "  alone, {f}:")?;
             for p in &s.parameters {
-                writeln!(
-                    out,
-                    "    {:<5} {:<7} {:>12.4e}  {}",
-                    p.process,
-                    p.name,
-                    p.value,
-                    ci(p.ci_lo, p.ci_hi)
-                )?;
+                write_param_row(out, "    ", p)?;
             }
         }
         writeln!(

@@ -576,24 +576,12 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         let stem = file_safe(name);
         let (_, av) = &inp.curves[k];
         let f = &inp.fits[k];
-        let nan = f64::NAN;
         let tau: Vec<f64> = av.points.iter().map(|p| p.tau).collect();
         let tau_of = |m: u64| m as f64 / inp.rate_hz;
         let plot = AdevPlot {
             title: format!("{name}: Allan deviation"),
             unit: inp.units[k].symbol().to_string(),
-            observed: av
-                .points
-                .iter()
-                .map(|p| {
-                    (
-                        p.tau,
-                        p.adev,
-                        p.adev_lo.unwrap_or(nan),
-                        p.adev_hi.unwrap_or(nan),
-                    )
-                })
-                .collect(),
+            observed: observed(av),
             fitted: Some(Series {
                 label: format!("fitted model ({})", f.method),
                 points: f
@@ -669,6 +657,22 @@ pub struct RobustResult<'a> {
     pub spike_times_s: Vec<f64>,
     /// The fit of the robust curve (with --robust).
     pub fit: Option<&'a ChannelFit>,
+}
+
+/// An Allan deviation curve as plot points: (τ, AD, AD low, AD high), NaN without a CI.
+fn observed(av: &AllanVariance) -> Vec<(f64, f64, f64, f64)> {
+    let nan = f64::NAN;
+    av.points
+        .iter()
+        .map(|p| {
+            (
+                p.tau,
+                p.adev,
+                p.adev_lo.unwrap_or(nan),
+                p.adev_hi.unwrap_or(nan),
+            )
+        })
+        .collect()
 }
 
 /// The times (s) of the first 20 spikes replaced before a robust AV.
@@ -822,7 +826,6 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
         if robust_fits.is_none() {
             continue;
         }
-        let nan = f64::NAN;
         let mut components = vec![Series {
             label: "classical AD".into(),
             points: r.classical.points.iter().map(|p| (p.tau, p.adev)).collect(),
@@ -835,19 +838,7 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
         let plot = AdevPlot {
             title: format!("{name}: robust (band) vs classical Allan deviation"),
             unit: units[k].symbol().to_string(),
-            observed: r
-                .robust
-                .points
-                .iter()
-                .map(|p| {
-                    (
-                        p.tau,
-                        p.adev,
-                        p.adev_lo.unwrap_or(nan),
-                        p.adev_hi.unwrap_or(nan),
-                    )
-                })
-                .collect(),
+            observed: observed(&r.robust),
             fitted: robust_fits.map(|rf| adev_series("robust fit", rate, &rf[k].fitted)),
             components,
             marks: Vec::new(),

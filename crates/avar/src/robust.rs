@@ -622,13 +622,7 @@ pub fn replace_spikes(
     // sums of the centred series (the residual of a spike of size A moves its neighbours'
     // residuals by A/(2w) only)
     let mean = data.iter().sum::<f64>() / t as f64;
-    let mut c = Vec::with_capacity(t + 1);
-    c.push(0.0);
-    let mut acc = 0.0;
-    for &x in data {
-        acc += x - mean;
-        c.push(acc);
-    }
+    let c = centred_prefix_sums(data, mean);
     let resid: Vec<f64> = (0..t)
         .map(|i| {
             let (lo, hi) = (i.saturating_sub(w), (i + w + 1).min(t));
@@ -710,6 +704,18 @@ pub fn replace_spikes(
     ))
 }
 
+/// Prefix sums of `data − mean`, with c[0] = 0 (T + 1 values).
+fn centred_prefix_sums(data: &[f64], mean: f64) -> Vec<f64> {
+    let mut c = Vec::with_capacity(data.len() + 1);
+    c.push(0.0);
+    let mut acc = 0.0;
+    for &x in data {
+        acc += x - mean;
+        c.push(acc);
+    }
+    c
+}
+
 /// The differences D_k = X̄_k − X̄_{k−m} (k = 2m..T) of rate samples at cluster size m, from
 /// the prefix sums `c` of the centred series (c[0] = 0).
 fn differences(c: &[f64], m: usize) -> Vec<f64> {
@@ -765,14 +771,7 @@ pub fn robust_allan_variance(
     };
     // centred prefix sums (the robust scale does not need the offset-proof kernel: the
     // differences are formed once, and a relative error of 1e-12 is far below its spread)
-    let mean = template.mean;
-    let mut c = Vec::with_capacity(clean.len() + 1);
-    c.push(0.0);
-    let mut acc = 0.0;
-    for &x in clean.iter() {
-        acc += x - mean;
-        c.push(acc);
-    }
+    let c = centred_prefix_sums(&clean, template.mean);
     drop(clean);
     let ms: Vec<u64> = template.points.iter().map(|p| p.m).collect();
     let est: Vec<(f64, u64, bool)> = ms
@@ -920,13 +919,7 @@ pub fn excess_windows(
     }
     crate::kernel::check_finite(data)?;
     let mean = data.iter().sum::<f64>() / t as f64;
-    let mut c = Vec::with_capacity(t + 1);
-    c.push(0.0);
-    let mut acc = 0.0;
-    for &x in data {
-        acc += x - mean;
-        c.push(acc);
-    }
+    let c = centred_prefix_sums(data, mean);
     let m = m as usize;
     let d = differences(&c, m);
     let s = robust_mean_square(&d, bw)?;
