@@ -3,7 +3,9 @@
 //!
 //! - [`autocovariance`]: γ̂(h) = (1/N) Σ_{t=1}^{N−h} (x_t − x̄)(x_{t+h} − x̄), h = 0..=H, by a
 //!   real FFT zero-padded to a power of two ≥ N + H (no circular wrap-around), so it equals
-//!   the direct O(N·H) sum [`autocovariance_direct`] up to rounding; O(N log N).
+//!   the direct O(N·H) sum [`autocovariance_direct`] up to rounding; O(N log N). A long series
+//!   with few lags (N + H beyond four blocks of 4·(H + 1), at least 4096) goes by blocks
+//!   instead: O(N log H), small transforms that stay in cache.
 //! - [`periodogram`]: P(f_k) = Δt/N |Σ_t (x_t − x̄) e^(−2πi k t/N)|², f_k = k·rate/N.
 //! - [`welch`]: segments of length L with a given overlap, each demeaned, windowed (Hann by
 //!   default) and normalised by Σw², P = Δt|Σ w_t x_t e^(…)|²/Σw²; the average over
@@ -58,6 +60,10 @@ pub fn autocovariance(x: &[f64], max_lag: usize) -> Result<Vec<f64>> {
     check_series(x, max_lag + 1)?;
     let n = x.len();
     let xm = mean(x);
+    let block_len = (4 * (max_lag + 1)).next_power_of_two().max(1 << 12);
+    if n + max_lag > 4 * block_len {
+        return autocovariance_blocked(x, xm, max_lag, block_len);
+    }
     let len = (n + max_lag).next_power_of_two().max(2);
     let mut planner = RealFftPlanner::<f64>::new();
     let r2c = planner.plan_fft_forward(len);
@@ -73,6 +79,59 @@ pub fn autocovariance(x: &[f64], max_lag: usize) -> Result<Vec<f64>> {
     }
     let mut out = c2r.make_output_vec();
     c2r.process(&mut spec, &mut out).map_err(fft_error)?;
+    let scale = 1.0 / (len as f64 * n as f64);
+    Ok(out[..=max_lag].iter().map(|v| v * scale).collect())
+}
+
+/// [`autocovariance`] of a long series with few lags (N + H > 4·`len`): the series is cut into
+/// blocks a_j of B = `len` − H samples, and Σ_t d_t d_{t+h} = Σ_j Σ_{t∈a_j} d_t d_{t+h} is the
+/// lag-h cross-correlation of each block with the block extended by the next H samples. Both
+/// are zero-padded to `len` ≥ B + H, so the negative lags, which wrap around to indices
+/// ≥ `len` − B + 1 > H, do not reach lags 0..=H; the cross-spectra conj(A_j)·E_j are summed
+/// and one inverse FFT gives all lags: O(N log `len`) instead of O(N log N), with small FFTs
+/// that stay in cache (no series-sized buffer).
+fn autocovariance_blocked(x: &[f64], xm: f64, max_lag: usize, len: usize) -> Result<Vec<f64>> {
+    let n = x.len();
+    let b = len - max_lag;
+    let mut planner = RealFftPlanner::<f64>::new();
+    let r2c = planner.plan_fft_forward(len);
+    let c2r = planner.plan_fft_inverse(len);
+    let mut buf = r2c.make_input_vec();
+    let mut a_spec = r2c.make_output_vec();
+    let mut e_spec = r2c.make_output_vec();
+    let mut scratch = r2c.make_scratch_vec();
+    let mut acc = vec![Complex::new(0.0, 0.0); a_spec.len()];
+    let mut start = 0;
+    while start < n {
+        let end = (start + b).min(n);
+        let ext = (end + max_lag).min(n);
+        // the block extended by the next H samples
+        buf.fill(0.0);
+        for (o, &v) in buf.iter_mut().zip(&x[start..ext]) {
+            *o = v - xm;
+        }
+        r2c.process_with_scratch(&mut buf, &mut e_spec, &mut scratch)
+            .map_err(fft_error)?;
+        // the block alone
+        buf.fill(0.0);
+        for (o, &v) in buf.iter_mut().zip(&x[start..end]) {
+            *o = v - xm;
+        }
+        r2c.process_with_scratch(&mut buf, &mut a_spec, &mut scratch)
+            .map_err(fft_error)?;
+        for ((s, a), e) in acc.iter_mut().zip(&a_spec).zip(&e_spec) {
+            *s += a.conj() * e;
+        }
+        start = end;
+    }
+    // the inverse of a real correlation's spectrum: the imaginary parts at 0 and len/2 are
+    // rounding only
+    acc[0].im = 0.0;
+    if let Some(last) = acc.last_mut() {
+        last.im = 0.0;
+    }
+    let mut out = c2r.make_output_vec();
+    c2r.process(&mut acc, &mut out).map_err(fft_error)?;
     let scale = 1.0 / (len as f64 * n as f64);
     Ok(out[..=max_lag].iter().map(|v| v * scale).collect())
 }

@@ -8,6 +8,36 @@ use spectral::empirical::{WelchConfig, autocovariance, autocovariance_direct, we
 use spectral::psd;
 use spectral::tolerances::{FFT_ACV_REL, WELCH_MIN_COVERAGE};
 
+/// Both FFT paths (one transform of the whole series, and blocks of 4·(H + 1) rounded up to a
+/// power of two ≥ 4096 once N + H exceeds four blocks) against the direct sum, including
+/// lengths that are not a multiple of the block and a last block shorter than H.
+#[test]
+fn both_fft_paths_equal_the_direct_sum() {
+    let model = Model::from(Process::from(Ar1::new(0.9, 1.0).unwrap()));
+    let x: Vec<f64> = model
+        .simulate(60_013, 10.0, 11)
+        .unwrap()
+        .into_values()
+        .into_iter()
+        .map(|v| v - 250.0)
+        .collect();
+    // (N, H): the whole-series FFT; blocks of B = 4096 − 10; N + H = four blocks + 2; blocks of
+    // 8192 − 2047; six blocks of 3096 and a last one of 500 < H
+    for (n, h) in [(3000, 1000), (60_013, 10), (16_385, 1), (60_013, 2047), (19_076, 1000)] {
+        let (fast, slow) = (
+            autocovariance(&x[..n], h).unwrap(),
+            autocovariance_direct(&x[..n], h).unwrap(),
+        );
+        assert_eq!(fast.len(), h + 1);
+        let worst = fast
+            .iter()
+            .zip(&slow)
+            .map(|(a, b)| (a - b).abs() / slow[0])
+            .fold(0.0f64, f64::max);
+        assert!(worst <= FFT_ACV_REL, "N = {n}, H = {h}: {worst:e}");
+    }
+}
+
 #[test]
 fn fft_autocovariance_equals_the_direct_sum() {
     let model = Model::from(Process::from(Ar1::new(0.95, 1.0).unwrap()));
