@@ -23,7 +23,13 @@ fn both_fft_paths_equal_the_direct_sum() {
         .collect();
     // (N, H): the whole-series FFT; blocks of B = 4096 − 10; N + H = four blocks + 2; blocks of
     // 8192 − 2047; six blocks of 3096 and a last one of 500 < H
-    for (n, h) in [(3000, 1000), (60_013, 10), (16_385, 1), (60_013, 2047), (19_076, 1000)] {
+    for (n, h) in [
+        (3000, 1000),
+        (60_013, 10),
+        (16_385, 1),
+        (60_013, 2047),
+        (19_076, 1000),
+    ] {
         let (fast, slow) = (
             autocovariance(&x[..n], h).unwrap(),
             autocovariance_direct(&x[..n], h).unwrap(),
