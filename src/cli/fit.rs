@@ -162,7 +162,7 @@ pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
     let settings = args.fit.settings();
     let (table, units, mut curves) = read_curves(&args.input.spec(), settings.alpha, ui)?;
     if let Some(e) = robust {
-        let r = robust_curves(&table, table.rate()?, args.fit.alpha, e)?;
+        let r = robust_curves(&table, table.rate()?, args.fit.alpha, e, Some(&curves))?;
         curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
     }
     let quality = check_quality(&table, table.rate()?, ui)?;

@@ -116,7 +116,7 @@ pub fn analyze(
     attach_quality(&mut fits, quality);
     // the contamination check, always
     let pb = ui.spinner("robust Allan variance");
-    let rcurves = robust_curves(&table, rate, fit.alpha, settings.efficiency)?;
+    let rcurves = robust_curves(&table, rate, fit.alpha, settings.efficiency, Some(&curves))?;
     let checks = rcurves
         .iter()
         .zip(&table.columns)

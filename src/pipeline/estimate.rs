@@ -506,25 +506,35 @@ pub fn check_quality(table: &Table, rate: f64, ui: &Ui) -> Result<Vec<Vec<String
 }
 
 /// Each channel's robust AV (beside the classical one), on the default dyadic scales with
-/// chi-square CIs at level 1 − `alpha` and EDF × efficiency.
+/// chi-square CIs at level 1 − `alpha` and EDF × efficiency. `classical`: the channels'
+/// classical curves from [`fit_curves`] with the same `alpha`, reused instead of recomputed.
 pub fn robust_curves(
     table: &Table,
     rate: f64,
     alpha: f64,
     efficiency: f64,
+    classical: Option<&ChannelCurves>,
 ) -> Result<Vec<(String, avar::robust::RobustAllanVariance)>> {
     let cfg = AvarConfig {
         alpha,
         ..AvarConfig::default()
     };
+    // channels in parallel: each has serial parts (prefix sums, spike replacement) and a few
+    // dominant scales
     table
         .names
-        .iter()
+        .par_iter()
         .zip(&table.columns)
-        .map(|(n, x)| {
-            avar::robust::robust_allan_variance(x, rate, &cfg, efficiency)
-                .map(|r| (n.clone(), r))
-                .map_err(|e| Error::Usage(format!("channel {n:?}: robust AV: {e}")))
+        .enumerate()
+        .map(|(k, (n, x))| {
+            match classical {
+                Some(c) => {
+                    avar::robust::robust_allan_variance_from(x, c[k].1.clone(), &cfg, efficiency)
+                }
+                None => avar::robust::robust_allan_variance(x, rate, &cfg, efficiency),
+            }
+            .map(|r| (n.clone(), r))
+            .map_err(|e| Error::Usage(format!("channel {n:?}: robust AV: {e}")))
         })
         .collect()
 }

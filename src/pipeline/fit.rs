@@ -809,7 +809,7 @@ pub fn fit_joint(
     for input in inputs {
         let (table, units, mut curves) = read_curves(input, settings.alpha, ui)?;
         if let Some(e) = robust {
-            let r = robust_curves(&table, table.rate()?, settings.alpha, e)?;
+            let r = robust_curves(&table, table.rate()?, settings.alpha, e, Some(&curves))?;
             curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
         }
         if let Some((names0, _, _)) = per_file.first()
