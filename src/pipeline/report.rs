@@ -9,6 +9,7 @@ use crate::plot::{AdevPlot, Series, acf_svg, adev_svg, timeseries_svg};
 use crate::ui::Ui;
 use avar::AllanVariance;
 use processes::{Sensor, Unit};
+use rayon::prelude::*;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -572,65 +573,74 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
     html.push_str("</table>\n<h2>Allan deviation</h2><div class=plots>\n");
     let mut series_html = String::from("<h2>Time series</h2><div class=plots>\n");
     let mut acf_html = String::from("<h2>Autocorrelation</h2><div class=plots>\n");
-    for (k, name) in inp.names.iter().enumerate() {
-        let stem = file_safe(name);
-        let (_, av) = &inp.curves[k];
-        let f = &inp.fits[k];
-        let tau: Vec<f64> = av.points.iter().map(|p| p.tau).collect();
-        let tau_of = |m: u64| m as f64 / inp.rate_hz;
-        let plot = AdevPlot {
-            title: format!("{name}: Allan deviation"),
-            unit: inp.units[k].symbol().to_string(),
-            observed: observed(av),
-            fitted: Some(Series {
-                label: format!("fitted model ({})", f.method),
-                points: f
-                    .fitted
-                    .iter()
-                    .map(|p| (tau_of(p.m), p.avar.max(0.0).sqrt()))
-                    .collect(),
-            }),
-            components: f
-                .components
-                .iter()
-                .map(|(code, v)| Series {
-                    label: code.clone(),
-                    points: tau
+    // the channels' plots in parallel (each renders three SVGs and PNGs), appended in order
+    let parts = inp
+        .names
+        .par_iter()
+        .enumerate()
+        .map(|(k, name)| -> Result<[String; 3]> {
+            let stem = file_safe(name);
+            let (_, av) = &inp.curves[k];
+            let f = &inp.fits[k];
+            let tau: Vec<f64> = av.points.iter().map(|p| p.tau).collect();
+            let tau_of = |m: u64| m as f64 / inp.rate_hz;
+            let plot = AdevPlot {
+                title: format!("{name}: Allan deviation"),
+                unit: inp.units[k].symbol().to_string(),
+                observed: observed(av),
+                fitted: Some(Series {
+                    label: format!("fitted model ({})", f.method),
+                    points: f
+                        .fitted
                         .iter()
-                        .zip(v)
-                        .map(|(&t, &a)| (t, a.max(0.0).sqrt()))
+                        .map(|p| (tau_of(p.m), p.avar.max(0.0).sqrt()))
                         .collect(),
-                })
-                .collect(),
-            marks: read_off_marks(av, f, &inp.units[k], inp.rate_hz),
-        };
-        let svg = adev_svg(&plot, &format!("ad{k}"));
-        write_plot(dir, &format!("adev_{stem}"), &svg)?;
-        html.push_str(&svg);
-        let x = &inp.columns[k];
-        let ts = timeseries_svg(
-            &format!("{name}: time series"),
-            inp.units[k].symbol(),
-            x,
-            inp.rate_hz,
-            &format!("ts{k}"),
-        );
-        write_plot(dir, &format!("series_{stem}"), &ts)?;
+                }),
+                components: f
+                    .components
+                    .iter()
+                    .map(|(code, v)| Series {
+                        label: code.clone(),
+                        points: tau
+                            .iter()
+                            .zip(v)
+                            .map(|(&t, &a)| (t, a.max(0.0).sqrt()))
+                            .collect(),
+                    })
+                    .collect(),
+                marks: read_off_marks(av, f, &inp.units[k], inp.rate_hz),
+            };
+            let svg = adev_svg(&plot, &format!("ad{k}"));
+            write_plot(dir, &format!("adev_{stem}"), &svg)?;
+            let x = &inp.columns[k];
+            let ts = timeseries_svg(
+                &format!("{name}: time series"),
+                inp.units[k].symbol(),
+                x,
+                inp.rate_hz,
+                &format!("ts{k}"),
+            );
+            write_plot(dir, &format!("series_{stem}"), &ts)?;
+            let lags = (x.len() / 4)
+                .clamp(2, (inp.rate_hz * 30.0) as usize + 1)
+                .min(4000);
+            let acf = spectral::empirical::autocorrelation(x, lags - 1)
+                .map_err(|e| Error::Usage(format!("{name}: ACF: {e}")))?;
+            let a = acf_svg(
+                &format!("{name}: sample ACF"),
+                &acf,
+                x.len(),
+                inp.rate_hz,
+                &format!("acf{k}"),
+            );
+            write_plot(dir, &format!("acf_{stem}"), &a)?;
+            Ok([svg, ts, a])
+        })
+        .collect::<Result<Vec<_>>>()?;
+    for [ad, ts, acf] in parts {
+        html.push_str(&ad);
         series_html.push_str(&ts);
-        let lags = (x.len() / 4)
-            .clamp(2, (inp.rate_hz * 30.0) as usize + 1)
-            .min(4000);
-        let acf = spectral::empirical::autocorrelation(x, lags - 1)
-            .map_err(|e| Error::Usage(format!("{name}: ACF: {e}")))?;
-        let a = acf_svg(
-            &format!("{name}: sample ACF"),
-            &acf,
-            x.len(),
-            inp.rate_hz,
-            &format!("acf{k}"),
-        );
-        write_plot(dir, &format!("acf_{stem}"), &a)?;
-        acf_html.push_str(&a);
+        acf_html.push_str(&acf);
     }
     html.push_str("</div>\n");
     html.push_str(&series_html);
