@@ -406,6 +406,27 @@ fn a_fit_far_from_unit_magnitude_names_the_magnitude() {
     assert!(out.status.success(), "{}", stderr(&out));
 }
 
+/// `fit --robust` on samples near 1e154 used to loop forever (the robust AV's squared
+/// differences overflowed to an infinite mean square). Now the robust AV is computed on an exact
+/// power-of-two rescaled copy, and the fit is refused for its magnitude as the classical one is.
+#[test]
+fn a_robust_fit_of_huge_samples_ends_with_the_magnitude_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = noise_csv(dir.path(), "huge.csv", 5000, 1e154);
+    let out = imunoise(&[
+        "fit",
+        p.to_str().unwrap(),
+        "--rate",
+        "100",
+        "--robust",
+        "--model",
+        "WN",
+        "-q",
+    ]);
+    let err = fails_with(&out, 2);
+    assert!(err.contains("too far from unit magnitude"), "{err}");
+}
+
 /// A bootstrap of a billion replicates used to abort on a failed allocation; now it is refused.
 #[test]
 fn an_absurd_bootstrap_count_is_refused() {

@@ -446,7 +446,8 @@ pub fn robust_mean_square_detail(d: &[f64], bw: &Biweight) -> Result<RobustScale
         }
         if bracket.is_none() {
             // up: a positive stretch above the start (e.g. most differences near 0)
-            let top = (2.0 * ms / bw.a).ln();
+            // (bounded even if the mean square overflowed: 2^400 above the start)
+            let top = (2.0 * ms / bw.a).ln().min(x0 + 400.0 * LN2);
             let mut x = x0;
             let mut pos: Option<f64> = None;
             while x < top {
@@ -873,6 +874,9 @@ pub fn robust_allan_variance(
 /// [`robust_allan_variance`] when the classical curve is at hand: `classical` must be
 /// `allan_variance(data, rate_hz, config)` (rate, n and scales are checked against `data` and
 /// `config`); it is kept as the result's classical curve instead of being computed again.
+/// Samples beyond 2^±128 in magnitude are estimated on an exact power-of-two rescaled copy
+/// (as [`crate::allan_variance`] does), so that the robust AV of 2^k·x is 4^k times that of x
+/// to rounding (the Newton iterates on ln s are not scale-exact) for every representable k.
 ///
 /// ```
 /// use avar::{AvarConfig, allan_variance, robust::{robust_allan_variance, robust_allan_variance_from}};
@@ -906,6 +910,18 @@ pub fn robust_allan_variance_from(
     }
     let rate_hz = classical.rate_hz;
     let bw = Biweight::with_efficiency(efficiency)?;
+    // huge or tiny samples (squares beyond the range of f64): estimated on an exact
+    // power-of-two rescaled copy and scaled back, as the classical AV is (`range`)
+    if let Some(e) = crate::range::rescale_exponent(data) {
+        let scaled = crate::range::scaled_copy(data, e);
+        let cl = crate::allan_variance(&scaled, rate_hz, config)?;
+        let mut r = robust_allan_variance_from(&scaled, cl, config, efficiency)?;
+        crate::range::scale_back(&mut r.robust.points, e)?;
+        r.robust.mean = crate::range::ldexp(r.robust.mean, e);
+        r.spikes.residual_sd = crate::range::ldexp(r.spikes.residual_sd, e);
+        r.classical = classical;
+        return Ok(r);
+    }
     let scan = spike_scan(data, SPIKE_THRESHOLD)?;
     let spikes = scan.report;
     // the intervals' EDF and noise identification from the series the M-estimator sees
@@ -1240,6 +1256,43 @@ mod tests {
         let (vf, vs, vd) = (var(&full), var(&strided), var(&diff));
         assert!(vd / vf < 0.05, "var(diff)/var(full) = {}", vd / vf);
         assert!(vs / vf < 1.2, "var(strided)/var(full) = {}", vs / vf);
+    }
+
+    /// Samples near 1e±154 and beyond used to overflow (or underflow) the squared differences
+    /// (and `fit --robust` looped forever on an infinite mean square): now the robust AV of
+    /// 2^k·x is 4^k times that of x to 1e-13 (the Newton iterates on ln s round differently),
+    /// its intervals too, and the classical curve is the one given.
+    #[test]
+    fn huge_and_tiny_samples_are_rescaled() {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(41);
+        let x: Vec<f64> = (0..20_000)
+            .map(|i| {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                z + if i % 997 == 0 { 30.0 } else { 0.0 }
+            })
+            .collect();
+        let cfg = AvarConfig::default();
+        let base = robust_allan_variance(&x, 10.0, &cfg, 0.6).unwrap();
+        assert!(!base.spikes.indices.is_empty());
+        for k in [511, -500, 200] {
+            let y: Vec<f64> = x.iter().map(|v| crate::range::ldexp(*v, k)).collect();
+            let r = robust_allan_variance(&y, 10.0, &cfg, 0.6).unwrap();
+            assert_eq!(r.spikes.indices, base.spikes.indices);
+            for (p, q) in r.robust.points.iter().zip(&base.robust.points) {
+                let back = |v: f64| crate::range::ldexp(v, -2 * k);
+                assert!(
+                    (back(p.avar) / q.avar - 1.0).abs() < 1e-13,
+                    "k = {k}, m = {}",
+                    p.m
+                );
+                let (lo, hi) = (p.avar_lo.unwrap(), p.avar_hi.unwrap());
+                assert!((back(lo) / q.avar_lo.unwrap() - 1.0).abs() < 1e-13);
+                assert!((back(hi) / q.avar_hi.unwrap() - 1.0).abs() < 1e-13);
+            }
+            for (p, q) in r.classical.points.iter().zip(&base.classical.points) {
+                assert_eq!(crate::range::ldexp(p.avar, -2 * k), q.avar);
+            }
+        }
     }
 
     #[test]
