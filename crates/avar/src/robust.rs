@@ -835,6 +835,16 @@ fn differences_into(c: &[f64], m: usize, s: usize, out: &mut Vec<f64>) {
     }
 }
 
+/// The robust AV needs the individual differences: rate input and the overlapping estimator.
+fn check_supported(config: &AvarConfig) -> Result<(), AvarError> {
+    if config.input != InputKind::Rate || config.estimator != Estimator::Overlapping {
+        return Err(AvarError::InvalidScales(
+            "the robust AV needs rate input and the overlapping estimator".into(),
+        ));
+    }
+    Ok(())
+}
+
 /// Robust Allan variance of rate samples at the scales of `config` (module doc), beside the
 /// classical one. `efficiency` in [`EFFICIENCY_RANGE`] ([`DEFAULT_EFFICIENCY`] = 0.6 as in
 /// `gmwm`).
@@ -861,11 +871,7 @@ pub fn robust_allan_variance(
     config: &AvarConfig,
     efficiency: f64,
 ) -> Result<RobustAllanVariance, AvarError> {
-    if config.input != InputKind::Rate || config.estimator != Estimator::Overlapping {
-        return Err(AvarError::InvalidScales(
-            "the robust AV needs rate input and the overlapping estimator".into(),
-        ));
-    }
+    check_supported(config)?;
     Biweight::with_efficiency(efficiency)?;
     let classical = crate::allan_variance(data, rate_hz, config)?;
     robust_allan_variance_from(data, classical, config, efficiency)
@@ -892,11 +898,7 @@ pub fn robust_allan_variance_from(
     config: &AvarConfig,
     efficiency: f64,
 ) -> Result<RobustAllanVariance, AvarError> {
-    if config.input != InputKind::Rate || config.estimator != Estimator::Overlapping {
-        return Err(AvarError::InvalidScales(
-            "the robust AV needs rate input and the overlapping estimator".into(),
-        ));
-    }
+    check_supported(config)?;
     if classical.n != data.len()
         || classical.input != config.input
         || classical.estimator != config.estimator
