@@ -883,7 +883,8 @@ fn differences_into(c: &[f64], m: usize, s: usize, out: &mut Vec<f64>) {
 const LOCKSTEP_BLOCK: usize = 1 << 14;
 
 /// The per-block sums of [`lockstep_pass`]: (scale index, hi, mid, lo, 1/m) → N sums.
-type BlockSums<const N: usize> = dyn Fn(usize, &[f64], &[f64], &[f64], f64) -> [f64; N] + Sync;
+type BlockSums<'a, const N: usize> =
+    dyn Fn(usize, &[f64], &[f64], &[f64], f64) -> [f64; N] + Sync + 'a;
 
 /// One pass over the prefix sums `c` for every scale of `ms` at once: per scale j, with D_i =
 /// (c[i + 2m] − 2c[i + m] + c[i])/m (i < K_j = len(c) − 2m), the sums that `f` forms over a
