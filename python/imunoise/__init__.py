@@ -22,7 +22,7 @@ strided view, a C-ordered 2-D array) is converted first, and the result's ``copi
 
 Errors are :class:`ImunoiseError` (a ``ValueError``) subclasses carrying the library's
 message: :class:`InputError`, :class:`UsageError`, :class:`ModelError`,
-:class:`EstimationError`, :class:`OutputError`. The GIL is released while Rust computes.
+:class:`EstimationError` (bad samples in an array), :class:`OutputError`. The GIL is released while Rust computes.
 """
 
 from __future__ import annotations
@@ -42,6 +42,10 @@ from ._imunoise import (
     OutputError,
     UsageError,
 )
+
+# the plotting code (matplotlib imported only when plotting); the function `plot` below
+# takes the name `imunoise.plot` back from the submodule
+from .plot import plot as _plot_impl  # noqa: E402
 
 __version__ = _imunoise.__version__
 
@@ -267,14 +271,15 @@ def _as_channels(x: Any) -> "tuple[np.ndarray, bool]":
     """``x`` as a float64 array the native side reads without copying, and whether a
     conversion was needed."""
     a = np.asarray(x)
+    made = a is not x  # a list, a memoryview, ...: numpy made a new array from it
     if a.ndim not in (1, 2):
         raise UsageError(f"expected a 1-D or 2-D array, got {a.ndim} dimensions")
     if a.dtype == np.float64:
         if a.ndim == 1 and a.flags.c_contiguous:
-            return a, False
+            return a, made
         if a.ndim == 2 and (a.flags.f_contiguous or a.flags.c_contiguous):
             # C-ordered 2-D: the native side copies the columns and reports it
-            return a, False
+            return a, made
     if a.ndim == 1:
         return np.ascontiguousarray(a, dtype=np.float64), True
     return np.asfortranarray(a, dtype=np.float64), True
@@ -502,7 +507,5 @@ def plot(result: Any, ax: Any = None, **kwargs: Any) -> Any:
     """Log-log plot of Allan deviations with their CI bands (needs matplotlib: the ``plot``
     extra). Takes :func:`avar` results (one or a list), a :class:`TheoryResult` or an
     :func:`analyze` document; returns the matplotlib Axes."""
-    from .plot import plot as _plot
-
-    return _plot(result, ax=ax, **kwargs)
+    return _plot_impl(result, ax=ax, **kwargs)
 

@@ -42,7 +42,7 @@ pyo3::create_exception!(
     _imunoise,
     EstimationError,
     ImunoiseError,
-    "The Allan variance could not be estimated (series too short, NaN, not representable)."
+    "The samples of an array could not be analysed (too few for the scales, NaN or infinity, not representable)."
 );
 pyo3::create_exception!(
     _imunoise,
@@ -51,10 +51,15 @@ pyo3::create_exception!(
     "An output (report folder, file) could not be written."
 );
 
+/// The name of samples handed over as an array (in messages, and `source` of results.json).
+const ARRAY: &str = "<array>";
+
 /// The library error as the matching Python exception, with the library's message.
 fn py_err(e: Error) -> PyErr {
     let msg = e.to_string();
     match e {
+        // arrays are named ARRAY: a problem with their samples is the estimator's
+        Error::File { file, .. } if file == ARRAY => EstimationError::new_err(msg),
         Error::Io { .. } | Error::Located { .. } | Error::File { .. } => InputError::new_err(msg),
         Error::Usage(_) => UsageError::new_err(msg),
         Error::Process(_) => ModelError::new_err(msg),
@@ -237,14 +242,7 @@ fn avar(
     let slices: Vec<&[f64]> = cols.iter().map(|c| c.as_ref()).collect();
     let curves = py
         .detach(|| {
-            estimate::compute_columns(
-                "<array>",
-                &names,
-                &slices,
-                rate,
-                &cfg,
-                &imunoise::Ui::quiet(),
-            )
+            estimate::compute_columns(ARRAY, &names, &slices, rate, &cfg, &imunoise::Ui::quiet())
         })
         .map_err(py_err)?;
     Ok((
@@ -309,7 +307,7 @@ fn array_table(x: &Bound<'_, PyAny>, rate: f64, names: Option<Vec<String>>) -> P
     let names = channel_names(names, ch.n_channels())?;
     let (cols, _) = ch.columns();
     Ok(Table {
-        file: "<array>".into(),
+        file: ARRAY.into(),
         names,
         columns: cols.into_iter().map(|c| c.into_owned()).collect(),
         rate_hz: Some(check_rate(rate)?),
@@ -555,7 +553,11 @@ fn read_file<'py>(
         .units(&table)
         .map_err(py_err)?
         .iter()
-        .map(|u| u.to_string())
+        .map(|u| match serde_json::to_value(u) {
+            // the unit as results.json spells it ("deg/s", "m/s^2")
+            Ok(serde_json::Value::String(s)) => s,
+            _ => u.to_string(),
+        })
         .collect();
     let timing = match &table.timing {
         Some(t) => Some(json_string(t)?),
