@@ -13,9 +13,12 @@ the log10 scale (noise amplitudes spread multiplicatively)::
     z = (log10 x - median) / (1.4826 * MAD)
 
 where median and MAD (median absolute deviation) are taken over the fleet; a unit is flagged
-when ``|z| > z_limit`` (3.5 by default, Iglewicz and Hoaglin's outlier rule). 1.4826 * MAD
-estimates the standard deviation of Gaussian data, so z reads as "standard deviations". With
-fewer than ``min_units`` (5) units, or MAD = 0, no z is computed and nothing is flagged.
+when ``|z| > z_limit`` (3.5 by default, Iglewicz and Hoaglin's outlier rule) and, when the
+term has a confidence interval, the fleet median lies outside the unit's interval (a term
+that the unit's own record cannot pin down, such as K from a short log, is not flagged for
+its scatter alone). 1.4826 * MAD estimates the standard deviation of Gaussian data, so z
+reads as "standard deviations". With fewer than ``min_units`` (5) units, or MAD = 0, no z is
+computed and nothing is flagged.
 """
 
 from __future__ import annotations
@@ -97,21 +100,23 @@ def fleet_summary(
         vals = []
         for r in rows:
             a = r["axes"].get(axis)
-            v = None if a is None or a.get(t) is None else a[t]["value"]
+            e = None if a is None else a.get(t)
+            v = None if e is None else e["value"]
             if v is not None and v > 0 and math.isfinite(v):
-                vals.append((r["unit"], v))
+                vals.append((r["unit"], v, e.get("ci_lo"), e.get("ci_hi")))
         entry: Dict[str, Any] = {"units": len(vals), "median": None, "mad": None, "z": {}}
         if vals:
-            logs = [math.log10(v) for _, v in vals]
+            logs = [math.log10(v[1]) for v in vals]
             med = _median(logs)
             mad = _median([abs(x - med) for x in logs])
             entry["median"] = 10.0**med
             entry["mad_log10"] = mad
             if len(vals) >= min_units and mad > 0:
-                for (u, v), x in zip(vals, logs):
+                for (u, v, lo, hi), x in zip(vals, logs):
                     z = (x - med) / (1.4826 * mad)
                     entry["z"][u] = z
-                    if abs(z) > z_limit:
+                    inside_ci = lo is not None and hi is not None and lo <= 10.0**med <= hi
+                    if abs(z) > z_limit and not inside_ci:
                         flagged.append({"unit": u, "axis": axis, "term": t, "value": v,
                                         "fleet_median": 10.0**med, "z": z})
         terms[f"{axis}.{t}"] = entry
