@@ -66,3 +66,6 @@ def analyze_array(
     efficiency: float, record_halfwidth: float, names: Optional[List[str]] = None,
     unit: Optional[str] = None,
 ) -> str: ...
+def kernel_seconds(
+    x: npt.NDArray[np.float64], rate: float, scales: str, ci: str, repeats: int
+) -> List[float]: ...

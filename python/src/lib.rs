@@ -734,6 +734,36 @@ fn analyze_array(
     run_analysis(py, table, units, &settings, out)
 }
 
+/// Bench support (python/bench/bench.py): the seconds each of `repeats` calls of the Rust
+/// kernel `avar::allan_variance` takes on the borrowed samples of a contiguous 1-D float64
+/// array, timed inside Rust (no Python, no JSON), so that `imunoise.avar` can be compared
+/// with the kernel on the same data and the same compiled code.
+#[pyfunction]
+fn kernel_seconds(
+    py: Python<'_>,
+    x: PyReadonlyArray1<'_, f64>,
+    rate: f64,
+    scales: &str,
+    ci: &str,
+    repeats: usize,
+) -> PyResult<Vec<f64>> {
+    let cfg = avar_config(scales, ci, 0.05, "rate", "overlapping")?;
+    let s = x
+        .as_slice()
+        .map_err(|_| usage("kernel_seconds needs a contiguous array".into()))?;
+    py.detach(|| {
+        (0..repeats)
+            .map(|_| {
+                let t = std::time::Instant::now();
+                let av = imunoise::avar::allan_variance(s, rate, &cfg)?;
+                std::hint::black_box(&av);
+                Ok(t.elapsed().as_secs_f64())
+            })
+            .collect::<Result<Vec<f64>, imunoise::avar::AvarError>>()
+    })
+    .map_err(|e| py_err(Error::Avar(e)))
+}
+
 #[pymodule]
 fn _imunoise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -753,6 +783,7 @@ fn _imunoise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_file, m)?)?;
     m.add_function(wrap_pyfunction!(analyze_file, m)?)?;
     m.add_function(wrap_pyfunction!(analyze_array, m)?)?;
+    m.add_function(wrap_pyfunction!(kernel_seconds, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
