@@ -19,9 +19,11 @@ fi
     "dask[distributed]" matplotlib
 step "venv ready"
 
-# the imunoise binary for the tests that compare with the command's JSON
-cargo build --quiet --bin imunoise
-step "imunoise binary built"
+# the imunoise binary for the tests that compare with the command's JSON: the one
+# `cargo test --workspace` builds (a no-op right after it; `cargo build` would rebuild with
+# other features)
+cargo test --workspace --no-run --quiet
+step "imunoise binary ready"
 
 rm -rf "$root/target/wheels"
 (cd python && CARGO_TARGET_DIR="$root/target" "$venv/bin/maturin" build \
