@@ -160,14 +160,10 @@ pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
     }
     let robust = args.robust.efficiency()?;
     let settings = args.fit.settings();
-    let (table, units, mut curves) = read_curves(&args.input.spec(), settings.alpha, ui)?;
-    if let Some(e) = robust {
-        let r = robust_curves(&table, table.rate()?, args.fit.alpha, e, Some(&curves))?;
-        curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
-    }
-    let quality = check_quality(&table, table.rate()?, ui)?;
-    let mut fits = fit_all_robust(&curves, &units, &settings, robust, ui)?;
-    attach_quality(&mut fits, quality);
+    let spec = args.input.spec();
+    let table = spec.read(ui)?;
+    let units = spec.units(&table)?;
+    let fits = fit_table(&table, &units, &settings, robust, ui)?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let r = match args.format {

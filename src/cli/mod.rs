@@ -226,34 +226,6 @@ pub enum Format {
     Csv,
 }
 
-/// Parses `--scales`: `dyadic` (book default), `dyadic1` (with m = 1), `octave`, `decade`,
-/// `all`, `logN` (N per decade) or an explicit list `m1,m2,…`.
-pub fn parse_scales(s: &str) -> std::result::Result<avar::Scales, String> {
-    use avar::Scales;
-    let t = s.trim().to_ascii_lowercase();
-    Ok(match t.as_str() {
-        "dyadic" => Scales::Dyadic,
-        "dyadic1" | "dyadic-with-one" => Scales::DyadicWithOne,
-        "octave" => Scales::Octave,
-        "decade" => Scales::Decade,
-        "all" => Scales::All,
-        _ if t.starts_with("log") => Scales::LogSpaced {
-            per_decade: t[3..]
-                .parse()
-                .map_err(|_| format!("{s:?}: expected logN with N points per decade"))?,
-        },
-        _ => Scales::Explicit(
-            t.split(',')
-                .map(|m| {
-                    m.trim().parse::<u64>().map_err(|_| {
-                        format!(
-                            "{s:?}: expected dyadic, dyadic1, octave, decade, all, logN or a list of cluster sizes m1,m2,…"
-                        )
-                    })
-                })
-                .collect::<std::result::Result<_, _>>()?,
-        ),
-    })
-}
+pub use crate::pipeline::estimate::parse_scales;
 
 pub use crate::pipeline::estimate::avar_error;

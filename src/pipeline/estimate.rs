@@ -74,6 +74,45 @@ pub struct AvarJson {
     pub channels: Vec<ChannelJson>,
 }
 
+/// Parses `--scales`: `dyadic` (book default), `dyadic1` (with m = 1), `octave`, `decade`,
+/// `all`, `logN` (N per decade) or an explicit list `m1,m2,…` (cluster sizes in samples;
+/// τ = m / rate in s). The command's `--scales` and the Python package's `scales=` both
+/// go through it.
+///
+/// ```
+/// use imunoise::pipeline::estimate::parse_scales;
+/// assert_eq!(parse_scales("octave"), Ok(imunoise::avar::Scales::Octave));
+/// assert_eq!(parse_scales("1,4,16"), Ok(imunoise::avar::Scales::Explicit(vec![1, 4, 16])));
+/// assert!(parse_scales("fortnightly").is_err());
+/// ```
+pub fn parse_scales(s: &str) -> std::result::Result<avar::Scales, String> {
+    use avar::Scales;
+    let t = s.trim().to_ascii_lowercase();
+    Ok(match t.as_str() {
+        "dyadic" => Scales::Dyadic,
+        "dyadic1" | "dyadic-with-one" => Scales::DyadicWithOne,
+        "octave" => Scales::Octave,
+        "decade" => Scales::Decade,
+        "all" => Scales::All,
+        _ if t.starts_with("log") => Scales::LogSpaced {
+            per_decade: t[3..]
+                .parse()
+                .map_err(|_| format!("{s:?}: expected logN with N points per decade"))?,
+        },
+        _ => Scales::Explicit(
+            t.split(',')
+                .map(|m| {
+                    m.trim().parse::<u64>().map_err(|_| {
+                        format!(
+                            "{s:?}: expected dyadic, dyadic1, octave, decade, all, logN or a list of cluster sizes m1,m2,…"
+                        )
+                    })
+                })
+                .collect::<std::result::Result<_, _>>()?,
+        ),
+    })
+}
+
 /// Builds the JSON document of named curves.
 pub fn to_json(curves: &[(String, AllanVariance)]) -> AvarJson {
     AvarJson {
@@ -433,15 +472,42 @@ pub fn compute(
     config: &AvarConfig,
     ui: &Ui,
 ) -> Result<Vec<(String, AllanVariance)>> {
-    let pb = ui.bar(table.columns.len() as u64, "Allan var.");
-    let res: Vec<Result<(String, AllanVariance)>> = table
-        .columns
+    let cols: Vec<&[f64]> = table.columns.iter().map(Vec::as_slice).collect();
+    compute_columns(&table.file, &table.names, &cols, rate_hz, config, ui)
+}
+
+/// [`compute`] on borrowed channels (the Python package passes numpy memory here without
+/// copying it): each channel's Allan variance at `rate_hz` (Hz), channels in parallel, in
+/// the units of the samples squared; `file` names the source in error messages.
+///
+/// ```
+/// use imunoise::pipeline::estimate::compute_columns;
+/// let x: Vec<f64> = (0..1024).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+/// let cfg = imunoise::avar::AvarConfig {
+///     ci: imunoise::avar::CiMethod::None,
+///     ..Default::default()
+/// };
+/// let c = compute_columns("<array>", &["x".into()], &[&x], 1.0, &cfg, &imunoise::Ui::quiet())?;
+/// // ±1 alternating: every cluster mean of even size m is 0, so the AV is 0 at every m ≥ 2
+/// assert!(c[0].1.points.iter().all(|p| p.avar == 0.0));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
+pub fn compute_columns(
+    file: &str,
+    names: &[String],
+    columns: &[&[f64]],
+    rate_hz: f64,
+    config: &AvarConfig,
+    ui: &Ui,
+) -> Result<Vec<(String, AllanVariance)>> {
+    let pb = ui.bar(columns.len() as u64, "Allan var.");
+    let res: Vec<Result<(String, AllanVariance)>> = columns
         .par_iter()
-        .zip(&table.names)
+        .zip(names)
         .map(|(col, name)| {
             let r = avar::allan_variance(col, rate_hz, config)
                 .map(|av| (name.clone(), av))
-                .map_err(|e| avar_error(&table.file, name, e));
+                .map_err(|e| avar_error(file, name, e));
             pb.inc(1);
             r
         })

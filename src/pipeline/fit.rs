@@ -915,3 +915,46 @@ pub fn write_joint_table(
     }
     Ok(())
 }
+
+/// The whole of `imunoise fit` for one recording: each channel's Allan variance on the
+/// dyadic scales with chi-square CIs (or its robust AV with `robust` = the Gaussian
+/// efficiency), the data-quality findings, and the fit as `settings` say, channels in the
+/// order of `table`. The `fit` command and the Python package's `imunoise.fit` both call it.
+///
+/// ```
+/// use imunoise::pipeline::{fit, simulate};
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4)".parse()?;
+/// let cols = simulate::simulate_channels(&model, 1 << 14, 100.0, 1, 1)?;
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gyro_x_dps".into()],
+///     columns: cols,
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let units = imunoise::units::channel_units(&table.names, None)?;
+/// let settings = fit::FitSettings { model: "WN".into(), ..Default::default() };
+/// let fits = fit::fit_table(&table, &units, &settings, None, &imunoise::Ui::quiet())?;
+/// let wn = fits[0].parameters[0].value; // per-sample variance in (°/s)²
+/// assert!((wn / 1e-4 - 1.0).abs() < 0.05);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn fit_table(
+    table: &crate::io::Table,
+    units: &[Unit],
+    settings: &FitSettings,
+    robust: Option<f64>,
+    ui: &Ui,
+) -> Result<Vec<ChannelFit>> {
+    let rate = table.rate()?;
+    let mut curves = super::estimate::fit_curves(table, settings.alpha, ui)?;
+    if let Some(e) = robust {
+        let r = robust_curves(table, rate, settings.alpha, e, Some(&curves))?;
+        curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
+    }
+    let quality = super::estimate::check_quality(table, rate, ui)?;
+    let mut fits = fit_all_robust(&curves, units, settings, robust, ui)?;
+    attach_quality(&mut fits, quality);
+    Ok(fits)
+}

@@ -1,0 +1,511 @@
+"""imunoise: stochastic calibration of inertial sensors from Python.
+
+The same library as the ``imunoise`` command (one Rust pipeline, two faces): the Allan
+variance with confidence intervals, GMWM noise-model fits, the whole-log analysis, model
+theory and simulation, and the command's file readers. numpy is the only dependency.
+
+Units, everywhere:
+
+* ``rate`` is the sampling rate in Hz; ``tau`` is the averaging time in s (``tau = m / rate``
+  for a cluster of ``m`` samples);
+* Allan variances (``avar``, ``lo``, ``hi``) are in the input's units squared (e.g. (deg/s)^2
+  for a gyro in deg/s), Allan deviations (``adev``) in the input's units;
+* model parameters are per sample (dt = 1/rate) in the channel's unit ``u``: WN ``sigma2``
+  [u^2], RW ``gamma2`` [u^2 per sample], QN ``q2`` [u^2], DR ``omega`` [u per sample], AR1
+  ``phi`` [-] and ``sigma2`` [u^2]; the IEEE 952 values (N, B, K, ...) are in the usual units.
+
+Arrays: a 1-D array is one channel; a 2-D array holds samples in rows and channels in
+columns. ``avar`` reads a C-contiguous 1-D float64 array, and the columns of a
+Fortran-ordered 2-D float64 array, without copying them; anything else (another dtype, a
+strided view, a C-ordered 2-D array) is converted first, and the result's ``copied`` says so.
+``fit`` and ``analyze`` on arrays copy the samples once into the pipeline's table.
+
+Errors are :class:`ImunoiseError` (a ``ValueError``) subclasses carrying the library's
+message: :class:`InputError`, :class:`UsageError`, :class:`ModelError`,
+:class:`EstimationError` (bad samples in an array), :class:`OutputError`. The GIL is released while Rust computes.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Any, Dict, List, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _imunoise
+from ._imunoise import (
+    EstimationError,
+    ImunoiseError,
+    InputError,
+    ModelError,
+    OutputError,
+    UsageError,
+)
+
+# the plotting code (matplotlib imported only when plotting); the function `plot` below
+# takes the name `imunoise.plot` back from the submodule
+from .plot import plot as _plot_impl  # noqa: E402
+
+__version__ = _imunoise.__version__
+
+__all__ = [
+    "AvarResult",
+    "EstimationError",
+    "FitResult",
+    "ImunoiseError",
+    "InputError",
+    "Model",
+    "ModelError",
+    "OutputError",
+    "Recording",
+    "TheoryResult",
+    "UsageError",
+    "analyze",
+    "avar",
+    "fit",
+    "plot",
+    "read",
+    "simulate",
+    "theory",
+    "to_dict",
+]
+
+DEFAULT_MODEL = "QN+WN+RW+AR1"
+
+
+def _nan(v: Optional[float]) -> float:
+    return math.nan if v is None else float(v)
+
+
+def _scales_text(scales: Union[str, Sequence[int]]) -> str:
+    if isinstance(scales, str):
+        return scales
+    return ",".join(str(int(m)) for m in scales)
+
+
+class AvarResult:
+    """One channel's Allan variance: numpy arrays over the cluster sizes.
+
+    Attributes: ``name``; ``rate_hz`` (Hz); ``n`` (samples); ``estimator``; ``m`` (cluster
+    sizes, samples, int64); ``tau`` (s); ``avar`` (input units squared); ``adev`` (input
+    units); ``lo``, ``hi`` (CI bounds of the AV, NaN without a CI); ``edf`` (equivalent
+    degrees of freedom, NaN without a chi-square CI); ``n_terms`` (squared differences, int64);
+    ``copied`` (True when the samples had to be converted before reading).
+    ``to_dict()`` gives the channel entry of ``imunoise avar --format json``.
+    """
+
+    def __init__(self, curve: Any, copied: bool) -> None:
+        self._curve = curve
+        self._dict: Dict[str, Any] = json.loads(curve.to_json())
+        d = self._dict
+        pts = d["points"]
+        self.name: str = d["name"]
+        self.rate_hz: float = d["rate_hz"]
+        self.n: int = d["n"]
+        self.estimator: str = d["estimator"]
+        self.copied: bool = copied
+        self.m = np.array([p["m"] for p in pts], dtype=np.int64)
+        self.tau = np.array([p["tau"] for p in pts], dtype=np.float64)
+        self.avar = np.array([p["avar"] for p in pts], dtype=np.float64)
+        self.adev = np.array([p["adev"] for p in pts], dtype=np.float64)
+        self.lo = np.array([_nan(p["avar_lo"]) for p in pts], dtype=np.float64)
+        self.hi = np.array([_nan(p["avar_hi"]) for p in pts], dtype=np.float64)
+        self.edf = np.array([_nan(p["edf"]) for p in pts], dtype=np.float64)
+        self.n_terms = np.array([p["n_terms"] for p in pts], dtype=np.int64)
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The channel entry of ``imunoise avar --format json`` (a fresh copy)."""
+        return json.loads(json.dumps(self._dict))
+
+    def __len__(self) -> int:
+        return len(self.m)
+
+    def __repr__(self) -> str:
+        return (
+            f"AvarResult(name={self.name!r}, rate_hz={self.rate_hz}, n={self.n}, "
+            f"points={len(self.m)}, estimator={self.estimator!r})"
+        )
+
+
+class FitResult:
+    """One channel's fitted noise model.
+
+    Attributes: ``name``, ``method``, ``model`` (the fitted model with values, per-sample
+    parameters), ``parameters`` (``{"WN.sigma2": (value, ci_lo, ci_hi), ...}``, per sample in
+    the channel's unit, CI bounds NaN when absent), ``ieee`` (``{"N": (value, lo, hi, unit),
+    ...}``), ``converged``, ``warnings``. ``to_dict()`` gives the channel entry of
+    ``imunoise fit --format json``.
+    """
+
+    def __init__(self, d: Dict[str, Any]) -> None:
+        self._dict = d
+        self.name: str = d["name"]
+        self.method: str = d["method"]
+        self.model: str = d["model"]
+        self.converged: bool = d["converged"]
+        self.warnings: List[str] = list(d.get("warnings", []))
+        self.parameters: Dict[str, tuple] = {}
+        for p in d["parameters"]:
+            key = f"{p['process']}.{p['name']}"
+            k, i = key, 2
+            while k in self.parameters:  # 2*AR1: AR1.phi, AR1#2.phi
+                k = f"{p['process']}#{i}.{p['name']}"
+                i += 1
+            self.parameters[k] = (p["value"], _nan(p["ci_lo"]), _nan(p["ci_hi"]))
+        self.ieee: Dict[str, tuple] = {
+            k: (v["value"], _nan(v.get("ci_lo")), _nan(v.get("ci_hi")), v.get("unit"))
+            for k, v in d.get("ieee", {}).items()
+        }
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The channel entry of ``imunoise fit --format json`` (a fresh copy)."""
+        return json.loads(json.dumps(self._dict))
+
+    def __repr__(self) -> str:
+        return f"FitResult(name={self.name!r}, model={self.model!r})"
+
+
+class TheoryResult:
+    """A model's theoretical Allan variance: ``m``, ``tau`` (s), ``avar`` (u^2), ``adev`` (u),
+    ``components`` (``{name: adev array}``), ``psd_f`` (Hz), ``psd`` (two-sided, u^2/Hz).
+    ``to_dict()`` gives ``imunoise theory --format json``."""
+
+    def __init__(self, d: Dict[str, Any]) -> None:
+        self._dict = d
+        self.model: str = d["model"]
+        self.rate_hz: float = d["rate_hz"]
+        pts = d["points"]
+        self.m = np.array([p["m"] for p in pts], dtype=np.int64)
+        self.tau = np.array([p["tau"] for p in pts], dtype=np.float64)
+        self.avar = np.array([p["avar"] for p in pts], dtype=np.float64)
+        self.adev = np.array([p["adev"] for p in pts], dtype=np.float64)
+        self.components = {
+            c["name"]: np.array([p["adev"] for p in c["points"]], dtype=np.float64)
+            for c in d["components"]
+        }
+        self.psd_f = np.array([p["f"] for p in d["psd"]], dtype=np.float64)
+        self.psd = np.array([p["psd"] for p in d["psd"]], dtype=np.float64)
+
+    def to_dict(self) -> Dict[str, Any]:
+        """``imunoise theory --format json`` (a fresh copy)."""
+        return json.loads(json.dumps(self._dict))
+
+    def __repr__(self) -> str:
+        return f"TheoryResult(model={self.model!r}, points={len(self.m)})"
+
+
+class Model:
+    """A noise model, e.g. ``Model("WN(sigma2=1e-4) + RW(gamma2=1e-9) + AR1")``.
+
+    ``str(model)`` is its canonical text; ``components`` lists each component as text;
+    ``n_params`` counts its parameters; ``complete`` says whether every value is given (so
+    that it can be simulated). Parameters are per sample (see the package docstring).
+    Raises :class:`ModelError` for bad text.
+    """
+
+    def __init__(self, text: Union[str, "Model"]) -> None:
+        self._m = _imunoise.NativeModel(str(text))
+
+    @property
+    def components(self) -> List[str]:
+        return self._m.components()
+
+    @property
+    def n_params(self) -> int:
+        return self._m.n_params()
+
+    @property
+    def complete(self) -> bool:
+        return self._m.is_complete()
+
+    def __str__(self) -> str:
+        return str(self._m)
+
+    def __repr__(self) -> str:
+        return f"Model({str(self._m)!r})"
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Model) and self._m == other._m
+
+    def __hash__(self) -> int:
+        return hash(str(self._m))
+
+
+class Recording:
+    """A file read through the command's readers.
+
+    ``data``: float64 (n, channels) array (Fortran order, so ``avar(rec.data)`` reads its
+    columns without copying); ``names``; ``units`` (one per channel, from ``unit=`` or the
+    names' suffixes); ``rate_hz`` (Hz, from ``rate=`` or the time stamps; None for unstamped
+    data read without a rate); ``t`` (s: the uniform grid ``t0 + i / rate`` the analysis
+    assumes, from the first stamp when there are stamps, else from 0); ``topic``; ``timing``
+    (what the stamps said: dict or None); ``file``.
+    """
+
+    def __init__(self, raw: tuple) -> None:
+        data, names, units, rate, topic, timing, file = raw
+        self.data: np.ndarray = data
+        self.names: List[str] = list(names)
+        self.units: List[str] = list(units)
+        self.rate_hz: Optional[float] = rate
+        self.topic: Optional[str] = topic
+        self.timing: Optional[Dict[str, Any]] = json.loads(timing) if timing else None
+        self.file: str = file
+
+    @property
+    def t(self) -> Optional[np.ndarray]:
+        if self.rate_hz is None:
+            return None
+        t0 = self.timing["span_s"][0] if self.timing else 0.0
+        return t0 + np.arange(self.data.shape[0], dtype=np.float64) / self.rate_hz
+
+    def __repr__(self) -> str:
+        return (
+            f"Recording(file={self.file!r}, channels={self.names}, "
+            f"n={self.data.shape[0]}, rate_hz={self.rate_hz})"
+        )
+
+
+def _as_channels(x: Any) -> "tuple[np.ndarray, bool]":
+    """``x`` as a float64 array the native side reads without copying, and whether a
+    conversion was needed."""
+    a = np.asarray(x)
+    made = a is not x  # a list, a memoryview, ...: numpy made a new array from it
+    if a.ndim not in (1, 2):
+        raise UsageError(f"expected a 1-D or 2-D array, got {a.ndim} dimensions")
+    if a.dtype == np.float64:
+        if a.ndim == 1 and a.flags.c_contiguous:
+            return a, made
+        if a.ndim == 2 and (a.flags.f_contiguous or a.flags.c_contiguous):
+            # C-ordered 2-D: the native side copies the columns and reports it
+            return a, made
+    if a.ndim == 1:
+        return np.ascontiguousarray(a, dtype=np.float64), True
+    return np.asfortranarray(a, dtype=np.float64), True
+
+
+def avar(
+    x: Any,
+    rate: float,
+    scales: Union[str, Sequence[int]] = "dyadic",
+    ci: str = "chi2",
+    alpha: float = 0.05,
+    input: str = "rate",
+    estimator: str = "overlapping",
+    names: Optional[Sequence[str]] = None,
+) -> Union[AvarResult, List[AvarResult]]:
+    """The Allan variance of samples ``x`` taken at ``rate`` Hz, with confidence intervals.
+
+    ``x``: 1-D (one channel) or 2-D (samples in rows, one result per column) array-like.
+    ``scales``: ``"dyadic"`` (m = 2^j, the default), ``"dyadic1"``, ``"octave"``,
+    ``"decade"``, ``"all"``, ``"logN"`` or a list of cluster sizes m (samples; tau = m/rate s).
+    ``ci``: ``"chi2"`` (EDF), ``"gaussian"`` or ``"none"``, at level 1 - ``alpha``.
+    ``input``: ``"rate"`` samples (gyro in deg/s, ...) or integrated ``"angle"`` samples.
+    ``estimator``: ``"overlapping"`` (maximum overlap) or ``"non_overlapping"``.
+    The AV is in the units of ``x`` squared. Exactly the numbers of ``imunoise avar``.
+
+    >>> import numpy as np, imunoise
+    >>> r = imunoise.avar(np.random.default_rng(1).normal(size=4096), rate=100.0)
+    >>> bool(abs(r.avar[0] * 2 - 1) < 0.2)   # white noise: AV(m) = sigma^2 / m, m = 2
+    True
+    """
+    a, conv = _as_channels(x)
+    k = 1 if a.ndim == 1 else a.shape[1]
+    curves, copied = _imunoise.avar(
+        a,
+        float(rate),
+        _scales_text(scales),
+        ci,
+        float(alpha),
+        input,
+        estimator,
+        None if names is None else [str(n) for n in names],
+    )
+    res = [AvarResult(c, conv or copied) for c in curves]
+    if a.ndim == 1:
+        return res[0]
+    assert len(res) == k
+    return res
+
+
+def fit(
+    x_or_avar_result: Any,
+    rate: Optional[float] = None,
+    model: Union[str, Model] = DEFAULT_MODEL,
+    method: str = "gmwm",
+    select: bool = False,
+    bootstrap: int = 0,
+    weighting: str = "diagonal",
+    seed: int = 1,
+    alpha: float = 0.05,
+    robust: bool = False,
+    efficiency: float = 0.6,
+    names: Optional[Sequence[str]] = None,
+    unit: Optional[str] = None,
+) -> Union[FitResult, List[FitResult]]:
+    """Fits the noise ``model`` to samples (as ``imunoise fit`` does) or to ``avar`` results.
+
+    ``x_or_avar_result``: samples at ``rate`` Hz (1-D or 2-D as in :func:`avar`; the Allan
+    variance is then taken on the dyadic scales with chi-square CIs and the data-quality
+    findings join the warnings), or an :class:`AvarResult` (or a list of them; ``rate`` is
+    then not needed). ``method``: ``"gmwm"``, ``"avlr"`` or ``"ieee952"``; ``select``: the
+    best sub-model by WIC; ``bootstrap``: parametric bootstrap replicates for the CIs;
+    ``robust``: fit the robust AV at Gaussian ``efficiency``. ``unit``: the channels' unit
+    (e.g. ``"deg/s"``), else from the names' suffixes. Parameters come per sample in that
+    unit (see the package docstring). One result per channel; a list for 2-D input.
+    """
+    model = str(model)
+    if isinstance(x_or_avar_result, (AvarResult, list, tuple)) and (
+        isinstance(x_or_avar_result, AvarResult)
+        or (len(x_or_avar_result) > 0 and all(isinstance(r, AvarResult) for r in x_or_avar_result))
+    ):
+        single = isinstance(x_or_avar_result, AvarResult)
+        rs = [x_or_avar_result] if single else list(x_or_avar_result)
+        doc = _imunoise.fit_curves(
+            [r._curve for r in rs], model, method, bool(select), int(bootstrap), weighting,
+            int(seed), float(alpha), unit,
+        )
+    else:
+        if rate is None:
+            raise UsageError("fit: rate (Hz) is required for samples")
+        a, _ = _as_channels(x_or_avar_result)
+        single = a.ndim == 1
+        doc = _imunoise.fit_array(
+            a, float(rate), model, method, bool(select), int(bootstrap), weighting,
+            int(seed), float(alpha), bool(robust), float(efficiency),
+            None if names is None else [str(n) for n in names], unit,
+        )
+    fits = [FitResult(c) for c in json.loads(doc)["channels"]]
+    return fits[0] if single else fits
+
+
+def simulate(
+    model: Union[str, Model], n: int, rate: float, seed: int = 1, channels: int = 1
+) -> np.ndarray:
+    """``n`` samples of ``model`` (every parameter given, per sample) at ``rate`` Hz.
+
+    Channel k is stream k of ``seed``: the same numbers as ``imunoise simulate``. Returns a
+    1-D array for one channel, else an (n, channels) Fortran-ordered array.
+    """
+    a = _imunoise.simulate_array(str(model), int(n), float(rate), int(seed), int(channels))
+    return a[:, 0] if channels == 1 else a
+
+
+def theory(
+    model: Union[str, Model],
+    rate: float,
+    scales: Union[str, Sequence[int]] = "dyadic",
+    n: int = 1_000_000,
+) -> TheoryResult:
+    """The theoretical Allan variance of ``model`` (every parameter given) at ``rate`` Hz,
+    per component too, and its PSD: as ``imunoise theory``. A named scale grid is made for a
+    record of ``n`` samples."""
+    return TheoryResult(
+        json.loads(_imunoise.theory_json(str(model), float(rate), _scales_text(scales), int(n)))
+    )
+
+
+def read(
+    path: Any,
+    topic: Optional[str] = None,
+    rate: Optional[float] = None,
+    columns: Optional[str] = None,
+    binary: Optional[str] = None,
+    channels: Optional[int] = None,
+    scale: Optional[float] = None,
+    names: Optional[str] = None,
+    unit: Optional[str] = None,
+    time_column: Optional[str] = None,
+    time_unit: str = "s",
+    gaps: str = "refuse",
+) -> Recording:
+    """Reads an IMU file through the command's readers: CSV/TSV/text (gzip too), raw binary
+    (``binary="f64"|"f32"|"i16"|"i32"`` with ``channels``), ROS 1 ``.bag``, ROS 2 ``.mcap`` or
+    ``.db3``, PX4 ``.ulg``, ArduPilot ``.bin``. Arguments are the command's input flags:
+    ``rate`` in Hz (needed without time stamps), ``columns`` (``"gyro_x,acc_z"`` or
+    ``"1-3"``), ``scale`` (a factor), ``names``/``unit`` (comma lists), ``time_column`` and
+    ``time_unit`` (s, ms, us, ns), ``gaps`` (refuse, fill, longest)."""
+    return Recording(
+        _imunoise.read_file(
+            str(path), rate, None if topic is None else [topic], columns, binary, channels,
+            scale, names, unit, time_column, time_unit, gaps,
+        )
+    )
+
+
+def analyze(
+    path_or_array: Any,
+    rate: Optional[float] = None,
+    out: Any = None,
+    model: Union[str, Model] = DEFAULT_MODEL,
+    method: str = "gmwm",
+    select: bool = True,
+    bootstrap: int = 0,
+    weighting: str = "diagonal",
+    seed: int = 1,
+    alpha: float = 0.05,
+    robust: bool = False,
+    efficiency: float = 0.6,
+    record_halfwidth: float = 0.1,
+    names: Optional[Sequence[str]] = None,
+    unit: Optional[str] = None,
+    **read_options: Any,
+) -> Dict[str, Any]:
+    """Everything for one recording, as ``imunoise analyze``: each channel's Allan variance
+    with CIs, the data-quality findings, the best sub-model of QN+WN+RW+2*AR1 by WIC fitted
+    with CIs (``select=False`` fits ``model`` as it is), N, B, K in IEEE units, the
+    contamination check and "how long to record". Returns the ``results.json`` document as a
+    dict; with ``out`` (a folder) the report is written there as well.
+
+    ``path_or_array``: a file (read as :func:`read` with ``rate`` and ``read_options``) or
+    samples at ``rate`` Hz (1-D or 2-D; ``names`` and ``unit`` name them).
+    """
+    common = (
+        str(model), method, bool(select), int(bootstrap), weighting, int(seed), float(alpha),
+        bool(robust), float(efficiency), float(record_halfwidth),
+    )
+    out_s = None if out is None else str(out)
+    if isinstance(path_or_array, (str, bytes)) or hasattr(path_or_array, "__fspath__"):
+        if names is not None and not isinstance(names, str):
+            names = ",".join(names)
+        doc = _imunoise.analyze_file(
+            str(path_or_array), out_s, *common, rate=rate, names=names, unit=unit,
+            **read_options,
+        )
+    else:
+        if rate is None:
+            raise UsageError("analyze: rate (Hz) is required for samples")
+        if read_options:
+            raise UsageError(f"analyze: {sorted(read_options)} apply to files only")
+        a, _ = _as_channels(path_or_array)
+        doc = _imunoise.analyze_array(
+            a, float(rate), out_s, *common,
+            None if names is None else [str(n) for n in names], unit,
+        )
+    return json.loads(doc)
+
+
+def to_dict(result: Any) -> Dict[str, Any]:
+    """The CLI's JSON document of a result: ``{"channels": [...]}`` for :func:`avar` and
+    :func:`fit` results (one or a list), ``imunoise theory``'s for a :class:`TheoryResult`;
+    a dict (``analyze``) is returned as it is."""
+    if isinstance(result, dict):
+        return result
+    if isinstance(result, TheoryResult):
+        return result.to_dict()
+    if isinstance(result, (AvarResult, FitResult)):
+        return {"channels": [result.to_dict()]}
+    if isinstance(result, (list, tuple)) and all(
+        isinstance(r, (AvarResult, FitResult)) for r in result
+    ):
+        return {"channels": [r.to_dict() for r in result]}
+    raise UsageError(f"to_dict: not an imunoise result: {type(result).__name__}")
+
+
+def plot(result: Any, ax: Any = None, **kwargs: Any) -> Any:
+    """Log-log plot of Allan deviations with their CI bands (needs matplotlib: the ``plot``
+    extra). Takes :func:`avar` results (one or a list), a :class:`TheoryResult` or an
+    :func:`analyze` document; returns the matplotlib Axes."""
+    return _plot_impl(result, ax=ax, **kwargs)
+
