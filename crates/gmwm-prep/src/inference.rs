@@ -356,8 +356,25 @@ pub struct Candidate {
     pub converged: bool,
 }
 
+/// The fit of the largest proper sub-model of `full` (most components first, then the order
+/// of the components) that converges and is identifiable with `opts`; `None` if none is.
+fn largest_fitting_submodel(curve: &AvCurve, full: &Model, opts: &GmwmOptions) -> Option<GmwmFit> {
+    let kinds = full.kinds();
+    let k = kinds.len().min(12);
+    let mut masks: Vec<u32> = (1u32..(1 << k) - 1).collect();
+    masks.sort_by_key(|m| std::cmp::Reverse(m.count_ones()));
+    masks.into_iter().find_map(|mask| {
+        let sub: Vec<Component> = (0..k)
+            .filter(|i| mask & (1 << i) != 0)
+            .map(|i| Component::Slot(kinds[i]))
+            .collect();
+        fit(curve, &Model::new(sub).ok()?, opts).ok()
+    })
+}
+
 /// Fits every distinct non-empty sub-model of `full` (subsets of its components) with one
-/// common weighting matrix — the Ω of the full model's fit — and ranks them by WIC computed
+/// common weighting matrix — the Ω of the full model's fit (of its largest sub-model that can be
+/// fitted, when the full model's optimization fails) — and ranks them by WIC computed
 /// with the moments' covariance `v` (best first). Sub-models with more parameters than
 /// scales, and those that fail to converge or are not identifiable from these scales
 /// (singular AᵀΩA at their estimate), are skipped; an empty list means none could be fitted.
@@ -367,7 +384,15 @@ pub fn select_by_wic(
     opts: &GmwmOptions,
     v: &CovMatrix,
 ) -> Result<Vec<Candidate>> {
-    let full_fit = fit(curve, full, opts)?;
+    // Ω from the full model's fit, or, when its optimization fails (e.g. a second AR1 the
+    // data do not support), from the largest sub-model that can be fitted
+    let full_fit = match fit(curve, full, opts) {
+        Ok(f) => f,
+        Err(e @ (FitError::OptimizationFailed(_) | FitError::Unidentifiable(_))) => {
+            largest_fitting_submodel(curve, full, opts).ok_or(e)?
+        }
+        Err(e) => return Err(e),
+    };
     let omega = full_fit.omega();
     let om = omega.to_mat();
     let j = om.nrows();
