@@ -1043,8 +1043,24 @@ fn stream_chunk<const SEG: usize>(
 /// segments (see [`stream_near`]). Errors on non-finite samples (naming the first) and on
 /// overflow.
 pub(crate) fn overlapping_sums_stream(x: &[f64], ms: &[u64]) -> Result<(Vec<f64>, f64), AvarError> {
+    overlapping_sums_stream_release(x, ms, &|_, _| {})
+}
+
+/// What the streamed kernel calls when it is done with the samples [lo, hi) for now (a hint
+/// that lets a file-backed source drop their resident pages; no effect on any value).
+pub(crate) type Release<'a> = &'a (dyn Fn(usize, usize) + Sync);
+
+/// [`overlapping_sums_stream`] calling `release` on the ranges of samples it is done with: the
+/// range of each near job (with its warm-up) when the job ends, and the chunks of each residue
+/// class of the far walk when the class ends. The values are those of
+/// [`overlapping_sums_stream`], bit for bit (the hook only sees positions).
+pub(crate) fn overlapping_sums_stream_release(
+    x: &[f64],
+    ms: &[u64],
+    release: Release<'_>,
+) -> Result<(Vec<f64>, f64), AvarError> {
     let job_chunks = job_chunks(x.len());
-    overlapping_sums_stream_split(x, ms, FAR_M, job_chunks, Simd::detect())
+    overlapping_sums_stream_split(x, ms, FAR_M, job_chunks, Simd::detect(), release)
 }
 
 /// Near chunks per job of the near walk for T samples: jobs of equal length, about
@@ -1070,12 +1086,15 @@ fn overlapping_sums_stream_split(
     far_m: usize,
     job_chunks: usize,
     simd: Simd,
+    release: Release<'_>,
 ) -> Result<(Vec<f64>, f64), AvarError> {
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
         (0..ms.len()).partition(|&s| 2 * ms[s] as usize <= far_m);
     let pivot = pivot_of(x);
-    let jobs = stream_near(x, pivot, ms, &near, far_m, job_chunks, simd, &mut out);
+    let jobs = stream_near(
+        x, pivot, ms, &near, far_m, job_chunks, simd, release, &mut out,
+    );
     if !pivot.is_finite() || jobs.iter().any(|j| j.bad) {
         if let Some((index, value)) = first_non_finite(x) {
             return Err(AvarError::NonFinite { index, value });
@@ -1093,7 +1112,8 @@ fn overlapping_sums_stream_split(
         return Err(AvarError::Overflow);
     }
     drop(jobs);
-    stream_group::<SEG_FAR>(x, &ck, ms, &far, far_m, simd, &mut out);
+    stream_group::<SEG_FAR>(x, &ck, ms, &far, far_m, simd, release, &mut out);
+    release(0, x.len());
     Ok((out, pivot + total / x.len() as f64))
 }
 
@@ -1171,6 +1191,7 @@ fn stream_near(
     warm: usize,
     job_chunks: usize,
     simd: Simd,
+    release: Release<'_>,
     out: &mut [f64],
 ) -> Vec<NearJob> {
     let schunk = NSEG * SEG_NEAR;
@@ -1180,6 +1201,11 @@ fn stream_near(
     let scales = |idx: &[usize]| -> Vec<u64> { idx.iter().map(|&s| ms[s]).collect() };
     let first = scales(batches.first().map_or(&[], |b| b));
     let range = |j: usize| j * job_chunks..((j + 1) * job_chunks).min(n_chunks);
+    // the samples job j read: its chunks and the warm-up before them
+    let done = |j: usize| {
+        let r = range(j);
+        release((r.start * schunk).saturating_sub(warm), r.end * schunk);
+    };
     // the first batch of scales runs while the checkpoints are built
     let w = first.len();
     let (jobs, parts): (Vec<NearJob>, Vec<Vec<f64>>) = (0..n_jobs)
@@ -1194,6 +1220,7 @@ fn stream_near(
                 let out = &mut parts[(i - c0) * w..(i - c0 + 1) * w];
                 chunk_run::<SEG_NEAR>(x, &job.ck, &first, i, simd, scratch, None, out);
             }
+            done(j);
             (job, parts)
         })
         .unzip();
@@ -1209,6 +1236,7 @@ fn stream_near(
                     for (i, out) in range(j).zip(parts.chunks_exact_mut(w)) {
                         chunk_run::<SEG_NEAR>(x, &jobs[j].ck, &batch, i, simd, scratch, None, out);
                     }
+                    done(j);
                     parts
                 })
                 .collect::<Vec<_>>()
@@ -1416,6 +1444,7 @@ fn stream_group<const SEG: usize>(
     group: &[usize],
     residue_step: usize,
     simd: Simd,
+    release: Release<'_>,
     out: &mut [f64],
 ) {
     let schunk = NSEG * SEG;
@@ -1452,6 +1481,9 @@ fn stream_group<const SEG: usize>(
                         let next = (i + n_cls) * schunk;
                         prefetch_next(x, ck, next, schunk, &batch);
                         chunk_run::<SEG>(x, ck, &batch, i, simd, scratch, Some(next), out);
+                    }
+                    for i in (r..n_chunks).step_by(n_cls) {
+                        release(i * schunk, (i + 1) * schunk);
                     }
                     parts
                 },
@@ -1566,7 +1598,7 @@ mod tests {
         // here), with one job per near chunk (local checkpoint frames with a warm-up of
         // 4096 samples): same sums as the buffered kernel
         let far_m = 4096;
-        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1, Simd::detect())
+        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1, Simd::detect(), &|_, _| {})
             .unwrap()
             .0;
         for ((a, b), &m) in split.iter().zip(&buffered).zip(&ms) {
@@ -1575,13 +1607,16 @@ mod tests {
         // every vector path gives the same bits as the portable one, near and far (the far
         // scales 8192 and 16 384 are whole class steps here and read the ring of lane copies)
         for (far_m, jobs) in [(FAR_M, JOB_CHUNKS), (far_m, 1)] {
-            let best = overlapping_sums_stream_split(&x, &ms, far_m, jobs, Simd::detect()).unwrap();
+            let best =
+                overlapping_sums_stream_split(&x, &ms, far_m, jobs, Simd::detect(), &|_, _| {})
+                    .unwrap();
             let mut paths = vec![Simd::None];
             if Simd::detect() != Simd::None {
                 paths.push(Simd::Avx2);
             }
             for simd in paths {
-                let p = overlapping_sums_stream_split(&x, &ms, far_m, jobs, simd).unwrap();
+                let p =
+                    overlapping_sums_stream_split(&x, &ms, far_m, jobs, simd, &|_, _| {}).unwrap();
                 for ((a, b), &m) in p.0.iter().zip(&best.0).zip(&ms) {
                     assert_eq!(a.to_bits(), b.to_bits(), "far_m {far_m} {simd:?} m {m}");
                 }
@@ -1590,21 +1625,24 @@ mod tests {
         }
         // one job instead of the default grid (here four one-chunk jobs): the checkpoint frames
         // differ, the sums only by rounding
-        let one_job = overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS, Simd::detect())
-            .unwrap()
-            .0;
+        let one_job =
+            overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS, Simd::detect(), &|_, _| {})
+                .unwrap()
+                .0;
         assert_eq!(job_chunks(n), 1);
         for ((a, d), &m) in one_job.iter().zip(&streamed).zip(&ms) {
             assert!((a - d).abs() <= 1e-13 * d.abs(), "m {m}: {a} vs {d}");
         }
         // the value for m does not depend on the other requested scales
-        let single_far = overlapping_sums_stream_split(&x, &[20_000], far_m, 1, Simd::detect())
-            .unwrap()
-            .0;
+        let single_far =
+            overlapping_sums_stream_split(&x, &[20_000], far_m, 1, Simd::detect(), &|_, _| {})
+                .unwrap()
+                .0;
         assert_eq!(single_far[0].to_bits(), split[11].to_bits());
-        let single_near = overlapping_sums_stream_split(&x, &[1000], far_m, 1, Simd::detect())
-            .unwrap()
-            .0;
+        let single_near =
+            overlapping_sums_stream_split(&x, &[1000], far_m, 1, Simd::detect(), &|_, _| {})
+                .unwrap()
+                .0;
         assert_eq!(single_near[0].to_bits(), split[6].to_bits());
         let single = overlapping_sums_stream(&x, &[5000]).unwrap().0;
         assert_eq!(single[0].to_bits(), streamed[8].to_bits());
@@ -1615,9 +1653,10 @@ mod tests {
         for (a, b) in off.iter().zip(&streamed) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
-        let off_split = overlapping_sums_stream_split(&y, &ms, far_m, 1, Simd::detect())
-            .unwrap()
-            .0;
+        let off_split =
+            overlapping_sums_stream_split(&y, &ms, far_m, 1, Simd::detect(), &|_, _| {})
+                .unwrap()
+                .0;
         for (a, b) in off_split.iter().zip(&split) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
@@ -1630,7 +1669,8 @@ mod tests {
         let n = 3 * SCHUNK + 12_345;
         let x = series(n, 0.0);
         let ms: Vec<u64> = (1..=300).map(|k| 7 * k).collect();
-        let (sums, _) = overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect()).unwrap();
+        let (sums, _) =
+            overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect(), &|_, _| {}).unwrap();
         let mut c = Vec::new();
         centred_prefix_into(&x, &mut c).unwrap();
         let buffered = overlapping_sums(&c, &ms);
@@ -1638,7 +1678,8 @@ mod tests {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
         }
         for k in [0, 150, 299] {
-            let one = overlapping_sums_stream_split(&x, &ms[k..=k], FAR_M, 1, Simd::detect());
+            let one =
+                overlapping_sums_stream_split(&x, &ms[k..=k], FAR_M, 1, Simd::detect(), &|_, _| {});
             assert_eq!(
                 one.unwrap().0[0].to_bits(),
                 sums[k].to_bits(),
@@ -1667,6 +1708,7 @@ mod tests {
                     4096,
                     job_chunks,
                     Simd::detect(),
+                    &|_, _| {},
                 ) {
                     Err(AvarError::NonFinite { index: i, .. }) => assert_eq!(i, index),
                     other => panic!("index {index}: {other:?}"),
@@ -1683,7 +1725,7 @@ mod tests {
             .map(|i| if i % 2 == 0 { 1.7e308 } else { -1.7e308 })
             .collect();
         assert!(matches!(
-            overlapping_sums_stream_split(&x, &[2], 4096, 1, Simd::detect()),
+            overlapping_sums_stream_split(&x, &[2], 4096, 1, Simd::detect(), &|_, _| {}),
             Err(AvarError::Overflow)
         ));
     }

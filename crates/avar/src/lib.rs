@@ -46,6 +46,7 @@ pub mod quality;
 mod range;
 pub mod result;
 pub mod robust;
+pub mod source;
 pub mod stability;
 
 use std::borrow::Cow;
@@ -54,6 +55,7 @@ pub use config::{AvarConfig, CiMethod, Estimator, InputKind, Scales};
 pub use error::AvarError;
 pub use haar::{HaarWaveletVariance, WvPoint, haar_wavelet_variance};
 pub use result::{AllanVariance, AvarPoint, Slope};
+pub use source::{SampleSource, SliceSource, allan_variance_source};
 
 /// Minimum number of rate samples accepted.
 pub const MIN_SAMPLES: usize = 4;
