@@ -301,13 +301,44 @@ pub(crate) struct Checkpoints {
     /// Index (in units of G samples) of the first entry of `ck`.
     g0: usize,
     ck: Vec<(f64, f64)>,
+    /// The far walk's compact form (then `ck` is empty): see [`FarFrames`].
+    far: Option<FarFrames>,
+}
+
+/// The checkpoints of the whole series for the far walk in half the memory (16 bytes per 128
+/// samples): the near jobs' local entries at even g only, and each job's base (the
+/// compensated sum of the earlier jobs' totals). An entry is rebuilt exactly as
+/// [`global_checkpoints`] would have stored it: an odd local entry by the Neumaier step of
+/// [`job_extend`] from the even one below it, then shifted by the job's base.
+struct FarFrames {
+    /// Job length in units of G (even: job starts are even indices).
+    job_g: usize,
+    bases: Vec<(f64, f64)>,
+    /// Local entries at g = 0, 2, 4, … (`loc[g / 2]`), up to the last index ⌈T/G⌉.
+    loc: Vec<(f64, f64)>,
 }
 
 impl Checkpoints {
-    /// C at index gG (needs g0 ≤ g < g0 + ck.len()).
+    /// C at index gG (needs g0 ≤ g < g0 + ck.len(), or g ≤ ⌈T/G⌉ in the compact far form,
+    /// which reads the samples of block g − 1 for odd g).
     #[inline(always)]
-    fn get(&self, g: usize) -> (f64, f64) {
-        self.ck[g - self.g0]
+    fn get(&self, x: &[f64], g: usize) -> (f64, f64) {
+        match &self.far {
+            None => self.ck[g - self.g0],
+            Some(f) => {
+                let (lh, ll) = if g.is_multiple_of(2) {
+                    f.loc[g / 2]
+                } else {
+                    let (hi, lo) = f.loc[g / 2];
+                    let mut run = Neumaier { hi, lo };
+                    run.add(lane_sum(&x[(g - 1) * G..(g * G).min(x.len())], self.pivot));
+                    (run.hi, run.lo)
+                };
+                let (bh, bl) = f.bases[(g / f.job_g).min(f.bases.len() - 1)];
+                let (h, e) = two_sum(bh, lh);
+                (h, (e + bl) + ll)
+            }
+        }
     }
 
     /// C_p as an unevaluated sum (hi, lo): the checkpoint below p plus the short sequential
@@ -315,7 +346,7 @@ impl Checkpoints {
     #[inline]
     fn at(&self, x: &[f64], p: usize) -> (f64, f64) {
         let g = p / G;
-        let (hi, lo) = self.get(g);
+        let (hi, lo) = self.get(x, g);
         if p == g * G {
             return (hi, lo);
         }
@@ -377,6 +408,7 @@ pub(crate) fn checkpoints(x: &[f64]) -> Result<Checkpoints, AvarError> {
         mean,
         g0: 0,
         ck,
+        far: None,
     })
 }
 
@@ -416,7 +448,7 @@ fn d_start(x: &[f64], ck: &Checkpoints, m: usize, s: usize) -> f64 {
     let ((ah, al), (bh, bl), (ch, cl)) = if s.is_multiple_of(G) && m.is_multiple_of(G) {
         // all three on checkpoints (the common case: segment starts are multiples of G)
         let (g, q) = (s / G, m / G);
-        (ck.get(g), ck.get(g - q), ck.get(g - 2 * q))
+        (ck.get(x, g), ck.get(x, g - q), ck.get(x, g - 2 * q))
     } else {
         (ck.at(x, s), ck.at(x, s - m), ck.at(x, s - 2 * m))
     };
@@ -1104,14 +1136,13 @@ fn overlapping_sums_stream_split(
     let (ck, total) = global_checkpoints(
         x,
         pivot,
-        &jobs,
+        jobs,
         job_chunks * NSEG * SEG_NEAR,
         !far.is_empty(),
     );
     if !total.is_finite() {
         return Err(AvarError::Overflow);
     }
-    drop(jobs);
     stream_group::<SEG_FAR>(x, &ck, ms, &far, far_m, simd, release, &mut out);
     release(0, x.len());
     Ok((out, pivot + total / x.len() as f64))
@@ -1130,6 +1161,39 @@ struct NearJob {
     g_a: usize,
     /// Whether a block sum was not finite.
     bad: bool,
+    /// After [`NearJob::compact`]: the local entries at the even indices of the job's own
+    /// range [A, next job's A) (`ck` is then empty), and the entry at the job end.
+    own_even: Vec<(f64, f64)>,
+    end: Option<(f64, f64)>,
+}
+
+impl NearJob {
+    /// The local entry at the job end B = min((j + 1)·`job_len`, T) (rounded up to G).
+    fn end(&self, x: &[f64], job_len: usize, j: usize) -> (f64, f64) {
+        self.end
+            .unwrap_or_else(|| self.ck.get(x, ((j + 1) * job_len).min(x.len()).div_ceil(G)))
+    }
+
+    /// Keeps only what the far walk and the totals need (the even entries of the job's own
+    /// range and its end entry), freeing the rest: the whole-series checkpoints then take
+    /// 16 bytes per 128 samples while the near walk runs, not 16 per 64 per job plus warm-up.
+    fn compact(&mut self, x: &[f64], job_len: usize, j: usize, last: bool) {
+        if self.end.is_some() {
+            return;
+        }
+        let end = self.end(x, job_len, j);
+        let g_next = if last {
+            x.len().div_ceil(G) + 1
+        } else {
+            (j + 1) * job_len / G
+        };
+        self.own_even = (self.g_a..g_next)
+            .step_by(2)
+            .map(|g| self.ck.get(x, g))
+            .collect();
+        self.end = Some(end);
+        self.ck.ck = Vec::new();
+    }
 }
 
 /// Starts the local checkpoints of a job at sample `a` (a multiple of G) and of `len` samples:
@@ -1153,9 +1217,12 @@ fn job_checkpoints(x: &[f64], pivot: f64, a: usize, warm: usize, len: usize) -> 
             mean: f64::NAN,
             g0: g_w,
             ck,
+            far: None,
         },
         g_a,
         bad,
+        own_even: Vec::new(),
+        end: None,
     }
 }
 
@@ -1202,10 +1269,8 @@ fn stream_near(
     let first = scales(batches.first().map_or(&[], |b| b));
     let range = |j: usize| j * job_chunks..((j + 1) * job_chunks).min(n_chunks);
     // the samples job j read: its chunks and the warm-up before them
-    let done = |j: usize| {
-        let r = range(j);
-        release((r.start * schunk).saturating_sub(warm), r.end * schunk);
-    };
+    let start = |j: usize| (range(j).start * schunk).saturating_sub(warm);
+    let done = |j: usize| release(start(j), range(j).end * schunk);
     // the first batch of scales runs while the checkpoints are built
     let w = first.len();
     let (jobs, parts): (Vec<NearJob>, Vec<Vec<f64>>) = (0..n_jobs)
@@ -1219,8 +1284,16 @@ fn stream_near(
                 job_extend(x, &mut job, (i + 1) * schunk);
                 let out = &mut parts[(i - c0) * w..(i - c0 + 1) * w];
                 chunk_run::<SEG_NEAR>(x, &job.ck, &first, i, simd, scratch, None, out);
+                // the job's later chunks read back at most `warm` samples
+                release(
+                    start(j).max((i * schunk).saturating_sub(warm)),
+                    ((i + 1) * schunk).saturating_sub(warm),
+                );
             }
             done(j);
+            if batches.len() <= 1 {
+                job.compact(x, job_chunks * schunk, j, j + 1 == n_jobs);
+            }
             (job, parts)
         })
         .unzip();
@@ -1235,6 +1308,10 @@ fn stream_near(
                     let mut parts = vec![0.0f64; range(j).len() * w];
                     for (i, out) in range(j).zip(parts.chunks_exact_mut(w)) {
                         chunk_run::<SEG_NEAR>(x, &jobs[j].ck, &batch, i, simd, scratch, None, out);
+                        release(
+                            start(j).max((i * schunk).saturating_sub(warm)),
+                            ((i + 1) * schunk).saturating_sub(warm),
+                        );
                     }
                     done(j);
                     parts
@@ -1247,52 +1324,47 @@ fn stream_near(
     jobs
 }
 
-/// The checkpoints of the whole series in one frame (origin 0, pivot-only centring), assembled
-/// from the jobs' local frames (each shifted by the compensated sum of the earlier jobs' totals;
-/// built only when `build`, i.e. for far scales), and the total Σ (x_i − pivot).
+/// The checkpoints of the whole series in one frame (origin 0, pivot-only centring), in the
+/// compact form of [`FarFrames`] (each job's local frame shifted by the compensated sum of the
+/// earlier jobs' totals; built only when `build`, i.e. for far scales; the jobs are compacted
+/// first and their memory freed as the frames are assembled), and the total Σ (x_i − pivot).
 fn global_checkpoints(
     x: &[f64],
     pivot: f64,
-    jobs: &[NearJob],
+    mut jobs: Vec<NearJob>,
     job_len: usize,
     build: bool,
 ) -> (Checkpoints, f64) {
     let t = x.len();
-    let n_blocks = t.div_ceil(G);
-    let mut bases = Vec::with_capacity(jobs.len());
+    let n_jobs = jobs.len();
+    let mut bases = Vec::with_capacity(n_jobs);
     let mut run = Neumaier::default();
     for (j, job) in jobs.iter().enumerate() {
         bases.push((run.hi, run.lo));
-        let g_b = ((j + 1) * job_len).min(t).div_ceil(G);
-        let (hi, lo) = job.ck.get(g_b);
+        let (hi, lo) = job.end(x, job_len, j);
         run.add(hi);
         run.add(lo);
     }
-    let mut ck = Vec::new();
-    if build {
-        ck = vec![(0.0f64, 0.0f64); n_blocks + 1];
-        let mut rest: &mut [(f64, f64)] = &mut ck;
-        let mut slices = Vec::with_capacity(jobs.len());
-        for (j, job) in jobs.iter().enumerate() {
-            let g_next = jobs.get(j + 1).map_or(n_blocks + 1, |n| n.g_a);
-            let (own, tail) = rest.split_at_mut(g_next - job.g_a);
-            slices.push((own, job, bases[j]));
-            rest = tail;
+    let far = build.then(|| {
+        let mut loc = Vec::with_capacity(t.div_ceil(2 * G) + 1);
+        for (j, job) in jobs.iter_mut().enumerate() {
+            job.compact(x, job_len, j, j + 1 == n_jobs);
+            loc.append(&mut job.own_even);
         }
-        slices.into_par_iter().for_each(|(own, job, (bh, bl))| {
-            for (k, o) in own.iter_mut().enumerate() {
-                let (lh, ll) = job.ck.get(job.g_a + k);
-                let (h, e) = two_sum(bh, lh);
-                *o = (h, (e + bl) + ll);
-            }
-        });
-    }
+        FarFrames {
+            job_g: job_len / G,
+            bases,
+            loc,
+        }
+    });
+    drop(jobs);
     let ck = Checkpoints {
         pivot,
         delta: 0.0,
         mean: f64::NAN,
         g0: 0,
-        ck,
+        ck: Vec::new(),
+        far,
     };
     (ck, run.value())
 }
@@ -1409,12 +1481,17 @@ fn prefetch_next(x: &[f64], ck: &Checkpoints, a: usize, len: usize, batch: &[u64
             unsafe { _mm_prefetch::<_MM_HINT_T1>(x.as_ptr().wrapping_add(p).cast()) };
             p += 8;
         }
-        let n = ck.ck.len();
+        // the entries of g in [p, p + len) / G: every one, or every other in the compact form
+        let (entries, g0, per) = match &ck.far {
+            None => (&ck.ck, ck.g0, 1),
+            Some(f) => (&f.loc, 0, 2),
+        };
+        let n = entries.len();
         let ck_range = |p: usize| {
-            let mut g = (p / G).saturating_sub(ck.g0);
-            while g < ((p + len) / G).saturating_sub(ck.g0).min(n) {
+            let mut g = (p / G).saturating_sub(g0) / per;
+            while g < ((p + len) / G).saturating_sub(g0).div_ceil(per).min(n) {
                 // SAFETY: see above.
-                unsafe { _mm_prefetch::<_MM_HINT_T0>(ck.ck.as_ptr().wrapping_add(g).cast()) };
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(entries.as_ptr().wrapping_add(g).cast()) };
                 g += 4;
             }
         };
@@ -1514,7 +1591,7 @@ pub(crate) fn prefix_from_checkpoints(x: &[f64], ck: &Checkpoints, c: &mut Vec<f
         .enumerate()
         .for_each(|(i, (out, xs))| {
             let g = i * (PCHUNK / G);
-            let (hi, lo) = ck.get(g);
+            let (hi, lo) = ck.get(x, g);
             let mut run = Neumaier { hi, lo };
             const B: usize = 8;
             let mut io = out.chunks_exact_mut(B);
