@@ -26,6 +26,7 @@
 use rayon::prelude::*;
 
 use crate::error::AvarError;
+use crate::source::SampleWindow;
 
 /// Width of the fixed grid of k-chunks (terms) that partial sums are formed on.
 pub(crate) const CHUNK: usize = 1 << 14;
@@ -1075,24 +1076,43 @@ fn stream_chunk<const SEG: usize>(
 /// segments (see [`stream_near`]). Errors on non-finite samples (naming the first) and on
 /// overflow.
 pub(crate) fn overlapping_sums_stream(x: &[f64], ms: &[u64]) -> Result<(Vec<f64>, f64), AvarError> {
-    overlapping_sums_stream_release(x, ms, &|_, _| {})
+    overlapping_sums_stream_io(x, ms, &Io::NONE)
 }
 
 /// What the streamed kernel calls when it is done with the samples [lo, hi) for now (a hint
 /// that lets a file-backed source drop their resident pages; no effect on any value).
 pub(crate) type Release<'a> = &'a (dyn Fn(usize, usize) + Sync);
 
-/// [`overlapping_sums_stream`] calling `release` on the ranges of samples it is done with: the
-/// range of each near job (with its warm-up) when the job ends, and the chunks of each residue
-/// class of the far walk when the class ends. The values are those of
-/// [`overlapping_sums_stream`], bit for bit (the hook only sees positions).
-pub(crate) fn overlapping_sums_stream_release(
+/// Makes a private window for one job of the far walk (see [`SampleWindow`]), or `None`.
+pub(crate) type Windows<'a> = &'a (dyn Fn() -> Option<Box<dyn SampleWindow + 'a>> + Sync);
+
+/// How the streamed kernel talks to a [`crate::source::SampleSource`].
+pub(crate) struct Io<'a> {
+    pub(crate) release: Release<'a>,
+    pub(crate) windows: Windows<'a>,
+}
+
+impl Io<'_> {
+    /// No release hints, no windows (an in-memory slice).
+    pub(crate) const NONE: Io<'static> = Io {
+        release: &|_, _| {},
+        windows: &|| None,
+    };
+}
+
+/// [`overlapping_sums_stream`] talking to a source: `release` is called on the ranges of
+/// samples the near walk is done with (chunk by chunk, behind the warm-up reach) and on the
+/// chunks of each residue class of the far walk when the class ends; with windows, each job of
+/// the far walk reads its chunks (and their lagged blocks where the lane ring does not hold
+/// them) into its own window instead of `x`. The values are those of
+/// [`overlapping_sums_stream`], bit for bit (the same samples reach the same operations).
+pub(crate) fn overlapping_sums_stream_io(
     x: &[f64],
     ms: &[u64],
-    release: Release<'_>,
+    io: &Io<'_>,
 ) -> Result<(Vec<f64>, f64), AvarError> {
     let job_chunks = job_chunks(x.len());
-    overlapping_sums_stream_split(x, ms, FAR_M, job_chunks, Simd::detect(), release)
+    overlapping_sums_stream_split(x, ms, FAR_M, job_chunks, Simd::detect(), io)
 }
 
 /// Near chunks per job of the near walk for T samples: jobs of equal length, about
@@ -1118,8 +1138,9 @@ fn overlapping_sums_stream_split(
     far_m: usize,
     job_chunks: usize,
     simd: Simd,
-    release: Release<'_>,
+    io: &Io<'_>,
 ) -> Result<(Vec<f64>, f64), AvarError> {
+    let release = io.release;
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
         (0..ms.len()).partition(|&s| 2 * ms[s] as usize <= far_m);
@@ -1143,7 +1164,7 @@ fn overlapping_sums_stream_split(
     if !total.is_finite() {
         return Err(AvarError::Overflow);
     }
-    stream_group::<SEG_FAR>(x, &ck, ms, &far, far_m, simd, release, &mut out);
+    stream_group::<SEG_FAR>(x, &ck, ms, &far, far_m, simd, io, &mut out);
     release(0, x.len());
     Ok((out, pivot + total / x.len() as f64))
 }
@@ -1521,7 +1542,7 @@ fn stream_group<const SEG: usize>(
     group: &[usize],
     residue_step: usize,
     simd: Simd,
-    release: Release<'_>,
+    io: &Io<'_>,
     out: &mut [f64],
 ) {
     let schunk = NSEG * SEG;
@@ -1546,21 +1567,63 @@ fn stream_group<const SEG: usize>(
             0
         };
         // each class walks its chunks in order, writing their partials to its own buffer
+        let t = x.len();
+        // whether chunk a (the tc-th of its class) reads the lagged samples of scale m from x:
+        // all but the scales the AVX-512 walk takes from the lane ring (conservative: reading
+        // more into a window is harmless)
+        let lags_from_x = |m: usize, a: usize, tc: usize| {
+            let q = m / step;
+            !(simd == Simd::Avx512
+                && slots > 0
+                && m.is_multiple_of(step)
+                && 2 * q <= tc
+                && 2 * q < slots
+                && a >= 2 * m + 8
+                && a + schunk + 8 <= t)
+        };
         let by_class: Vec<Vec<f64>> = (0..n_cls)
             .into_par_iter()
             .map_init(
-                || Scratch::with_ring::<SEG>(slots),
-                |scratch, r| {
+                || (Scratch::with_ring::<SEG>(slots), (io.windows)()),
+                |(scratch, win), r| {
                     let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
                     let walk = (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w));
                     for (tc, (i, out)) in walk.enumerate() {
                         scratch.ring_pos = Some((tc, step));
                         let next = (i + n_cls) * schunk;
-                        prefetch_next(x, ck, next, schunk, &batch);
-                        chunk_run::<SEG>(x, ck, &batch, i, simd, scratch, Some(next), out);
+                        let a = i * schunk;
+                        let xs: &[f64] = match win {
+                            None => x,
+                            Some(win) => {
+                                // the chunk (with the reach of the local sums before it and
+                                // of the vector tail after it), and the lagged blocks
+                                let reach = |lo: usize| (lo.saturating_sub(2 * G), lo + schunk + 8);
+                                let (lo, hi) = reach(a);
+                                win.fill(lo, hi);
+                                for &m in &batch {
+                                    let m = m as usize;
+                                    if a + schunk > m && lags_from_x(m, a, tc) {
+                                        for lag in [m, 2 * m] {
+                                            if a + schunk > lag {
+                                                let (lo, hi) = reach(a.saturating_sub(lag));
+                                                win.fill(lo, hi);
+                                            }
+                                        }
+                                    }
+                                }
+                                win.view()
+                            }
+                        };
+                        prefetch_next(xs, ck, next, schunk, &batch);
+                        chunk_run::<SEG>(xs, ck, &batch, i, simd, scratch, Some(next), out);
                     }
-                    for i in (r..n_chunks).step_by(n_cls) {
-                        release(i * schunk, (i + 1) * schunk);
+                    match win {
+                        Some(win) => win.clear(),
+                        None => {
+                            for i in (r..n_chunks).step_by(n_cls) {
+                                (io.release)(i * schunk, (i + 1) * schunk);
+                            }
+                        }
                     }
                     parts
                 },
@@ -1675,7 +1738,7 @@ mod tests {
         // here), with one job per near chunk (local checkpoint frames with a warm-up of
         // 4096 samples): same sums as the buffered kernel
         let far_m = 4096;
-        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1, Simd::detect(), &|_, _| {})
+        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1, Simd::detect(), &Io::NONE)
             .unwrap()
             .0;
         for ((a, b), &m) in split.iter().zip(&buffered).zip(&ms) {
@@ -1685,7 +1748,7 @@ mod tests {
         // scales 8192 and 16 384 are whole class steps here and read the ring of lane copies)
         for (far_m, jobs) in [(FAR_M, JOB_CHUNKS), (far_m, 1)] {
             let best =
-                overlapping_sums_stream_split(&x, &ms, far_m, jobs, Simd::detect(), &|_, _| {})
+                overlapping_sums_stream_split(&x, &ms, far_m, jobs, Simd::detect(), &Io::NONE)
                     .unwrap();
             let mut paths = vec![Simd::None];
             if Simd::detect() != Simd::None {
@@ -1693,7 +1756,7 @@ mod tests {
             }
             for simd in paths {
                 let p =
-                    overlapping_sums_stream_split(&x, &ms, far_m, jobs, simd, &|_, _| {}).unwrap();
+                    overlapping_sums_stream_split(&x, &ms, far_m, jobs, simd, &Io::NONE).unwrap();
                 for ((a, b), &m) in p.0.iter().zip(&best.0).zip(&ms) {
                     assert_eq!(a.to_bits(), b.to_bits(), "far_m {far_m} {simd:?} m {m}");
                 }
@@ -1703,7 +1766,7 @@ mod tests {
         // one job instead of the default grid (here four one-chunk jobs): the checkpoint frames
         // differ, the sums only by rounding
         let one_job =
-            overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS, Simd::detect(), &|_, _| {})
+            overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS, Simd::detect(), &Io::NONE)
                 .unwrap()
                 .0;
         assert_eq!(job_chunks(n), 1);
@@ -1712,12 +1775,12 @@ mod tests {
         }
         // the value for m does not depend on the other requested scales
         let single_far =
-            overlapping_sums_stream_split(&x, &[20_000], far_m, 1, Simd::detect(), &|_, _| {})
+            overlapping_sums_stream_split(&x, &[20_000], far_m, 1, Simd::detect(), &Io::NONE)
                 .unwrap()
                 .0;
         assert_eq!(single_far[0].to_bits(), split[11].to_bits());
         let single_near =
-            overlapping_sums_stream_split(&x, &[1000], far_m, 1, Simd::detect(), &|_, _| {})
+            overlapping_sums_stream_split(&x, &[1000], far_m, 1, Simd::detect(), &Io::NONE)
                 .unwrap()
                 .0;
         assert_eq!(single_near[0].to_bits(), split[6].to_bits());
@@ -1730,10 +1793,9 @@ mod tests {
         for (a, b) in off.iter().zip(&streamed) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
-        let off_split =
-            overlapping_sums_stream_split(&y, &ms, far_m, 1, Simd::detect(), &|_, _| {})
-                .unwrap()
-                .0;
+        let off_split = overlapping_sums_stream_split(&y, &ms, far_m, 1, Simd::detect(), &Io::NONE)
+            .unwrap()
+            .0;
         for (a, b) in off_split.iter().zip(&split) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
@@ -1747,7 +1809,7 @@ mod tests {
         let x = series(n, 0.0);
         let ms: Vec<u64> = (1..=300).map(|k| 7 * k).collect();
         let (sums, _) =
-            overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect(), &|_, _| {}).unwrap();
+            overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect(), &Io::NONE).unwrap();
         let mut c = Vec::new();
         centred_prefix_into(&x, &mut c).unwrap();
         let buffered = overlapping_sums(&c, &ms);
@@ -1756,7 +1818,7 @@ mod tests {
         }
         for k in [0, 150, 299] {
             let one =
-                overlapping_sums_stream_split(&x, &ms[k..=k], FAR_M, 1, Simd::detect(), &|_, _| {});
+                overlapping_sums_stream_split(&x, &ms[k..=k], FAR_M, 1, Simd::detect(), &Io::NONE);
             assert_eq!(
                 one.unwrap().0[0].to_bits(),
                 sums[k].to_bits(),
@@ -1785,7 +1847,7 @@ mod tests {
                     4096,
                     job_chunks,
                     Simd::detect(),
-                    &|_, _| {},
+                    &Io::NONE,
                 ) {
                     Err(AvarError::NonFinite { index: i, .. }) => assert_eq!(i, index),
                     other => panic!("index {index}: {other:?}"),
@@ -1802,7 +1864,7 @@ mod tests {
             .map(|i| if i % 2 == 0 { 1.7e308 } else { -1.7e308 })
             .collect();
         assert!(matches!(
-            overlapping_sums_stream_split(&x, &[2], 4096, 1, Simd::detect(), &|_, _| {}),
+            overlapping_sums_stream_split(&x, &[2], 4096, 1, Simd::detect(), &Io::NONE),
             Err(AvarError::Overflow)
         ));
     }

@@ -52,6 +52,40 @@ pub trait SampleSource: Sync {
     fn release(&self, lo: usize, hi: usize) {
         let _ = (lo, hi);
     }
+    /// A private window for one thread of the far-scale walk, which reads small chunks spread
+    /// over the whole series (a file-backed source reads them into its own pages with
+    /// positioned reads, because mapping them would keep whole large page-cache folios of
+    /// the file resident); `None` (the default): the walk reads [`samples`](Self::samples).
+    fn window(&self) -> Option<Box<dyn SampleWindow + '_>> {
+        None
+    }
+}
+
+/// A position-indexed private copy of parts of a [`SampleSource`], for one thread.
+///
+/// ```
+/// use avar::source::SampleWindow;
+/// struct Copy { src: Vec<f64>, buf: Vec<f64> }
+/// impl SampleWindow for Copy {
+///     fn fill(&mut self, lo: usize, hi: usize) {
+///         let hi = hi.min(self.src.len());
+///         self.buf[lo..hi].copy_from_slice(&self.src[lo..hi]);
+///     }
+///     fn view(&self) -> &[f64] { &self.buf }
+///     fn clear(&mut self) { self.buf.iter_mut().for_each(|v| *v = 0.0) }
+/// }
+/// let mut w = Copy { src: vec![1.0, 2.0, 3.0], buf: vec![0.0; 3] };
+/// w.fill(1, 9);
+/// assert_eq!(w.view(), &[0.0, 2.0, 3.0]);
+/// ```
+pub trait SampleWindow {
+    /// Makes samples [lo, hi) (clamped to the series) readable in [`view`](Self::view).
+    fn fill(&mut self, lo: usize, hi: usize);
+    /// The window, as long as the series: `view()[k]` is sample k wherever filled since the
+    /// last [`clear`](Self::clear) (elsewhere unspecified).
+    fn view(&self) -> &[f64];
+    /// Forgets what was filled (a file-backed window frees its pages).
+    fn clear(&mut self);
 }
 
 /// An in-memory slice as a [`SampleSource`] (release is a no-op).
@@ -120,7 +154,12 @@ pub fn allan_variance_source<S: SampleSource + ?Sized>(
     }
     validate_rate_alpha(rate_hz, config.alpha)?;
     let release = |lo: usize, hi: usize| source.release(lo, hi);
-    let first = streamed(data, rate_hz, config, &release);
+    let windows = || source.window();
+    let io = kernel::Io {
+        release: &release,
+        windows: &windows,
+    };
+    let first = streamed(data, rate_hz, config, &io);
     if !range::suspicious(first.as_ref().map(|a| &a.points[..])) {
         return first;
     }
@@ -129,7 +168,7 @@ pub fn allan_variance_source<S: SampleSource + ?Sized>(
         return first;
     };
     let scaled = range::scaled_copy(data, e);
-    let mut av = streamed(&scaled, rate_hz, config, &|_, _| {})?;
+    let mut av = streamed(&scaled, rate_hz, config, &kernel::Io::NONE)?;
     av.mean = range::ldexp(av.mean, e);
     range::scale_back(&mut av.points, e)?;
     Ok(av)
@@ -140,12 +179,12 @@ fn streamed(
     data: &[f64],
     rate_hz: f64,
     config: &AvarConfig,
-    release: kernel::Release<'_>,
+    io: &kernel::Io<'_>,
 ) -> Result<AllanVariance, AvarError> {
     check_len(data.len(), data.len())?;
     let t = data.len();
     let ms = config.scales.cluster_sizes(t)?;
-    let (sums, mean) = kernel::overlapping_sums_stream_release(data, &ms, release)?;
+    let (sums, mean) = kernel::overlapping_sums_stream_io(data, &ms, io)?;
     let cum = Cumulative {
         c: Cow::Borrowed(&[]),
         factor: 1.0,
@@ -224,6 +263,77 @@ mod tests {
                 covered = covered.max(hi);
             }
             assert!(covered >= n);
+        }
+    }
+
+    /// A window that holds NaN wherever it was not filled since the last clear: any read
+    /// the far walk does not announce poisons the sums.
+    struct Poisoned<'a> {
+        x: &'a [f64],
+        buf: Vec<f64>,
+        filled: Vec<(usize, usize)>,
+    }
+
+    impl SampleWindow for Poisoned<'_> {
+        fn fill(&mut self, lo: usize, hi: usize) {
+            let hi = hi.min(self.x.len());
+            if lo < hi {
+                self.buf[lo..hi].copy_from_slice(&self.x[lo..hi]);
+                self.filled.push((lo, hi));
+            }
+        }
+        fn view(&self) -> &[f64] {
+            &self.buf
+        }
+        fn clear(&mut self) {
+            for (lo, hi) in self.filled.drain(..) {
+                self.buf[lo..hi].fill(f64::NAN);
+            }
+        }
+    }
+
+    struct WindowedSource<'a>(&'a [f64]);
+
+    impl SampleSource for WindowedSource<'_> {
+        fn samples(&self) -> &[f64] {
+            self.0
+        }
+        fn window(&self) -> Option<Box<dyn SampleWindow + '_>> {
+            Some(Box::new(Poisoned {
+                x: self.0,
+                buf: vec![f64::NAN; self.0.len()],
+                filled: Vec::new(),
+            }))
+        }
+    }
+
+    /// The far walk through (poisoned) windows: every sample it reads was filled, and the
+    /// result is the in-memory one bit for bit, for dyadic and odd far scales and both thread
+    /// counts.
+    #[test]
+    fn windows_are_filled_where_read() {
+        let n = (1 << 23) + 4321;
+        let x = series(n);
+        for scales in [
+            Scales::Dyadic,
+            Scales::Explicit(vec![5, 600_001, 1 << 20, 1_500_000, 3 << 20, 4_000_000]),
+        ] {
+            let cfg = AvarConfig {
+                ci: CiMethod::None,
+                scales,
+                ..Default::default()
+            };
+            let mem = crate::allan_variance(&x, 1.0, &cfg).unwrap();
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let av = pool
+                    .install(|| allan_variance_source(&WindowedSource(&x), 1.0, &cfg))
+                    .unwrap();
+                assert_eq!(av, mem, "threads {threads}");
+            }
         }
     }
 
