@@ -88,6 +88,7 @@ impl BinaryLayout {
 /// resident pages. When it maps a temporary file, the file is deleted on drop.
 pub struct MappedSamples {
     map: memmap2::Mmap,
+    file: std::fs::File,
     offset: usize,
     len: usize,
     page: usize,
@@ -142,6 +143,7 @@ impl MappedSamples {
         let map = unsafe { memmap2::Mmap::map(f) }.map_err(|e| Error::io(name, e))?;
         Ok(MappedSamples {
             map,
+            file: f.try_clone().map_err(|e| Error::io(name, e))?,
             offset: header,
             len: body / 8,
             page: page_size(),
@@ -171,6 +173,73 @@ impl SampleSource for MappedSamples {
                 self.map
                     .unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, a, b - a)
             };
+        }
+    }
+
+    fn window(&self) -> Option<Box<dyn avar::source::SampleWindow + '_>> {
+        // room for a shift of up to one class step of the far walk (2^20 samples)
+        let period = 1 << 20;
+        let buf = memmap2::MmapMut::map_anon(8 * (self.len + period)).ok()?;
+        Some(Box::new(PreadWindow {
+            src: self,
+            buf,
+            base: 0,
+            period,
+        }))
+    }
+}
+
+/// The far walk's window on a [`MappedSamples`]: an anonymous private mapping as long as the
+/// series (address space only: pages exist where filled), filled with positioned reads
+/// (`pread`) of the file and emptied with `madvise(MADV_DONTNEED)`. Mapping the file for these
+/// scattered 16 KiB chunks would instead map whole page-cache folios (up to 2 MiB each on
+/// current kernels) and keep a large part of the file resident.
+///
+/// The window is 8·(T + period) bytes of address space, and the view starts `base` bytes into
+/// it, chosen at each [`rebase`](avar::source::SampleWindow::rebase) so that the chunks of
+/// every residue class land on the same pages: the walk faults its pages in once per window
+/// and then only copies into them (a few MiB per thread at 10^9 samples).
+struct PreadWindow<'a> {
+    src: &'a MappedSamples,
+    buf: memmap2::MmapMut,
+    base: usize,
+    period: usize,
+}
+
+impl avar::source::SampleWindow for PreadWindow<'_> {
+    fn fill(&mut self, lo: usize, hi: usize) {
+        use std::os::unix::fs::FileExt;
+        let hi = hi.min(self.src.len);
+        if lo >= hi {
+            return;
+        }
+        let (a, b) = (8 * lo, 8 * hi);
+        let dst = &mut self.buf[self.base + a..self.base + b];
+        if self
+            .src
+            .file
+            .read_exact_at(dst, (self.src.offset + a) as u64)
+            .is_err()
+        {
+            // a failed read: copy from the map instead (the same bytes)
+            dst.copy_from_slice(&self.src.map[self.src.offset + a..self.src.offset + b]);
+        }
+    }
+
+    fn view(&self) -> &[f64] {
+        let v = &self.buf[self.base..self.base + 8 * self.src.len];
+        // SAFETY: `base` is a multiple of 8 in a page-aligned map, so the pointer is aligned
+        // for f64; the range is inside the map, which lives as long as `self`; every bit
+        // pattern is a valid f64.
+        unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), self.src.len) }
+    }
+
+    fn clear(&mut self) {}
+
+    fn rebase(&mut self, origin: usize, period: usize) {
+        // sample origin + j·period then sits at byte 8·period·(j + 1) whatever the origin
+        if period <= self.period {
+            self.base = 8 * (period - origin % period);
         }
     }
 }

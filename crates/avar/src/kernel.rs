@@ -1588,6 +1588,9 @@ fn stream_group<const SEG: usize>(
                 |(scratch, win), r| {
                     let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
                     let walk = (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w));
+                    if let Some(win) = win {
+                        win.rebase(r * schunk, step);
+                    }
                     for (tc, (i, out)) in walk.enumerate() {
                         scratch.ring_pos = Some((tc, step));
                         let next = (i + n_cls) * schunk;

@@ -84,8 +84,16 @@ pub trait SampleWindow {
     /// The window, as long as the series: `view()[k]` is sample k wherever filled since the
     /// last [`clear`](Self::clear) (elsewhere unspecified).
     fn view(&self) -> &[f64];
-    /// Forgets what was filled (a file-backed window frees its pages).
+    /// Forgets what was filled.
     fn clear(&mut self);
+    /// Starts a walk whose chunks lie at `origin` + multiples of `period` (samples): what was
+    /// filled before is forgotten, and the window may place the samples anew (a file-backed
+    /// window maps the walk's chunks onto the pages of the previous walk, so that no page is
+    /// faulted in twice). Default: [`clear`](Self::clear).
+    fn rebase(&mut self, origin: usize, period: usize) {
+        let _ = (origin, period);
+        self.clear();
+    }
 }
 
 /// An in-memory slice as a [`SampleSource`] (release is a no-op).
