@@ -332,6 +332,9 @@ pub fn decode_binary(
     if in_place {
         return Ok(vec![MappedSamples::map_f64(file, name, layout.header)?]);
     }
+    if is_regular(file) && !is_gzip(file) {
+        return decode_file(file, name, layout, channels);
+    }
     let reader: Box<dyn Read> = if file.as_os_str() == "-" {
         Box::new(std::io::stdin().lock())
     } else {
@@ -430,6 +433,91 @@ fn decode_stream(
     files
         .iter()
         .map(|f| MappedSamples::from_file(f, name, 0))
+        .collect()
+}
+
+/// The decoding pass of [`decode_binary`] for a regular uncompressed file: blocks of rows
+/// read with positioned reads and decoded in parallel (rayon), each channel's values written
+/// at their place in its temporary file; a non-finite value of the first block that holds
+/// one is reported.
+fn decode_file(
+    file: &Path,
+    name: &str,
+    layout: &BinaryLayout,
+    channels: &[usize],
+) -> Result<Vec<MappedSamples>> {
+    use rayon::prelude::*;
+    use std::os::unix::fs::FileExt;
+    let tmp_err = |e: std::io::Error| Error::File {
+        file: name.to_string(),
+        message: format!("cannot write the temporary decoded copy: {e}"),
+    };
+    let f = std::fs::File::open(file).map_err(|e| Error::io(name, e))?;
+    let size = f.metadata().map_err(|e| Error::io(name, e))?.len() as usize;
+    let body = size.saturating_sub(layout.header);
+    let row = layout.row_bytes();
+    let kind = layout.kind;
+    if body == 0 {
+        return Err(Error::File {
+            file: name.to_string(),
+            message: "the file is empty".to_string(),
+        });
+    }
+    if !body.is_multiple_of(row) {
+        return Err(whole_rows(name, body, layout.channels, kind.size()));
+    }
+    let rows = body / row;
+    let mut files = Vec::with_capacity(channels.len());
+    for _ in channels {
+        let t = tempfile::tempfile().map_err(tmp_err)?;
+        t.set_len(8 * rows as u64).map_err(tmp_err)?;
+        files.push(t);
+    }
+    let per_block = ((4 << 20) / row).max(1);
+    let blocks = rows.div_ceil(per_block);
+    let results: Vec<Result<()>> = (0..blocks)
+        .into_par_iter()
+        .map_init(
+            || (Vec::new(), Vec::new()),
+            |(inb, outb): &mut (Vec<u8>, Vec<u8>), b| {
+                let r0 = b * per_block;
+                let k = per_block.min(rows - r0);
+                inb.resize(k * row, 0);
+                f.read_exact_at(inb, (layout.header + r0 * row) as u64)
+                    .map_err(|e| Error::io(name, e))?;
+                for (t, &c) in files.iter().zip(channels) {
+                    outb.clear();
+                    for r in 0..k {
+                        let at = r * row + c * kind.size();
+                        let v = read_value(kind, &inb[at..at + kind.size()]);
+                        let v = match layout.scale {
+                            Some(s) => v * s,
+                            None => v,
+                        };
+                        if !v.is_finite() {
+                            return Err(Error::Located {
+                                file: name.to_string(),
+                                line: r0 + r + 1,
+                                column: c + 1,
+                                message: format!(
+                                    "{v} in row {} channel {}: values must be finite",
+                                    r0 + r + 1,
+                                    c + 1
+                                ),
+                            });
+                        }
+                        outb.extend_from_slice(&v.to_le_bytes());
+                    }
+                    t.write_all_at(outb, 8 * r0 as u64).map_err(tmp_err)?;
+                }
+                Ok(())
+            },
+        )
+        .collect();
+    results.into_iter().collect::<Result<()>>()?;
+    files
+        .iter()
+        .map(|t| MappedSamples::from_file(t, name, 0))
         .collect()
 }
 
