@@ -6,11 +6,13 @@
 //!   process keeps a bounded window of the file resident, whatever its size.
 //! * Any other raw binary layout (f32, i16, i32; several interleaved channels; a row stride
 //!   with padding or a header; a scale factor), gzip-compressed binary, and standard input or
-//!   a pipe (which cannot seek) are decoded once, in one sequential pass over the input in
-//!   bounded memory, into one compact temporary f64 file per channel (in the system's
-//!   temporary directory, deleted when the source is dropped, about 8 bytes per sample and
-//!   channel of disk space), which is then mapped as above ([`decode_binary`]). Every channel
-//!   of an interleaved file comes out of the same single pass.
+//!   a pipe (which cannot seek) are decoded once, in one pass over the input, into one compact
+//!   f64 copy per channel ([`decode_binary`]): in anonymous memory when all the copies fit in a
+//!   quarter of the memory available (8 bytes per sample and channel resident, no disk
+//!   writes), otherwise in temporary files (in the system's temporary directory, deleted when
+//!   the source is dropped; the same 8 bytes per sample and channel of disk space), mapped as
+//!   above. Gzip, standard input and pipes always go to temporary files, read sequentially in
+//!   bounded memory. Every channel of an interleaved file comes out of the same single pass.
 //!
 //! The values are those the in-memory reader ([`crate::io`]) produces, bit for bit (the same
 //! conversion and the same multiplication by the scale), so the Allan variance is identical.
@@ -87,11 +89,27 @@ impl BinaryLayout {
 /// (the map starts at `offset` bytes and holds `len` samples); released ranges drop their
 /// resident pages. When it maps a temporary file, the file is deleted on drop.
 pub struct MappedSamples {
-    map: memmap2::Mmap,
-    file: std::fs::File,
+    backing: Backing,
     offset: usize,
     len: usize,
     page: usize,
+}
+
+/// Where the samples of a [`MappedSamples`] live.
+enum Backing {
+    /// A read-only map of a file (the input, or a temporary decoded copy), and the file.
+    File(memmap2::Mmap, std::fs::File),
+    /// Anonymous memory holding a decoded copy (never released: it is the only copy).
+    Anon(memmap2::MmapMut),
+}
+
+impl Backing {
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Backing::File(m, _) => m,
+            Backing::Anon(m) => m,
+        }
+    }
 }
 
 impl std::fmt::Debug for MappedSamples {
@@ -142,8 +160,7 @@ impl MappedSamples {
         // command's help). Temporary files are ours alone.
         let map = unsafe { memmap2::Mmap::map(f) }.map_err(|e| Error::io(name, e))?;
         Ok(MappedSamples {
-            map,
-            file: f.try_clone().map_err(|e| Error::io(name, e))?,
+            backing: Backing::File(map, f.try_clone().map_err(|e| Error::io(name, e))?),
             offset: header,
             len: body / 8,
             page: page_size(),
@@ -153,7 +170,7 @@ impl MappedSamples {
 
 impl SampleSource for MappedSamples {
     fn samples(&self) -> &[f64] {
-        let bytes = &self.map[self.offset..self.offset + 8 * self.len];
+        let bytes = &self.backing.bytes()[self.offset..self.offset + 8 * self.len];
         // SAFETY: the map is page-aligned and `offset` a multiple of 8, so the pointer is
         // aligned for f64; the range is inside the map; every bit pattern is a valid f64; the
         // map is read-only and lives as long as `self`.
@@ -161,6 +178,9 @@ impl SampleSource for MappedSamples {
     }
 
     fn release(&self, lo: usize, hi: usize) {
+        let Backing::File(map, _) = &self.backing else {
+            return;
+        };
         // the whole pages inside the byte range of [lo, hi)
         let a = (self.offset + 8 * lo.min(self.len)).next_multiple_of(self.page);
         let b = (self.offset + 8 * hi.min(self.len)) / self.page * self.page;
@@ -169,19 +189,21 @@ impl SampleSource for MappedSamples {
             // drops the page-table entries only; the next read maps the same file contents
             // again (from the page cache or the disk), so no value changes. Errors are
             // ignored: release is a hint.
-            let _ = unsafe {
-                self.map
-                    .unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, a, b - a)
-            };
+            let _ =
+                unsafe { map.unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, a, b - a) };
         }
     }
 
     fn window(&self) -> Option<Box<dyn avar::source::SampleWindow + '_>> {
+        let Backing::File(_, file) = &self.backing else {
+            return None;
+        };
         // room for a shift of up to one class step of the far walk (2^20 samples)
         let period = 1 << 20;
         let buf = memmap2::MmapMut::map_anon(8 * (self.len + period)).ok()?;
         Some(Box::new(PreadWindow {
             src: self,
+            file,
             buf,
             base: 0,
             period,
@@ -201,6 +223,7 @@ impl SampleSource for MappedSamples {
 /// and then only copies into them (a few MiB per thread at 10^9 samples).
 struct PreadWindow<'a> {
     src: &'a MappedSamples,
+    file: &'a std::fs::File,
     buf: memmap2::MmapMut,
     base: usize,
     period: usize,
@@ -216,13 +239,14 @@ impl avar::source::SampleWindow for PreadWindow<'_> {
         let (a, b) = (8 * lo, 8 * hi);
         let dst = &mut self.buf[self.base + a..self.base + b];
         if self
-            .src
             .file
             .read_exact_at(dst, (self.src.offset + a) as u64)
             .is_err()
         {
             // a failed read: copy from the map instead (the same bytes)
-            dst.copy_from_slice(&self.src.map[self.src.offset + a..self.src.offset + b]);
+            dst.copy_from_slice(
+                &self.src.backing.bytes()[self.src.offset + a..self.src.offset + b],
+            );
         }
     }
 
@@ -467,13 +491,17 @@ fn decode_file(
         return Err(whole_rows(name, body, layout.channels, kind.size()));
     }
     let rows = body / row;
+    // blocks of about 1 MiB of input, which stay in cache while every channel is taken out
+    let per_block = ((1 << 20) / row).max(1);
+    if 8 * rows * channels.len() <= memory_budget() {
+        return decode_to_memory(&f, name, layout, channels, rows, per_block);
+    }
     let mut files = Vec::with_capacity(channels.len());
     for _ in channels {
         let t = tempfile::tempfile().map_err(tmp_err)?;
         t.set_len(8 * rows as u64).map_err(tmp_err)?;
         files.push(t);
     }
-    let per_block = ((4 << 20) / row).max(1);
     let blocks = rows.div_ceil(per_block);
     let results: Vec<Result<()>> = (0..blocks)
         .into_par_iter()
@@ -519,6 +547,112 @@ fn decode_file(
         .iter()
         .map(|t| MappedSamples::from_file(t, name, 0))
         .collect()
+}
+
+/// Bytes of decoded samples [`decode_binary`] keeps in memory rather than in temporary files:
+/// a quarter of the memory available when the input is opened (`MemAvailable`), so that
+/// several channels are decoded without writing gigabytes to the disk while there is room.
+fn memory_budget() -> usize {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|v| v.parse::<usize>().ok())
+        })
+        .map_or(0, |kib| kib * 1024 / 4)
+}
+
+/// One block of rows of `inb` (starting at row `r0`): channel `c` decoded into `out`.
+fn decode_block(
+    inb: &[u8],
+    r0: usize,
+    name: &str,
+    layout: &BinaryLayout,
+    c: usize,
+    out: &mut [u8],
+) -> Result<()> {
+    let (row, size) = (layout.row_bytes(), layout.kind.size());
+    for (r, o) in out.chunks_exact_mut(8).enumerate() {
+        let at = r * row + c * size;
+        let v = read_value(layout.kind, &inb[at..at + size]);
+        let v = match layout.scale {
+            Some(s) => v * s,
+            None => v,
+        };
+        if !v.is_finite() {
+            return Err(Error::Located {
+                file: name.to_string(),
+                line: r0 + r + 1,
+                column: c + 1,
+                message: format!(
+                    "{v} in row {} channel {}: values must be finite",
+                    r0 + r + 1,
+                    c + 1
+                ),
+            });
+        }
+        o.copy_from_slice(&v.to_le_bytes());
+    }
+    Ok(())
+}
+
+/// [`decode_file`] into anonymous memory (when it fits in [`memory_budget`]).
+fn decode_to_memory(
+    f: &std::fs::File,
+    name: &str,
+    layout: &BinaryLayout,
+    channels: &[usize],
+    rows: usize,
+    per_block: usize,
+) -> Result<Vec<MappedSamples>> {
+    use rayon::prelude::*;
+    use std::os::unix::fs::FileExt;
+    let row = layout.row_bytes();
+    let mut maps = Vec::with_capacity(channels.len());
+    for _ in channels {
+        maps.push(memmap2::MmapMut::map_anon(8 * rows).map_err(|e| Error::io(name, e))?);
+    }
+    // per block, its slice of every channel's map
+    let mut per: Vec<Vec<&mut [u8]>> = Vec::new();
+    let mut its: Vec<_> = maps
+        .iter_mut()
+        .map(|m| m.chunks_mut(8 * per_block))
+        .collect();
+    loop {
+        let blk: Vec<&mut [u8]> = its.iter_mut().filter_map(Iterator::next).collect();
+        if blk.is_empty() {
+            break;
+        }
+        per.push(blk);
+    }
+    drop(its);
+    let results: Vec<Result<()>> = per
+        .into_par_iter()
+        .enumerate()
+        .map_init(Vec::new, |inb: &mut Vec<u8>, (b, outs)| {
+            let r0 = b * per_block;
+            let k = per_block.min(rows - r0);
+            inb.resize(k * row, 0);
+            f.read_exact_at(inb, (layout.header + r0 * row) as u64)
+                .map_err(|e| Error::io(name, e))?;
+            for (out, &c) in outs.into_iter().zip(channels) {
+                decode_block(inb, r0, name, layout, c, out)?;
+            }
+            Ok(())
+        })
+        .collect();
+    results.into_iter().collect::<Result<()>>()?;
+    Ok(maps
+        .into_iter()
+        .map(|m| MappedSamples {
+            backing: Backing::Anon(m),
+            offset: 0,
+            len: rows,
+            page: page_size(),
+        })
+        .collect())
 }
 
 /// Reads until `buf` is full or the input ends; returns the bytes read.

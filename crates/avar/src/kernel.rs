@@ -1370,7 +1370,8 @@ fn global_checkpoints(
         let mut loc = Vec::with_capacity(t.div_ceil(2 * G) + 1);
         for (j, job) in jobs.iter_mut().enumerate() {
             job.compact(x, job_len, j, j + 1 == n_jobs);
-            loc.append(&mut job.own_even);
+            loc.extend_from_slice(&job.own_even);
+            job.own_even = Vec::new();
         }
         FarFrames {
             job_g: job_len / G,

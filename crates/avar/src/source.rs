@@ -136,9 +136,10 @@ pub fn streams(t: usize, config: &AvarConfig) -> bool {
 /// on the same samples (same rate in Hz, same configuration) for any thread count.
 ///
 /// When [`streams`] holds, the estimate is streamed: memory beyond the source is the
-/// checkpoints of the cumulative sum (16 bytes per 64 samples) and per-thread chunk buffers,
-/// and the source is told which ranges it may release (a memory-mapped file then keeps a
-/// bounded window resident). Otherwise the in-memory estimator runs on `source.samples()`
+/// checkpoints of the cumulative sum (16 bytes per 128 samples once the near scales are done,
+/// a few MiB per thread before) and per-thread chunk buffers and windows, and the source is
+/// told which ranges it may release (a memory-mapped file then keeps a bounded window
+/// resident). Otherwise the in-memory estimator runs on `source.samples()`
 /// (with a confidence interval it allocates the series-sized cumulative sum, 8 bytes per
 /// sample). Series of extreme magnitude whose AV would leave the range of f64 are estimated
 /// on a rescaled in-memory copy, as by [`crate::allan_variance`].
