@@ -1145,8 +1145,14 @@ fn overlapping_sums_stream_split(
     let (near, far): (Vec<usize>, Vec<usize>) =
         (0..ms.len()).partition(|&s| 2 * ms[s] as usize <= far_m);
     let pivot = pivot_of(x);
+    // the far walk's checkpoints, filled by the near jobs as they end
+    let mut loc = if far.is_empty() {
+        Vec::new()
+    } else {
+        vec![(0.0f64, 0.0f64); (x.len().div_ceil(G) + 1).div_ceil(2)]
+    };
     let jobs = stream_near(
-        x, pivot, ms, &near, far_m, job_chunks, simd, release, &mut out,
+        x, pivot, ms, &near, far_m, job_chunks, simd, release, &mut loc, &mut out,
     );
     if !pivot.is_finite() || jobs.iter().any(|j| j.bad) {
         if let Some((index, value)) = first_non_finite(x) {
@@ -1154,13 +1160,7 @@ fn overlapping_sums_stream_split(
         }
         return Err(AvarError::Overflow);
     }
-    let (ck, total) = global_checkpoints(
-        x,
-        pivot,
-        jobs,
-        job_chunks * NSEG * SEG_NEAR,
-        !far.is_empty(),
-    );
+    let (ck, total) = global_checkpoints(x, pivot, jobs, job_chunks * NSEG * SEG_NEAR, loc);
     if !total.is_finite() {
         return Err(AvarError::Overflow);
     }
@@ -1182,9 +1182,7 @@ struct NearJob {
     g_a: usize,
     /// Whether a block sum was not finite.
     bad: bool,
-    /// After [`NearJob::compact`]: the local entries at the even indices of the job's own
-    /// range [A, next job's A) (`ck` is then empty), and the entry at the job end.
-    own_even: Vec<(f64, f64)>,
+    /// After [`NearJob::compact`] (`ck` is then empty): the entry at the job end.
     end: Option<(f64, f64)>,
 }
 
@@ -1195,26 +1193,40 @@ impl NearJob {
             .unwrap_or_else(|| self.ck.get(x, ((j + 1) * job_len).min(x.len()).div_ceil(G)))
     }
 
-    /// Keeps only what the far walk and the totals need (the even entries of the job's own
-    /// range and its end entry), freeing the rest: the whole-series checkpoints then take
-    /// 16 bytes per 128 samples while the near walk runs, not 16 per 64 per job plus warm-up.
-    fn compact(&mut self, x: &[f64], job_len: usize, j: usize, last: bool) {
+    /// Keeps only what the far walk and the totals need: the even entries of the job's own
+    /// range [A, next job's A), written to `dst` (its part of [`FarFrames::loc`]; empty when
+    /// there are no far scales), and its end entry; frees the rest, so that the whole-series
+    /// checkpoints take 16 bytes per 128 samples while the near walk runs, not 16 per 64 per
+    /// job plus warm-up.
+    fn compact(&mut self, x: &[f64], job_len: usize, j: usize, dst: &mut [(f64, f64)]) {
         if self.end.is_some() {
             return;
         }
         let end = self.end(x, job_len, j);
-        let g_next = if last {
-            x.len().div_ceil(G) + 1
-        } else {
-            (j + 1) * job_len / G
-        };
-        self.own_even = (self.g_a..g_next)
-            .step_by(2)
-            .map(|g| self.ck.get(x, g))
-            .collect();
+        for (k, d) in dst.iter_mut().enumerate() {
+            *d = self.ck.get(x, self.g_a + 2 * k);
+        }
         self.end = Some(end);
         self.ck.ck = Vec::new();
     }
+}
+
+/// The parts of [`FarFrames::loc`] (16 bytes per 128 samples, up to the last index ⌈T/G⌉)
+/// that each of `n_jobs` near jobs of `job_len` samples fills; all empty when `loc` is.
+fn loc_parts(loc: &mut [(f64, f64)], n_jobs: usize, job_len: usize) -> Vec<&mut [(f64, f64)]> {
+    let mut parts = Vec::with_capacity(n_jobs);
+    let mut rest = loc;
+    for j in 0..n_jobs {
+        let n = if j + 1 == n_jobs {
+            rest.len()
+        } else {
+            (job_len / G / 2).min(rest.len())
+        };
+        let (a, b) = std::mem::take(&mut rest).split_at_mut(n);
+        parts.push(a);
+        rest = b;
+    }
+    parts
 }
 
 /// Starts the local checkpoints of a job at sample `a` (a multiple of G) and of `len` samples:
@@ -1242,7 +1254,6 @@ fn job_checkpoints(x: &[f64], pivot: f64, a: usize, warm: usize, len: usize) -> 
         },
         g_a,
         bad,
-        own_even: Vec::new(),
         end: None,
     }
 }
@@ -1280,6 +1291,7 @@ fn stream_near(
     job_chunks: usize,
     simd: Simd,
     release: Release<'_>,
+    loc: &mut [(f64, f64)],
     out: &mut [f64],
 ) -> Vec<NearJob> {
     let schunk = NSEG * SEG_NEAR;
@@ -1294,9 +1306,12 @@ fn stream_near(
     let done = |j: usize| release(start(j), range(j).end * schunk);
     // the first batch of scales runs while the checkpoints are built
     let w = first.len();
-    let (jobs, parts): (Vec<NearJob>, Vec<Vec<f64>>) = (0..n_jobs)
+    let single = batches.len() <= 1;
+    let dsts = loc_parts(&mut *loc, n_jobs, job_chunks * schunk);
+    let (mut jobs, parts): (Vec<NearJob>, Vec<Vec<f64>>) = dsts
         .into_par_iter()
-        .map_init(Scratch::new::<SEG_NEAR>, |scratch, j| {
+        .enumerate()
+        .map_init(Scratch::new::<SEG_NEAR>, |scratch, (j, dst)| {
             let mut job =
                 job_checkpoints(x, pivot, range(j).start * schunk, warm, job_chunks * schunk);
             let c0 = range(j).start;
@@ -1312,8 +1327,8 @@ fn stream_near(
                 );
             }
             done(j);
-            if batches.len() <= 1 {
-                job.compact(x, job_chunks * schunk, j, j + 1 == n_jobs);
+            if single {
+                job.compact(x, job_chunks * schunk, j, dst);
             }
             (job, parts)
         })
@@ -1342,23 +1357,27 @@ fn stream_near(
         }
         combine(&parts, &batch, schunk, idx, out);
     }
+    if !single {
+        let dsts = loc_parts(loc, n_jobs, job_chunks * schunk);
+        for (j, (job, dst)) in jobs.iter_mut().zip(dsts).enumerate() {
+            job.compact(x, job_chunks * schunk, j, dst);
+        }
+    }
     jobs
 }
 
 /// The checkpoints of the whole series in one frame (origin 0, pivot-only centring), in the
-/// compact form of [`FarFrames`] (each job's local frame shifted by the compensated sum of the
-/// earlier jobs' totals; built only when `build`, i.e. for far scales; the jobs are compacted
-/// first and their memory freed as the frames are assembled), and the total Σ (x_i − pivot).
+/// compact form of [`FarFrames`]: `loc` (the jobs' local even entries, filled by
+/// [`NearJob::compact`]; empty without far scales) and each job's base, the compensated sum
+/// of the earlier jobs' totals; and the total Σ (x_i − pivot).
 fn global_checkpoints(
     x: &[f64],
     pivot: f64,
-    mut jobs: Vec<NearJob>,
+    jobs: Vec<NearJob>,
     job_len: usize,
-    build: bool,
+    loc: Vec<(f64, f64)>,
 ) -> (Checkpoints, f64) {
-    let t = x.len();
-    let n_jobs = jobs.len();
-    let mut bases = Vec::with_capacity(n_jobs);
+    let mut bases = Vec::with_capacity(jobs.len());
     let mut run = Neumaier::default();
     for (j, job) in jobs.iter().enumerate() {
         bases.push((run.hi, run.lo));
@@ -1366,20 +1385,12 @@ fn global_checkpoints(
         run.add(hi);
         run.add(lo);
     }
-    let far = build.then(|| {
-        let mut loc = Vec::with_capacity(t.div_ceil(2 * G) + 1);
-        for (j, job) in jobs.iter_mut().enumerate() {
-            job.compact(x, job_len, j, j + 1 == n_jobs);
-            loc.extend_from_slice(&job.own_even);
-            job.own_even = Vec::new();
-        }
-        FarFrames {
-            job_g: job_len / G,
-            bases,
-            loc,
-        }
-    });
     drop(jobs);
+    let far = (!loc.is_empty()).then_some(FarFrames {
+        job_g: job_len / G,
+        bases,
+        loc,
+    });
     let ck = Checkpoints {
         pivot,
         delta: 0.0,
