@@ -1644,14 +1644,15 @@ fn stream_group<const SEG: usize>(
                 },
             )
             .collect();
-        let mut parts = vec![0.0f64; n_chunks * w];
-        for (r, cls) in by_class.iter().enumerate() {
-            for (k, p) in cls.chunks_exact(w).enumerate() {
-                let i = r + k * n_cls;
-                parts[i * w..(i + 1) * w].copy_from_slice(p);
+        // as `combine`, in chunk order, read straight from the classes' buffers (chunk i is
+        // entry i / n_cls of class i mod n_cls): no second table of partials
+        for (s, (&o, &m)) in idx.iter().zip(&batch).enumerate() {
+            let mut acc = Neumaier::default();
+            for i in (2 * m as usize) / schunk..n_chunks {
+                acc.add(by_class[i % n_cls][(i / n_cls) * w + s]);
             }
+            out[o] = acc.value();
         }
-        combine(&parts, &batch, schunk, idx, out);
     }
 }
 
