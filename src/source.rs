@@ -200,7 +200,12 @@ impl SampleSource for MappedSamples {
         };
         // room for a shift of up to one class step of the far walk (2^20 samples)
         let period = 1 << 20;
-        let buf = memmap2::MmapMut::map_anon(8 * (self.len + period)).ok()?;
+        // address space only (MAP_NORESERVE): pages exist where filled
+        let buf = memmap2::MmapOptions::new()
+            .len(8 * (self.len + period))
+            .no_reserve_swap()
+            .map_anon()
+            .ok()?;
         Some(Box::new(PreadWindow {
             src: self,
             file,

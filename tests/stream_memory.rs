@@ -34,6 +34,8 @@ fn write_series(path: &Path, n: usize) {
 }
 
 /// Peak RSS (MiB) of `imunoise avar FILE --binary f64 --rate 100 --ci none`.
+// the child is reaped by `wait4` below (which also gives its rusage), not by `Child::wait`
+#[allow(clippy::zombie_processes)]
 fn peak_rss_mib(file: &Path) -> f64 {
     let child = Command::new(env!("CARGO_BIN_EXE_imunoise"))
         .arg("avar")

@@ -318,7 +318,7 @@ pub fn run(args: &[String], root: &Path) -> Result<(), String> {
             }
         };
         println!(
-            "| {n:.0e} | {} | {} | {} | {} | {} | {:.2}× | {} | {} | {} | {:.2}× | {} | {} |",
+            "| {n:.0e} | {} | {} | {} | {} | {} | {:.2}× | {} | {} | {} | {} | {} | {} |",
             human(size),
             ms(t_cat),
             ms(t_pass),
@@ -328,7 +328,11 @@ pub fn run(args: &[String], root: &Path) -> Result<(), String> {
             mib(rss),
             ms(t_kernel_ci),
             ms(t_e2e_ci),
-            t_e2e_ci / t_kernel_ci,
+            if with_ci {
+                format!("{:.2}×", t_e2e_ci / t_kernel_ci)
+            } else {
+                "—".to_string()
+            },
             mib(rss_ci),
             if same { "yes" } else { "NO" }
         );

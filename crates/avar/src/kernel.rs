@@ -1547,6 +1547,7 @@ fn prefetch_next(x: &[f64], ck: &Checkpoints, a: usize, len: usize, batch: &[u64
 /// and dyadic m ≥ r, the lagged blocks a − m and a − 2m are then exactly members of the same
 /// class visited m/r and 2m/r steps earlier, still in cache (L2 for the far grid), so that
 /// each far block is read from main memory about once for all far scales.
+#[allow(clippy::too_many_arguments)]
 fn stream_group<const SEG: usize>(
     x: &[f64],
     ck: &Checkpoints,
