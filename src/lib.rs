@@ -28,6 +28,7 @@ pub mod logs;
 pub mod output;
 pub mod pipeline;
 pub mod plot;
+pub mod source;
 pub mod ui;
 pub mod units;
 

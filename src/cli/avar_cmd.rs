@@ -193,6 +193,12 @@ pub fn run(args: &AvarArgs, ui: &Ui) -> Result<()> {
             args.alpha
         )));
     }
+    let spec = args.input.spec();
+    if args.statistic.is_none() && crate::pipeline::estimate::can_stream(&spec) {
+        // raw binary: the file is used in place (or decoded once), never read into a table
+        let curves = crate::pipeline::estimate::avar_streamed(&spec, &config, ui)?;
+        return write_av_curves(args, &config, &curves, &spec.file.display().to_string());
+    }
     let table = args.input.read(ui)?;
     if let Some(list) = &args.statistic {
         let mut stats: Vec<Statistic> = Vec::new();
@@ -221,6 +227,16 @@ pub fn run(args: &AvarArgs, ui: &Ui) -> Result<()> {
             .map_err(|e| crate::Error::write("<stdout>", e));
     }
     let curves = compute(&table, table.rate()?, &config, ui)?;
+    write_av_curves(args, &config, &curves, &table.file)
+}
+
+/// Writes the AV curves of `imunoise avar` (and the plot) as the flags say.
+fn write_av_curves(
+    args: &AvarArgs,
+    config: &AvarConfig,
+    curves: &[(String, avar::AllanVariance)],
+    file: &str,
+) -> Result<()> {
     if let Some(path) = &args.plot {
         let st = match config.estimator {
             Estimator::Overlapping => Statistic::Oadev,
@@ -230,17 +246,17 @@ pub fn run(args: &AvarArgs, ui: &Ui) -> Result<()> {
             .iter()
             .map(|(name, av)| Curve::from_av(name, st, av.clone()))
             .collect();
-        write_plot(path, &plot_curves(&c, &table.file))?;
+        write_plot(path, &plot_curves(&c, file))?;
     }
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let res = match args.format {
         Format::Json => {
-            serde_json::to_writer(&mut out, &to_json(&curves))?;
+            serde_json::to_writer(&mut out, &to_json(curves))?;
             writeln!(out)
         }
-        Format::Csv => write_csv(&mut out, &curves),
-        Format::Table => write_table(&mut out, &curves, args.alpha),
+        Format::Csv => write_csv(&mut out, curves),
+        Format::Table => write_table(&mut out, curves, args.alpha),
     };
     res.and_then(|_| out.flush())
         .map_err(|e| crate::Error::write("<stdout>", e))

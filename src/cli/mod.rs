@@ -133,8 +133,16 @@ pub struct InputArgs {
     /// Input log: a ROS 1 `.bag`, a ROS 2 `.mcap` or `.db3` bag, a PX4 `.ulg` or ArduPilot
     /// `.bin` log, or CSV, TSV or whitespace-separated text with or without a header line
     /// (gzip-compressed is read transparently), or raw little-endian binary with --binary.
-    /// Logs are recognised by extension (or --log-format). `-` reads standard input; standard
-    /// input, pipes and FIFOs are read into memory first (regular files are memory-mapped).
+    /// Logs are recognised by extension (or --log-format). `-` reads standard input.
+    /// Memory: `avar` streams raw binary (--binary): a regular file of one f64 channel is
+    /// used in place (memory-mapped, a bounded window resident; without a CI the memory grows
+    /// by only 16 bytes per 128 samples); other types, several channels and --scale are decoded
+    /// once, into memory when the copies fit in a quarter of the available memory, else into
+    /// temporary files; gzip, standard input and pipes (which cannot seek) are decoded once
+    /// into temporary files (8 bytes per sample and channel of disk space, not memory). With a
+    /// CI the file stays mapped and 8 more bytes per sample are held. Text, logs and the other subcommands read the
+    /// whole input into memory (standard input, pipes and FIFOs first as bytes; regular files
+    /// are memory-mapped).
     pub file: PathBuf,
     /// Sampling rate in Hz (> 0). Required for inputs without time stamps; for logs (and
     /// text with --time-column) the rate comes from the stamps (median Δt), and a --rate

@@ -604,3 +604,97 @@ pub fn robust_curves(
         })
         .collect()
 }
+
+/// Whether [`avar_streamed`] can read `input`: raw binary (`--binary`), not a log, without a
+/// time column or topics. `imunoise avar` streams exactly these inputs.
+///
+/// ```
+/// use imunoise::io::BinaryType;
+/// use imunoise::pipeline::{estimate::can_stream, read::Input};
+/// let bin = Input { binary: Some(BinaryType::F64), ..Input::new("w.f64") };
+/// assert!(can_stream(&bin));
+/// assert!(!can_stream(&Input::new("imu.csv")));
+/// ```
+pub fn can_stream(input: &super::read::Input) -> bool {
+    input.binary.is_some()
+        && input.log_format.is_none()
+        && input.time_column.is_none()
+        && input.topic.is_empty()
+}
+
+/// Each channel's Allan variance of a raw binary file (see [`can_stream`]) without reading it
+/// into memory: the file is used in place through a memory map (one channel of f64, no scale)
+/// or decoded once into compact temporary files (see [`crate::source`]), and each channel is
+/// estimated by [`avar::allan_variance_source`], which streams (no series-sized buffer, a
+/// bounded window of the file resident) when no CI is asked for. Bit-identical to [`compute`]
+/// on the table [`super::read::Input::read`] returns. Channels are named `ch1`, `ch2`, … (or
+/// by `names`), selected by `columns`; `rate` is required.
+///
+/// ```
+/// use imunoise::io::BinaryType;
+/// use imunoise::pipeline::{estimate::avar_streamed, read::Input};
+/// use avar::{AvarConfig, CiMethod};
+/// let dir = tempfile::tempdir().unwrap();
+/// let p = dir.path().join("w.f64");
+/// let bytes: Vec<u8> = (0..4096).flat_map(|i| ((i % 7) as f64).to_le_bytes()).collect();
+/// std::fs::write(&p, bytes).unwrap();
+/// let input = Input { binary: Some(BinaryType::F64), rate: Some(100.0), ..Input::new(&p) };
+/// let cfg = AvarConfig { ci: CiMethod::None, ..Default::default() };
+/// let curves = avar_streamed(&input, &cfg, &imunoise::Ui::quiet()).unwrap();
+/// assert_eq!(curves[0].0, "ch1");
+/// assert_eq!(curves[0].1.n, 4096);
+/// ```
+pub fn avar_streamed(
+    input: &super::read::Input,
+    config: &AvarConfig,
+    ui: &Ui,
+) -> Result<ChannelCurves> {
+    let file = input.file.display().to_string();
+    let Some(kind) = input.binary.filter(|_| can_stream(input)) else {
+        return Err(Error::Usage(format!(
+            "{file}: only raw binary input (--binary) without --time-column or --topic is streamed"
+        )));
+    };
+    let channels = input.channels.unwrap_or(1);
+    let layout = crate::source::BinaryLayout {
+        scale: input.scale,
+        ..crate::source::BinaryLayout::new(kind, channels)
+    };
+    let all: Vec<String> = (1..=channels).map(|c| format!("ch{c}")).collect();
+    let idx: Vec<usize> = match &input.columns {
+        Some(list) => crate::io::resolve_columns(&crate::io::parse_columns(list)?, &all)?,
+        None => (0..channels).collect(),
+    };
+    let mut names: Vec<String> = idx.iter().map(|&i| all[i].clone()).collect();
+    if let Some(list) = &input.names {
+        let given: Vec<String> = list.split(',').map(|n| n.trim().to_string()).collect();
+        if given.len() != names.len() {
+            return Err(Error::Usage(format!(
+                "--names gives {} names for {} channels",
+                given.len(),
+                names.len()
+            )));
+        }
+        names = given;
+    }
+    let pb = ui.spinner(format!("reading {}", input.file.display()));
+    let sources = crate::source::decode_binary(&input.file, &file, &layout, &idx);
+    pb.finish_and_clear();
+    let sources = sources?;
+    let Some(rate_hz) = input.rate else {
+        return Err(Error::Usage(format!(
+            "{file}: --rate is required (the file has no time stamps; for text with a time \
+             column give --time-column NAME)"
+        )));
+    };
+    let pb = ui.bar(sources.len() as u64, "Allan var.");
+    let mut out = Vec::with_capacity(sources.len());
+    for (src, name) in sources.iter().zip(names) {
+        let av = avar::allan_variance_source(src, rate_hz, config)
+            .map_err(|e| avar_error(&file, &name, e))?;
+        out.push((name, av));
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    Ok(out)
+}

@@ -14,6 +14,9 @@
 //! Times are the best of three runs (allantools: one run at 1e8). Peak memory is the process
 //! high-water mark (VmHWM), which includes the input array.
 //!
+//! `--end-to-end`: from file to Allan variance through the command (issue 13), see
+//! [`crate::avar_e2e`].
+//!
 //! `--family [--sizes 1e7,1e8] [--py-max 1e7]`: the stability family instead (issue 14): at each
 //! size, octave τ, no CI, OADEV and each of ADEV, MDEV, TDEV, HDEV, OHDEV, TOTDEV, alternated
 //! in one run (OADEV, X, OADEV, X, … best of 3 each), the ratio X / OADEV of the same run, and
@@ -263,6 +266,9 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let have_py = python.exists();
     let dir = root.join("target/avar-speed");
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    if args.iter().any(|a| a == "--end-to-end") {
+        return crate::avar_e2e::run(args, &root);
+    }
     if args.iter().any(|a| a == "--family") {
         return run_family(args, &sizes, &python, &dir);
     }

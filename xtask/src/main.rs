@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 mod args;
 mod avar_coverage;
+mod avar_e2e;
 mod avar_speed;
 mod fuzz;
 mod gmwm_report;

@@ -26,6 +26,7 @@
 use rayon::prelude::*;
 
 use crate::error::AvarError;
+use crate::source::SampleWindow;
 
 /// Width of the fixed grid of k-chunks (terms) that partial sums are formed on.
 pub(crate) const CHUNK: usize = 1 << 14;
@@ -301,13 +302,44 @@ pub(crate) struct Checkpoints {
     /// Index (in units of G samples) of the first entry of `ck`.
     g0: usize,
     ck: Vec<(f64, f64)>,
+    /// The far walk's compact form (then `ck` is empty): see [`FarFrames`].
+    far: Option<FarFrames>,
+}
+
+/// The checkpoints of the whole series for the far walk in half the memory (16 bytes per 128
+/// samples): the near jobs' local entries at even g only, and each job's base (the
+/// compensated sum of the earlier jobs' totals). An entry is rebuilt exactly as
+/// [`global_checkpoints`] would have stored it: an odd local entry by the Neumaier step of
+/// [`job_extend`] from the even one below it, then shifted by the job's base.
+struct FarFrames {
+    /// Job length in units of G (even: job starts are even indices).
+    job_g: usize,
+    bases: Vec<(f64, f64)>,
+    /// Local entries at g = 0, 2, 4, … (`loc[g / 2]`), up to the last index ⌈T/G⌉.
+    loc: Vec<(f64, f64)>,
 }
 
 impl Checkpoints {
-    /// C at index gG (needs g0 ≤ g < g0 + ck.len()).
+    /// C at index gG (needs g0 ≤ g < g0 + ck.len(), or g ≤ ⌈T/G⌉ in the compact far form,
+    /// which reads the samples of block g − 1 for odd g).
     #[inline(always)]
-    fn get(&self, g: usize) -> (f64, f64) {
-        self.ck[g - self.g0]
+    fn get(&self, x: &[f64], g: usize) -> (f64, f64) {
+        match &self.far {
+            None => self.ck[g - self.g0],
+            Some(f) => {
+                let (lh, ll) = if g.is_multiple_of(2) {
+                    f.loc[g / 2]
+                } else {
+                    let (hi, lo) = f.loc[g / 2];
+                    let mut run = Neumaier { hi, lo };
+                    run.add(lane_sum(&x[(g - 1) * G..(g * G).min(x.len())], self.pivot));
+                    (run.hi, run.lo)
+                };
+                let (bh, bl) = f.bases[(g / f.job_g).min(f.bases.len() - 1)];
+                let (h, e) = two_sum(bh, lh);
+                (h, (e + bl) + ll)
+            }
+        }
     }
 
     /// C_p as an unevaluated sum (hi, lo): the checkpoint below p plus the short sequential
@@ -315,7 +347,7 @@ impl Checkpoints {
     #[inline]
     fn at(&self, x: &[f64], p: usize) -> (f64, f64) {
         let g = p / G;
-        let (hi, lo) = self.get(g);
+        let (hi, lo) = self.get(x, g);
         if p == g * G {
             return (hi, lo);
         }
@@ -377,6 +409,7 @@ pub(crate) fn checkpoints(x: &[f64]) -> Result<Checkpoints, AvarError> {
         mean,
         g0: 0,
         ck,
+        far: None,
     })
 }
 
@@ -416,7 +449,7 @@ fn d_start(x: &[f64], ck: &Checkpoints, m: usize, s: usize) -> f64 {
     let ((ah, al), (bh, bl), (ch, cl)) = if s.is_multiple_of(G) && m.is_multiple_of(G) {
         // all three on checkpoints (the common case: segment starts are multiples of G)
         let (g, q) = (s / G, m / G);
-        (ck.get(g), ck.get(g - q), ck.get(g - 2 * q))
+        (ck.get(x, g), ck.get(x, g - q), ck.get(x, g - 2 * q))
     } else {
         (ck.at(x, s), ck.at(x, s - m), ck.at(x, s - 2 * m))
     };
@@ -1043,8 +1076,43 @@ fn stream_chunk<const SEG: usize>(
 /// segments (see [`stream_near`]). Errors on non-finite samples (naming the first) and on
 /// overflow.
 pub(crate) fn overlapping_sums_stream(x: &[f64], ms: &[u64]) -> Result<(Vec<f64>, f64), AvarError> {
+    overlapping_sums_stream_io(x, ms, &Io::NONE)
+}
+
+/// What the streamed kernel calls when it is done with the samples [lo, hi) for now (a hint
+/// that lets a file-backed source drop their resident pages; no effect on any value).
+pub(crate) type Release<'a> = &'a (dyn Fn(usize, usize) + Sync);
+
+/// Makes a private window for one job of the far walk (see [`SampleWindow`]), or `None`.
+pub(crate) type Windows<'a> = &'a (dyn Fn() -> Option<Box<dyn SampleWindow + 'a>> + Sync);
+
+/// How the streamed kernel talks to a [`crate::source::SampleSource`].
+pub(crate) struct Io<'a> {
+    pub(crate) release: Release<'a>,
+    pub(crate) windows: Windows<'a>,
+}
+
+impl Io<'_> {
+    /// No release hints, no windows (an in-memory slice).
+    pub(crate) const NONE: Io<'static> = Io {
+        release: &|_, _| {},
+        windows: &|| None,
+    };
+}
+
+/// [`overlapping_sums_stream`] talking to a source: `release` is called on the ranges of
+/// samples the near walk is done with (chunk by chunk, behind the warm-up reach) and on the
+/// chunks of each residue class of the far walk when the class ends; with windows, each job of
+/// the far walk reads its chunks (and their lagged blocks where the lane ring does not hold
+/// them) into its own window instead of `x`. The values are those of
+/// [`overlapping_sums_stream`], bit for bit (the same samples reach the same operations).
+pub(crate) fn overlapping_sums_stream_io(
+    x: &[f64],
+    ms: &[u64],
+    io: &Io<'_>,
+) -> Result<(Vec<f64>, f64), AvarError> {
     let job_chunks = job_chunks(x.len());
-    overlapping_sums_stream_split(x, ms, FAR_M, job_chunks, Simd::detect())
+    overlapping_sums_stream_split(x, ms, FAR_M, job_chunks, Simd::detect(), io)
 }
 
 /// Near chunks per job of the near walk for T samples: jobs of equal length, about
@@ -1070,30 +1138,34 @@ fn overlapping_sums_stream_split(
     far_m: usize,
     job_chunks: usize,
     simd: Simd,
+    io: &Io<'_>,
 ) -> Result<(Vec<f64>, f64), AvarError> {
+    let release = io.release;
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
         (0..ms.len()).partition(|&s| 2 * ms[s] as usize <= far_m);
     let pivot = pivot_of(x);
-    let jobs = stream_near(x, pivot, ms, &near, far_m, job_chunks, simd, &mut out);
+    // the far walk's checkpoints, filled by the near jobs as they end
+    let mut loc = if far.is_empty() {
+        Vec::new()
+    } else {
+        vec![(0.0f64, 0.0f64); (x.len().div_ceil(G) + 1).div_ceil(2)]
+    };
+    let jobs = stream_near(
+        x, pivot, ms, &near, far_m, job_chunks, simd, release, &mut loc, &mut out,
+    );
     if !pivot.is_finite() || jobs.iter().any(|j| j.bad) {
         if let Some((index, value)) = first_non_finite(x) {
             return Err(AvarError::NonFinite { index, value });
         }
         return Err(AvarError::Overflow);
     }
-    let (ck, total) = global_checkpoints(
-        x,
-        pivot,
-        &jobs,
-        job_chunks * NSEG * SEG_NEAR,
-        !far.is_empty(),
-    );
+    let (ck, total) = global_checkpoints(x, pivot, jobs, job_chunks * NSEG * SEG_NEAR, loc);
     if !total.is_finite() {
         return Err(AvarError::Overflow);
     }
-    drop(jobs);
-    stream_group::<SEG_FAR>(x, &ck, ms, &far, far_m, simd, &mut out);
+    stream_group::<SEG_FAR>(x, &ck, ms, &far, far_m, simd, io, &mut out);
+    release(0, x.len());
     Ok((out, pivot + total / x.len() as f64))
 }
 
@@ -1110,6 +1182,51 @@ struct NearJob {
     g_a: usize,
     /// Whether a block sum was not finite.
     bad: bool,
+    /// After [`NearJob::compact`] (`ck` is then empty): the entry at the job end.
+    end: Option<(f64, f64)>,
+}
+
+impl NearJob {
+    /// The local entry at the job end B = min((j + 1)·`job_len`, T) (rounded up to G).
+    fn end(&self, x: &[f64], job_len: usize, j: usize) -> (f64, f64) {
+        self.end
+            .unwrap_or_else(|| self.ck.get(x, ((j + 1) * job_len).min(x.len()).div_ceil(G)))
+    }
+
+    /// Keeps only what the far walk and the totals need: the even entries of the job's own
+    /// range [A, next job's A), written to `dst` (its part of [`FarFrames::loc`]; empty when
+    /// there are no far scales), and its end entry; frees the rest, so that the whole-series
+    /// checkpoints take 16 bytes per 128 samples while the near walk runs, not 16 per 64 per
+    /// job plus warm-up.
+    fn compact(&mut self, x: &[f64], job_len: usize, j: usize, dst: &mut [(f64, f64)]) {
+        if self.end.is_some() {
+            return;
+        }
+        let end = self.end(x, job_len, j);
+        for (k, d) in dst.iter_mut().enumerate() {
+            *d = self.ck.get(x, self.g_a + 2 * k);
+        }
+        self.end = Some(end);
+        self.ck.ck = Vec::new();
+    }
+}
+
+/// The parts of [`FarFrames::loc`] (16 bytes per 128 samples, up to the last index ⌈T/G⌉)
+/// that each of `n_jobs` near jobs of `job_len` samples fills; all empty when `loc` is.
+fn loc_parts(loc: &mut [(f64, f64)], n_jobs: usize, job_len: usize) -> Vec<&mut [(f64, f64)]> {
+    let mut parts = Vec::with_capacity(n_jobs);
+    let mut rest = loc;
+    for j in 0..n_jobs {
+        let n = if j + 1 == n_jobs {
+            rest.len()
+        } else {
+            (job_len / G / 2).min(rest.len())
+        };
+        let (a, b) = std::mem::take(&mut rest).split_at_mut(n);
+        parts.push(a);
+        rest = b;
+    }
+    parts
 }
 
 /// Starts the local checkpoints of a job at sample `a` (a multiple of G) and of `len` samples:
@@ -1133,9 +1250,11 @@ fn job_checkpoints(x: &[f64], pivot: f64, a: usize, warm: usize, len: usize) -> 
             mean: f64::NAN,
             g0: g_w,
             ck,
+            far: None,
         },
         g_a,
         bad,
+        end: None,
     }
 }
 
@@ -1171,6 +1290,8 @@ fn stream_near(
     warm: usize,
     job_chunks: usize,
     simd: Simd,
+    release: Release<'_>,
+    loc: &mut [(f64, f64)],
     out: &mut [f64],
 ) -> Vec<NearJob> {
     let schunk = NSEG * SEG_NEAR;
@@ -1180,11 +1301,17 @@ fn stream_near(
     let scales = |idx: &[usize]| -> Vec<u64> { idx.iter().map(|&s| ms[s]).collect() };
     let first = scales(batches.first().map_or(&[], |b| b));
     let range = |j: usize| j * job_chunks..((j + 1) * job_chunks).min(n_chunks);
+    // the samples job j read: its chunks and the warm-up before them
+    let start = |j: usize| (range(j).start * schunk).saturating_sub(warm);
+    let done = |j: usize| release(start(j), range(j).end * schunk);
     // the first batch of scales runs while the checkpoints are built
     let w = first.len();
-    let (jobs, parts): (Vec<NearJob>, Vec<Vec<f64>>) = (0..n_jobs)
+    let single = batches.len() <= 1;
+    let dsts = loc_parts(&mut *loc, n_jobs, job_chunks * schunk);
+    let (mut jobs, parts): (Vec<NearJob>, Vec<Vec<f64>>) = dsts
         .into_par_iter()
-        .map_init(Scratch::new::<SEG_NEAR>, |scratch, j| {
+        .enumerate()
+        .map_init(Scratch::new::<SEG_NEAR>, |scratch, (j, dst)| {
             let mut job =
                 job_checkpoints(x, pivot, range(j).start * schunk, warm, job_chunks * schunk);
             let c0 = range(j).start;
@@ -1193,6 +1320,15 @@ fn stream_near(
                 job_extend(x, &mut job, (i + 1) * schunk);
                 let out = &mut parts[(i - c0) * w..(i - c0 + 1) * w];
                 chunk_run::<SEG_NEAR>(x, &job.ck, &first, i, simd, scratch, None, out);
+                // the job's later chunks read back at most `warm` samples
+                release(
+                    start(j).max((i * schunk).saturating_sub(warm)),
+                    ((i + 1) * schunk).saturating_sub(warm),
+                );
+            }
+            done(j);
+            if single {
+                job.compact(x, job_chunks * schunk, j, dst);
             }
             (job, parts)
         })
@@ -1208,7 +1344,12 @@ fn stream_near(
                     let mut parts = vec![0.0f64; range(j).len() * w];
                     for (i, out) in range(j).zip(parts.chunks_exact_mut(w)) {
                         chunk_run::<SEG_NEAR>(x, &jobs[j].ck, &batch, i, simd, scratch, None, out);
+                        release(
+                            start(j).max((i * schunk).saturating_sub(warm)),
+                            ((i + 1) * schunk).saturating_sub(warm),
+                        );
                     }
+                    done(j);
                     parts
                 })
                 .collect::<Vec<_>>()
@@ -1216,55 +1357,47 @@ fn stream_near(
         }
         combine(&parts, &batch, schunk, idx, out);
     }
+    if !single {
+        let dsts = loc_parts(loc, n_jobs, job_chunks * schunk);
+        for (j, (job, dst)) in jobs.iter_mut().zip(dsts).enumerate() {
+            job.compact(x, job_chunks * schunk, j, dst);
+        }
+    }
     jobs
 }
 
-/// The checkpoints of the whole series in one frame (origin 0, pivot-only centring), assembled
-/// from the jobs' local frames (each shifted by the compensated sum of the earlier jobs' totals;
-/// built only when `build`, i.e. for far scales), and the total Σ (x_i − pivot).
+/// The checkpoints of the whole series in one frame (origin 0, pivot-only centring), in the
+/// compact form of [`FarFrames`]: `loc` (the jobs' local even entries, filled by
+/// [`NearJob::compact`]; empty without far scales) and each job's base, the compensated sum
+/// of the earlier jobs' totals; and the total Σ (x_i − pivot).
 fn global_checkpoints(
     x: &[f64],
     pivot: f64,
-    jobs: &[NearJob],
+    jobs: Vec<NearJob>,
     job_len: usize,
-    build: bool,
+    loc: Vec<(f64, f64)>,
 ) -> (Checkpoints, f64) {
-    let t = x.len();
-    let n_blocks = t.div_ceil(G);
     let mut bases = Vec::with_capacity(jobs.len());
     let mut run = Neumaier::default();
     for (j, job) in jobs.iter().enumerate() {
         bases.push((run.hi, run.lo));
-        let g_b = ((j + 1) * job_len).min(t).div_ceil(G);
-        let (hi, lo) = job.ck.get(g_b);
+        let (hi, lo) = job.end(x, job_len, j);
         run.add(hi);
         run.add(lo);
     }
-    let mut ck = Vec::new();
-    if build {
-        ck = vec![(0.0f64, 0.0f64); n_blocks + 1];
-        let mut rest: &mut [(f64, f64)] = &mut ck;
-        let mut slices = Vec::with_capacity(jobs.len());
-        for (j, job) in jobs.iter().enumerate() {
-            let g_next = jobs.get(j + 1).map_or(n_blocks + 1, |n| n.g_a);
-            let (own, tail) = rest.split_at_mut(g_next - job.g_a);
-            slices.push((own, job, bases[j]));
-            rest = tail;
-        }
-        slices.into_par_iter().for_each(|(own, job, (bh, bl))| {
-            for (k, o) in own.iter_mut().enumerate() {
-                let (lh, ll) = job.ck.get(job.g_a + k);
-                let (h, e) = two_sum(bh, lh);
-                *o = (h, (e + bl) + ll);
-            }
-        });
-    }
+    drop(jobs);
+    let far = (!loc.is_empty()).then_some(FarFrames {
+        job_g: job_len / G,
+        bases,
+        loc,
+    });
     let ck = Checkpoints {
         pivot,
         delta: 0.0,
         mean: f64::NAN,
         g0: 0,
-        ck,
+        ck: Vec::new(),
+        far,
     };
     (ck, run.value())
 }
@@ -1381,12 +1514,17 @@ fn prefetch_next(x: &[f64], ck: &Checkpoints, a: usize, len: usize, batch: &[u64
             unsafe { _mm_prefetch::<_MM_HINT_T1>(x.as_ptr().wrapping_add(p).cast()) };
             p += 8;
         }
-        let n = ck.ck.len();
+        // the entries of g in [p, p + len) / G: every one, or every other in the compact form
+        let (entries, g0, per) = match &ck.far {
+            None => (&ck.ck, ck.g0, 1),
+            Some(f) => (&f.loc, 0, 2),
+        };
+        let n = entries.len();
         let ck_range = |p: usize| {
-            let mut g = (p / G).saturating_sub(ck.g0);
-            while g < ((p + len) / G).saturating_sub(ck.g0).min(n) {
+            let mut g = (p / G).saturating_sub(g0) / per;
+            while g < ((p + len) / G).saturating_sub(g0).div_ceil(per).min(n) {
                 // SAFETY: see above.
-                unsafe { _mm_prefetch::<_MM_HINT_T0>(ck.ck.as_ptr().wrapping_add(g).cast()) };
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(entries.as_ptr().wrapping_add(g).cast()) };
                 g += 4;
             }
         };
@@ -1409,6 +1547,7 @@ fn prefetch_next(x: &[f64], ck: &Checkpoints, a: usize, len: usize, batch: &[u64
 /// and dyadic m ≥ r, the lagged blocks a − m and a − 2m are then exactly members of the same
 /// class visited m/r and 2m/r steps earlier, still in cache (L2 for the far grid), so that
 /// each far block is read from main memory about once for all far scales.
+#[allow(clippy::too_many_arguments)]
 fn stream_group<const SEG: usize>(
     x: &[f64],
     ck: &Checkpoints,
@@ -1416,6 +1555,7 @@ fn stream_group<const SEG: usize>(
     group: &[usize],
     residue_step: usize,
     simd: Simd,
+    io: &Io<'_>,
     out: &mut [f64],
 ) {
     let schunk = NSEG * SEG;
@@ -1440,31 +1580,80 @@ fn stream_group<const SEG: usize>(
             0
         };
         // each class walks its chunks in order, writing their partials to its own buffer
+        let t = x.len();
+        // whether chunk a (the tc-th of its class) reads the lagged samples of scale m from x:
+        // all but the scales the AVX-512 walk takes from the lane ring (conservative: reading
+        // more into a window is harmless)
+        let lags_from_x = |m: usize, a: usize, tc: usize| {
+            let q = m / step;
+            !(simd == Simd::Avx512
+                && slots > 0
+                && m.is_multiple_of(step)
+                && 2 * q <= tc
+                && 2 * q < slots
+                && a >= 2 * m + 8
+                && a + schunk + 8 <= t)
+        };
         let by_class: Vec<Vec<f64>> = (0..n_cls)
             .into_par_iter()
             .map_init(
-                || Scratch::with_ring::<SEG>(slots),
-                |scratch, r| {
+                || (Scratch::with_ring::<SEG>(slots), (io.windows)()),
+                |(scratch, win), r| {
                     let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
                     let walk = (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w));
+                    if let Some(win) = win {
+                        win.rebase(r * schunk, step);
+                    }
                     for (tc, (i, out)) in walk.enumerate() {
                         scratch.ring_pos = Some((tc, step));
                         let next = (i + n_cls) * schunk;
-                        prefetch_next(x, ck, next, schunk, &batch);
-                        chunk_run::<SEG>(x, ck, &batch, i, simd, scratch, Some(next), out);
+                        let a = i * schunk;
+                        let xs: &[f64] = match win {
+                            None => x,
+                            Some(win) => {
+                                // the chunk (with the reach of the local sums before it and
+                                // of the vector tail after it), and the lagged blocks
+                                let reach = |lo: usize| (lo.saturating_sub(2 * G), lo + schunk + 8);
+                                let (lo, hi) = reach(a);
+                                win.fill(lo, hi);
+                                for &m in &batch {
+                                    let m = m as usize;
+                                    if a + schunk > m && lags_from_x(m, a, tc) {
+                                        for lag in [m, 2 * m] {
+                                            if a + schunk > lag {
+                                                let (lo, hi) = reach(a.saturating_sub(lag));
+                                                win.fill(lo, hi);
+                                            }
+                                        }
+                                    }
+                                }
+                                win.view()
+                            }
+                        };
+                        prefetch_next(xs, ck, next, schunk, &batch);
+                        chunk_run::<SEG>(xs, ck, &batch, i, simd, scratch, Some(next), out);
+                    }
+                    match win {
+                        Some(win) => win.clear(),
+                        None => {
+                            for i in (r..n_chunks).step_by(n_cls) {
+                                (io.release)(i * schunk, (i + 1) * schunk);
+                            }
+                        }
                     }
                     parts
                 },
             )
             .collect();
-        let mut parts = vec![0.0f64; n_chunks * w];
-        for (r, cls) in by_class.iter().enumerate() {
-            for (k, p) in cls.chunks_exact(w).enumerate() {
-                let i = r + k * n_cls;
-                parts[i * w..(i + 1) * w].copy_from_slice(p);
+        // as `combine`, in chunk order, read straight from the classes' buffers (chunk i is
+        // entry i / n_cls of class i mod n_cls): no second table of partials
+        for (s, (&o, &m)) in idx.iter().zip(&batch).enumerate() {
+            let mut acc = Neumaier::default();
+            for i in (2 * m as usize) / schunk..n_chunks {
+                acc.add(by_class[i % n_cls][(i / n_cls) * w + s]);
             }
+            out[o] = acc.value();
         }
-        combine(&parts, &batch, schunk, idx, out);
     }
 }
 
@@ -1482,7 +1671,7 @@ pub(crate) fn prefix_from_checkpoints(x: &[f64], ck: &Checkpoints, c: &mut Vec<f
         .enumerate()
         .for_each(|(i, (out, xs))| {
             let g = i * (PCHUNK / G);
-            let (hi, lo) = ck.get(g);
+            let (hi, lo) = ck.get(x, g);
             let mut run = Neumaier { hi, lo };
             const B: usize = 8;
             let mut io = out.chunks_exact_mut(B);
@@ -1566,7 +1755,7 @@ mod tests {
         // here), with one job per near chunk (local checkpoint frames with a warm-up of
         // 4096 samples): same sums as the buffered kernel
         let far_m = 4096;
-        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1, Simd::detect())
+        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1, Simd::detect(), &Io::NONE)
             .unwrap()
             .0;
         for ((a, b), &m) in split.iter().zip(&buffered).zip(&ms) {
@@ -1575,13 +1764,16 @@ mod tests {
         // every vector path gives the same bits as the portable one, near and far (the far
         // scales 8192 and 16 384 are whole class steps here and read the ring of lane copies)
         for (far_m, jobs) in [(FAR_M, JOB_CHUNKS), (far_m, 1)] {
-            let best = overlapping_sums_stream_split(&x, &ms, far_m, jobs, Simd::detect()).unwrap();
+            let best =
+                overlapping_sums_stream_split(&x, &ms, far_m, jobs, Simd::detect(), &Io::NONE)
+                    .unwrap();
             let mut paths = vec![Simd::None];
             if Simd::detect() != Simd::None {
                 paths.push(Simd::Avx2);
             }
             for simd in paths {
-                let p = overlapping_sums_stream_split(&x, &ms, far_m, jobs, simd).unwrap();
+                let p =
+                    overlapping_sums_stream_split(&x, &ms, far_m, jobs, simd, &Io::NONE).unwrap();
                 for ((a, b), &m) in p.0.iter().zip(&best.0).zip(&ms) {
                     assert_eq!(a.to_bits(), b.to_bits(), "far_m {far_m} {simd:?} m {m}");
                 }
@@ -1590,21 +1782,24 @@ mod tests {
         }
         // one job instead of the default grid (here four one-chunk jobs): the checkpoint frames
         // differ, the sums only by rounding
-        let one_job = overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS, Simd::detect())
-            .unwrap()
-            .0;
+        let one_job =
+            overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS, Simd::detect(), &Io::NONE)
+                .unwrap()
+                .0;
         assert_eq!(job_chunks(n), 1);
         for ((a, d), &m) in one_job.iter().zip(&streamed).zip(&ms) {
             assert!((a - d).abs() <= 1e-13 * d.abs(), "m {m}: {a} vs {d}");
         }
         // the value for m does not depend on the other requested scales
-        let single_far = overlapping_sums_stream_split(&x, &[20_000], far_m, 1, Simd::detect())
-            .unwrap()
-            .0;
+        let single_far =
+            overlapping_sums_stream_split(&x, &[20_000], far_m, 1, Simd::detect(), &Io::NONE)
+                .unwrap()
+                .0;
         assert_eq!(single_far[0].to_bits(), split[11].to_bits());
-        let single_near = overlapping_sums_stream_split(&x, &[1000], far_m, 1, Simd::detect())
-            .unwrap()
-            .0;
+        let single_near =
+            overlapping_sums_stream_split(&x, &[1000], far_m, 1, Simd::detect(), &Io::NONE)
+                .unwrap()
+                .0;
         assert_eq!(single_near[0].to_bits(), split[6].to_bits());
         let single = overlapping_sums_stream(&x, &[5000]).unwrap().0;
         assert_eq!(single[0].to_bits(), streamed[8].to_bits());
@@ -1615,7 +1810,7 @@ mod tests {
         for (a, b) in off.iter().zip(&streamed) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
-        let off_split = overlapping_sums_stream_split(&y, &ms, far_m, 1, Simd::detect())
+        let off_split = overlapping_sums_stream_split(&y, &ms, far_m, 1, Simd::detect(), &Io::NONE)
             .unwrap()
             .0;
         for (a, b) in off_split.iter().zip(&split) {
@@ -1630,7 +1825,8 @@ mod tests {
         let n = 3 * SCHUNK + 12_345;
         let x = series(n, 0.0);
         let ms: Vec<u64> = (1..=300).map(|k| 7 * k).collect();
-        let (sums, _) = overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect()).unwrap();
+        let (sums, _) =
+            overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect(), &Io::NONE).unwrap();
         let mut c = Vec::new();
         centred_prefix_into(&x, &mut c).unwrap();
         let buffered = overlapping_sums(&c, &ms);
@@ -1638,7 +1834,8 @@ mod tests {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
         }
         for k in [0, 150, 299] {
-            let one = overlapping_sums_stream_split(&x, &ms[k..=k], FAR_M, 1, Simd::detect());
+            let one =
+                overlapping_sums_stream_split(&x, &ms[k..=k], FAR_M, 1, Simd::detect(), &Io::NONE);
             assert_eq!(
                 one.unwrap().0[0].to_bits(),
                 sums[k].to_bits(),
@@ -1667,6 +1864,7 @@ mod tests {
                     4096,
                     job_chunks,
                     Simd::detect(),
+                    &Io::NONE,
                 ) {
                     Err(AvarError::NonFinite { index: i, .. }) => assert_eq!(i, index),
                     other => panic!("index {index}: {other:?}"),
@@ -1683,7 +1881,7 @@ mod tests {
             .map(|i| if i % 2 == 0 { 1.7e308 } else { -1.7e308 })
             .collect();
         assert!(matches!(
-            overlapping_sums_stream_split(&x, &[2], 4096, 1, Simd::detect()),
+            overlapping_sums_stream_split(&x, &[2], 4096, 1, Simd::detect(), &Io::NONE),
             Err(AvarError::Overflow)
         ));
     }

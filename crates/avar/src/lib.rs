@@ -18,6 +18,10 @@
 //!   samples or more without a CI are streamed instead: no series-sized buffer, only checkpoints
 //!   of the cumulative sum every 64 samples (at most about T/2 bytes); all dyadic scales of 10^8
 //!   samples take about 0.2 s on two cores.
+//! * Series that do not sit in memory: [`allan_variance_source`] reads a [`SampleSource`]
+//!   by position (a memory-mapped file in the `imunoise` crate), tells it which ranges it may
+//!   release, and reads the scattered chunks of the far scales through per-thread windows, so
+//!   that without a CI a file of any length is estimated in bounded memory, bit-identically.
 //! * A robust AV (Tukey biweight M-estimator of scale per scale, the RGMWM's robust WV):
 //!   [`robust::robust_allan_variance`].
 //! * Confidence intervals ([`CiMethod`]): chi-square with EDF (default), Gaussian from the
@@ -46,6 +50,7 @@ pub mod quality;
 mod range;
 pub mod result;
 pub mod robust;
+pub mod source;
 pub mod stability;
 
 use std::borrow::Cow;
@@ -54,6 +59,7 @@ pub use config::{AvarConfig, CiMethod, Estimator, InputKind, Scales};
 pub use error::AvarError;
 pub use haar::{HaarWaveletVariance, WvPoint, haar_wavelet_variance};
 pub use result::{AllanVariance, AvarPoint, Slope};
+pub use source::{SampleSource, SliceSource, allan_variance_source};
 
 /// Minimum number of rate samples accepted.
 pub const MIN_SAMPLES: usize = 4;

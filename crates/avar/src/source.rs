@@ -1,0 +1,365 @@
+//! Sources of samples for the streamed Allan variance ([`allan_variance_source`]).
+//!
+//! A [`SampleSource`] is a series that the estimator reads by position and whose samples need
+//! not all be resident at once: the kernel reads the samples of each near-scale job (a few
+//! tens of MB) and, for the far scales, the lagged chunks of each residue class, and tells the
+//! source through [`SampleSource::release`] when it is done with a range. A memory-mapped file
+//! (as the `imunoise` crate provides) then drops the resident pages of that range, so that the
+//! process holds a bounded window of the file instead of all of it; an in-memory slice
+//! ([`SliceSource`]) ignores the hint.
+//!
+//! This crate does no I/O: file-backed sources live in the `imunoise` crate.
+//!
+//! ```
+//! use avar::source::{allan_variance_source, SliceSource};
+//! use avar::{allan_variance, AvarConfig, CiMethod};
+//! let x: Vec<f64> = (0..5000).map(|i| ((i * 7919) % 101) as f64 * 1e-3).collect();
+//! let cfg = AvarConfig { ci: CiMethod::None, ..Default::default() };
+//! let a = allan_variance(&x, 100.0, &cfg).unwrap();
+//! let b = allan_variance_source(&SliceSource(&x), 100.0, &cfg).unwrap();
+//! assert_eq!(a, b);
+//! ```
+
+use crate::config::{AvarConfig, CiMethod, Estimator, InputKind};
+use crate::error::AvarError;
+use crate::result::AllanVariance;
+use crate::{Cumulative, check_len, finish, kernel, range, validate_rate_alpha};
+use std::borrow::Cow;
+
+/// A series of rate (or angle) samples read by position, possibly paged in on demand.
+///
+/// `samples()[k]` is sample k (0-based, any finite value, in the unit of the series); the
+/// slice must stay valid and unchanged while the source lives. Reading a position may page it
+/// in (a memory-mapped file); [`release`](SampleSource::release) is a hint that the estimator
+/// does not need the samples of a range for a while, after which a file-backed source may drop
+/// their resident pages (reading them again pages them in again). Release never changes a
+/// value, so results do not depend on it.
+///
+/// ```
+/// use avar::source::SampleSource;
+/// struct Ramp(Vec<f64>);
+/// impl SampleSource for Ramp {
+///     fn samples(&self) -> &[f64] { &self.0 }
+/// }
+/// let r = Ramp(vec![1.0, 2.0, 3.0]);
+/// assert_eq!(r.samples()[2], 3.0);
+/// r.release(0, 3); // the default does nothing
+/// ```
+pub trait SampleSource: Sync {
+    /// All samples, indexed by position.
+    fn samples(&self) -> &[f64];
+    /// The estimator is done with samples [lo, hi) for now (a hint; default: nothing).
+    fn release(&self, lo: usize, hi: usize) {
+        let _ = (lo, hi);
+    }
+    /// A private window for one thread of the far-scale walk, which reads small chunks spread
+    /// over the whole series (a file-backed source reads them into its own pages with
+    /// positioned reads, because mapping them would keep whole large page-cache folios of
+    /// the file resident); `None` (the default): the walk reads [`samples`](Self::samples).
+    fn window(&self) -> Option<Box<dyn SampleWindow + '_>> {
+        None
+    }
+}
+
+/// A position-indexed private copy of parts of a [`SampleSource`], for one thread.
+///
+/// ```
+/// use avar::source::SampleWindow;
+/// struct Copy { src: Vec<f64>, buf: Vec<f64> }
+/// impl SampleWindow for Copy {
+///     fn fill(&mut self, lo: usize, hi: usize) {
+///         let hi = hi.min(self.src.len());
+///         self.buf[lo..hi].copy_from_slice(&self.src[lo..hi]);
+///     }
+///     fn view(&self) -> &[f64] { &self.buf }
+///     fn clear(&mut self) { self.buf.iter_mut().for_each(|v| *v = 0.0) }
+/// }
+/// let mut w = Copy { src: vec![1.0, 2.0, 3.0], buf: vec![0.0; 3] };
+/// w.fill(1, 9);
+/// assert_eq!(w.view(), &[0.0, 2.0, 3.0]);
+/// ```
+pub trait SampleWindow {
+    /// Makes samples [lo, hi) (clamped to the series) readable in [`view`](Self::view).
+    fn fill(&mut self, lo: usize, hi: usize);
+    /// The window, as long as the series: `view()[k]` is sample k wherever filled since the
+    /// last [`clear`](Self::clear) (elsewhere unspecified).
+    fn view(&self) -> &[f64];
+    /// Forgets what was filled.
+    fn clear(&mut self);
+    /// Starts a walk whose chunks lie at `origin` + multiples of `period` (samples): what was
+    /// filled before is forgotten, and the window may place the samples anew (a file-backed
+    /// window maps the walk's chunks onto the pages of the previous walk, so that no page is
+    /// faulted in twice). Default: [`clear`](Self::clear).
+    fn rebase(&mut self, origin: usize, period: usize) {
+        let _ = (origin, period);
+        self.clear();
+    }
+}
+
+/// An in-memory slice as a [`SampleSource`] (release is a no-op).
+///
+/// ```
+/// use avar::source::{SampleSource, SliceSource};
+/// let v = [1.0, 2.0];
+/// assert_eq!(SliceSource(&v).samples().len(), 2);
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct SliceSource<'a>(pub &'a [f64]);
+
+impl SampleSource for SliceSource<'_> {
+    fn samples(&self) -> &[f64] {
+        self.0
+    }
+}
+
+/// Whether [`allan_variance_source`] streams a series of `t` samples with `config` (holding
+/// no series-sized buffer, releasing the source's pages as it goes), rather than running the
+/// in-memory estimator on the source's samples: rate input, the overlapping estimator, no
+/// confidence interval, and at least 2^22 samples (below that the buffered kernel is faster
+/// and its buffer small).
+///
+/// ```
+/// use avar::{AvarConfig, CiMethod};
+/// use avar::source::streams;
+/// let no_ci = AvarConfig { ci: CiMethod::None, ..Default::default() };
+/// assert!(streams(1 << 22, &no_ci));
+/// assert!(!streams(1 << 22, &AvarConfig::default())); // a chi-square CI needs the prefix
+/// ```
+pub fn streams(t: usize, config: &AvarConfig) -> bool {
+    matches!(config.input, InputKind::Rate)
+        && matches!(config.estimator, Estimator::Overlapping)
+        && matches!(config.ci, CiMethod::None)
+        && t >= kernel::STREAM_MIN_T
+}
+
+/// The Allan variance of the samples of `source`, bit-identical to [`crate::allan_variance`]
+/// on the same samples (same rate in Hz, same configuration) for any thread count.
+///
+/// When [`streams`] holds, the estimate is streamed: memory beyond the source is the
+/// checkpoints of the cumulative sum (16 bytes per 128 samples once the near scales are done,
+/// a few MiB per thread before) and per-thread chunk buffers and windows, and the source is
+/// told which ranges it may release (a memory-mapped file then keeps a bounded window
+/// resident). Otherwise the in-memory estimator runs on `source.samples()`
+/// (with a confidence interval it allocates the series-sized cumulative sum, 8 bytes per
+/// sample). Series of extreme magnitude whose AV would leave the range of f64 are estimated
+/// on a rescaled in-memory copy, as by [`crate::allan_variance`].
+///
+/// ```
+/// use avar::source::{allan_variance_source, SliceSource};
+/// use avar::{AvarConfig, CiMethod, Scales};
+/// let x = [0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0];
+/// let cfg = AvarConfig { scales: Scales::Explicit(vec![1]), ci: CiMethod::None, ..Default::default() };
+/// let av = allan_variance_source(&SliceSource(&x), 1.0, &cfg).unwrap();
+/// assert_eq!(av.points[0].avar, 0.5);
+/// ```
+pub fn allan_variance_source<S: SampleSource + ?Sized>(
+    source: &S,
+    rate_hz: f64,
+    config: &AvarConfig,
+) -> Result<AllanVariance, AvarError> {
+    let data = source.samples();
+    if !streams(data.len(), config) {
+        return crate::allan_variance(data, rate_hz, config);
+    }
+    validate_rate_alpha(rate_hz, config.alpha)?;
+    let release = |lo: usize, hi: usize| source.release(lo, hi);
+    let windows = || source.window();
+    let io = kernel::Io {
+        release: &release,
+        windows: &windows,
+    };
+    let first = streamed(data, rate_hz, config, &io);
+    if !range::suspicious(first.as_ref().map(|a| &a.points[..])) {
+        return first;
+    }
+    // as allan_variance_with: magnitudes out of the ordinary go through a rescaled copy
+    let Some(e) = range::rescale_exponent(data) else {
+        return first;
+    };
+    let scaled = range::scaled_copy(data, e);
+    let mut av = streamed(&scaled, rate_hz, config, &kernel::Io::NONE)?;
+    av.mean = range::ldexp(av.mean, e);
+    range::scale_back(&mut av.points, e)?;
+    Ok(av)
+}
+
+/// The streamed no-CI estimate of `allan_variance_streamed`, releasing as it goes.
+fn streamed(
+    data: &[f64],
+    rate_hz: f64,
+    config: &AvarConfig,
+    io: &kernel::Io<'_>,
+) -> Result<AllanVariance, AvarError> {
+    check_len(data.len(), data.len())?;
+    let t = data.len();
+    let ms = config.scales.cluster_sizes(t)?;
+    let (sums, mean) = kernel::overlapping_sums_stream_io(data, &ms, io)?;
+    let cum = Cumulative {
+        c: Cow::Borrowed(&[]),
+        factor: 1.0,
+        mean,
+        t,
+    };
+    finish(cum, rate_hz, config, &ms, &sums)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Scales;
+    use std::sync::Mutex;
+
+    /// A slice source that records the released ranges.
+    struct Recording<'a> {
+        x: &'a [f64],
+        released: Mutex<Vec<(usize, usize)>>,
+    }
+
+    impl SampleSource for Recording<'_> {
+        fn samples(&self) -> &[f64] {
+            self.x
+        }
+        fn release(&self, lo: usize, hi: usize) {
+            self.released.lock().unwrap().push((lo, hi));
+        }
+    }
+
+    fn series(n: usize) -> Vec<f64> {
+        let mut s = 0x2545_F491_4F6C_DD1Du64;
+        let mut walk = 0.0;
+        (0..n)
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                walk += 1e-3 * u;
+                2.5 + u + walk
+            })
+            .collect()
+    }
+
+    /// The streamed source path gives exactly the in-memory result (both thread counts), and
+    /// it releases every sample it read: the released ranges cover [0, T).
+    #[test]
+    fn source_matches_in_memory_and_releases_everything() {
+        let n = (1 << 22) + 54_321;
+        let x = series(n);
+        let cfg = AvarConfig {
+            ci: CiMethod::None,
+            scales: Scales::Dyadic,
+            ..Default::default()
+        };
+        let mem = crate::allan_variance(&x, 200.0, &cfg).unwrap();
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let src = Recording {
+                x: &x,
+                released: Mutex::new(Vec::new()),
+            };
+            let av = pool
+                .install(|| allan_variance_source(&src, 200.0, &cfg))
+                .unwrap();
+            assert_eq!(av, mem, "threads {threads}");
+            let mut r = src.released.into_inner().unwrap();
+            r.sort_unstable();
+            let mut covered = 0;
+            for (lo, hi) in r {
+                assert!(lo <= covered, "gap before {lo}");
+                covered = covered.max(hi);
+            }
+            assert!(covered >= n);
+        }
+    }
+
+    /// A window that holds NaN wherever it was not filled since the last clear: any read
+    /// the far walk does not announce poisons the sums.
+    struct Poisoned<'a> {
+        x: &'a [f64],
+        buf: Vec<f64>,
+        filled: Vec<(usize, usize)>,
+    }
+
+    impl SampleWindow for Poisoned<'_> {
+        fn fill(&mut self, lo: usize, hi: usize) {
+            let hi = hi.min(self.x.len());
+            if lo < hi {
+                self.buf[lo..hi].copy_from_slice(&self.x[lo..hi]);
+                self.filled.push((lo, hi));
+            }
+        }
+        fn view(&self) -> &[f64] {
+            &self.buf
+        }
+        fn clear(&mut self) {
+            for (lo, hi) in self.filled.drain(..) {
+                self.buf[lo..hi].fill(f64::NAN);
+            }
+        }
+    }
+
+    struct WindowedSource<'a>(&'a [f64]);
+
+    impl SampleSource for WindowedSource<'_> {
+        fn samples(&self) -> &[f64] {
+            self.0
+        }
+        fn window(&self) -> Option<Box<dyn SampleWindow + '_>> {
+            Some(Box::new(Poisoned {
+                x: self.0,
+                buf: vec![f64::NAN; self.0.len()],
+                filled: Vec::new(),
+            }))
+        }
+    }
+
+    /// The far walk through (poisoned) windows: every sample it reads was filled, and the
+    /// result is the in-memory one bit for bit, for dyadic and odd far scales and both thread
+    /// counts.
+    #[test]
+    fn windows_are_filled_where_read() {
+        let n = (1 << 23) + 4321;
+        let x = series(n);
+        for scales in [
+            Scales::Dyadic,
+            Scales::Explicit(vec![5, 600_001, 1 << 20, 1_500_000, 3 << 20, 4_000_000]),
+        ] {
+            let cfg = AvarConfig {
+                ci: CiMethod::None,
+                scales,
+                ..Default::default()
+            };
+            let mem = crate::allan_variance(&x, 1.0, &cfg).unwrap();
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let av = pool
+                    .install(|| allan_variance_source(&WindowedSource(&x), 1.0, &cfg))
+                    .unwrap();
+                assert_eq!(av, mem, "threads {threads}");
+            }
+        }
+    }
+
+    /// Scales with both near and far members, and a CI (the in-memory fallback): identical.
+    #[test]
+    fn explicit_scales_and_ci_match() {
+        let n = (1 << 22) + 7;
+        let x = series(n);
+        for ci in [CiMethod::None, CiMethod::ChiSquare] {
+            let cfg = AvarConfig {
+                ci,
+                scales: Scales::Explicit(vec![1, 3, 1000, 70_000, 600_001, 1 << 20, 2_000_000]),
+                ..Default::default()
+            };
+            let mem = crate::allan_variance(&x, 1.0, &cfg).unwrap();
+            let src = allan_variance_source(&SliceSource(&x), 1.0, &cfg).unwrap();
+            assert_eq!(src, mem);
+        }
+    }
+}

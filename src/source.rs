@@ -1,0 +1,766 @@
+//! File-backed sample sources for the streamed Allan variance ([`avar::SampleSource`]).
+//!
+//! * A raw little-endian f64 file of one channel (no scale, read as is) is memory-mapped and
+//!   used in place ([`MappedSamples::map_f64`]): the estimator reads it by position and
+//!   releases the pages of every range it is done with (`madvise(MADV_DONTNEED)`), so the
+//!   process keeps a bounded window of the file resident, whatever its size.
+//! * Any other raw binary layout (f32, i16, i32; several interleaved channels; a row stride
+//!   with padding or a header; a scale factor), gzip-compressed binary, and standard input or
+//!   a pipe (which cannot seek) are decoded once, in one pass over the input, into one compact
+//!   f64 copy per channel ([`decode_binary`]): in anonymous memory when all the copies fit in a
+//!   quarter of the memory available (8 bytes per sample and channel resident, no disk
+//!   writes), otherwise in temporary files (in the system's temporary directory, deleted when
+//!   the source is dropped; the same 8 bytes per sample and channel of disk space), mapped as
+//!   above. Gzip, standard input and pipes always go to temporary files, read sequentially in
+//!   bounded memory. Every channel of an interleaved file comes out of the same single pass.
+//!
+//! The values are those the in-memory reader ([`crate::io`]) produces, bit for bit (the same
+//! conversion and the same multiplication by the scale), so the Allan variance is identical.
+
+use crate::error::{Error, Result};
+use crate::io::BinaryType;
+use avar::SampleSource;
+use std::io::{Read, Write};
+use std::path::Path;
+
+/// The layout of a raw binary file: element type, channels per row, row stride and header.
+///
+/// ```
+/// use imunoise::io::BinaryType;
+/// use imunoise::source::BinaryLayout;
+/// let l = BinaryLayout::new(BinaryType::I16, 6);
+/// assert_eq!(l.row_bytes(), 12);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BinaryLayout {
+    /// Element type (little-endian).
+    pub kind: BinaryType,
+    /// Values per row (≥ 1).
+    pub channels: usize,
+    /// Bytes from one row to the next; `None`: `channels × kind.size()` (no padding).
+    pub stride: Option<usize>,
+    /// Bytes skipped at the start of the file.
+    pub header: usize,
+    /// Factor every value is multiplied by (e.g. counts → °/s); `None`: 1.
+    pub scale: Option<f64>,
+}
+
+impl BinaryLayout {
+    /// `channels` values of type `kind` per row, no padding, no header, no scale.
+    pub fn new(kind: BinaryType, channels: usize) -> Self {
+        BinaryLayout {
+            kind,
+            channels,
+            stride: None,
+            header: 0,
+            scale: None,
+        }
+    }
+
+    /// Bytes per row.
+    pub fn row_bytes(&self) -> usize {
+        self.stride.unwrap_or(self.channels * self.kind.size())
+    }
+
+    fn check(&self) -> Result<()> {
+        if self.channels == 0 {
+            return Err(Error::Usage("--channels must be at least 1".to_string()));
+        }
+        if self.row_bytes() < self.channels * self.kind.size() {
+            return Err(Error::Usage(format!(
+                "a row stride of {} bytes cannot hold {} values of {} bytes",
+                self.row_bytes(),
+                self.channels,
+                self.kind.size()
+            )));
+        }
+        if let Some(s) = self.scale
+            && !(s.is_finite() && s != 0.0)
+        {
+            return Err(Error::Usage(format!(
+                "--scale must be finite and non-zero, got {s}"
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A memory-mapped file of little-endian f64 samples used in place as a [`SampleSource`]
+/// (the map starts at `offset` bytes and holds `len` samples); released ranges drop their
+/// resident pages. When it maps a temporary file, the file is deleted on drop.
+pub struct MappedSamples {
+    backing: Backing,
+    offset: usize,
+    len: usize,
+    page: usize,
+}
+
+/// Where the samples of a [`MappedSamples`] live.
+enum Backing {
+    /// A read-only map of a file (the input, or a temporary decoded copy), and the file.
+    File(memmap2::Mmap, std::fs::File),
+    /// Anonymous memory holding a decoded copy (never released: it is the only copy).
+    Anon(memmap2::MmapMut),
+}
+
+impl Backing {
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Backing::File(m, _) => m,
+            Backing::Anon(m) => m,
+        }
+    }
+}
+
+impl std::fmt::Debug for MappedSamples {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MappedSamples")
+            .field("len", &self.len)
+            .finish()
+    }
+}
+
+impl MappedSamples {
+    /// Maps `file` (a regular file holding one channel of raw little-endian f64 after
+    /// `header` bytes, a multiple of 8) for use in place. `name` is used in messages.
+    ///
+    /// ```
+    /// use avar::SampleSource;
+    /// let dir = tempfile::tempdir().unwrap();
+    /// let p = dir.path().join("x.f64");
+    /// let bytes: Vec<u8> = [1.5f64, -2.0, 4.0].iter().flat_map(|v| v.to_le_bytes()).collect();
+    /// std::fs::write(&p, bytes).unwrap();
+    /// let s = imunoise::source::MappedSamples::map_f64(&p, "x.f64", 0).unwrap();
+    /// assert_eq!(s.samples(), &[1.5, -2.0, 4.0]);
+    /// ```
+    pub fn map_f64(file: &Path, name: &str, header: usize) -> Result<MappedSamples> {
+        let f = std::fs::File::open(file).map_err(|e| Error::io(name, e))?;
+        Self::from_file(&f, name, header)
+    }
+
+    fn from_file(f: &std::fs::File, name: &str, header: usize) -> Result<MappedSamples> {
+        if cfg!(target_endian = "big") || !header.is_multiple_of(8) {
+            return Err(Error::Usage(format!(
+                "{name}: cannot map f64 samples in place (header {header} bytes)"
+            )));
+        }
+        let size = f.metadata().map_err(|e| Error::io(name, e))?.len() as usize;
+        let body = size.saturating_sub(header);
+        if body == 0 {
+            return Err(Error::File {
+                file: name.to_string(),
+                message: "the file is empty".to_string(),
+            });
+        }
+        if !body.is_multiple_of(8) {
+            return Err(whole_rows(name, body, 1, 8));
+        }
+        // SAFETY: the map is read-only and private to this process; as with any mmap, the
+        // file must not be truncated by another process while it is read (documented in the
+        // command's help). Temporary files are ours alone.
+        let map = unsafe { memmap2::Mmap::map(f) }.map_err(|e| Error::io(name, e))?;
+        Ok(MappedSamples {
+            backing: Backing::File(map, f.try_clone().map_err(|e| Error::io(name, e))?),
+            offset: header,
+            len: body / 8,
+            page: page_size(),
+        })
+    }
+}
+
+impl SampleSource for MappedSamples {
+    fn samples(&self) -> &[f64] {
+        let bytes = &self.backing.bytes()[self.offset..self.offset + 8 * self.len];
+        // SAFETY: the map is page-aligned and `offset` a multiple of 8, so the pointer is
+        // aligned for f64; the range is inside the map; every bit pattern is a valid f64; the
+        // map is read-only and lives as long as `self`.
+        unsafe { std::slice::from_raw_parts(bytes.as_ptr().cast::<f64>(), self.len) }
+    }
+
+    fn release(&self, lo: usize, hi: usize) {
+        let Backing::File(map, _) = &self.backing else {
+            return;
+        };
+        // the whole pages inside the byte range of [lo, hi)
+        let a = (self.offset + 8 * lo.min(self.len)).next_multiple_of(self.page);
+        let b = (self.offset + 8 * hi.min(self.len)) / self.page * self.page;
+        if a < b {
+            // SAFETY: MADV_DONTNEED on a read-only private file mapping that was never written
+            // drops the page-table entries only; the next read maps the same file contents
+            // again (from the page cache or the disk), so no value changes. Errors are
+            // ignored: release is a hint.
+            let _ =
+                unsafe { map.unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, a, b - a) };
+        }
+    }
+
+    fn window(&self) -> Option<Box<dyn avar::source::SampleWindow + '_>> {
+        let Backing::File(_, file) = &self.backing else {
+            return None;
+        };
+        // room for a shift of up to one class step of the far walk (2^20 samples)
+        let period = 1 << 20;
+        // address space only (MAP_NORESERVE): pages exist where filled
+        let buf = memmap2::MmapOptions::new()
+            .len(8 * (self.len + period))
+            .no_reserve_swap()
+            .map_anon()
+            .ok()?;
+        Some(Box::new(PreadWindow {
+            src: self,
+            file,
+            buf,
+            base: 0,
+            period,
+        }))
+    }
+}
+
+/// The far walk's window on a [`MappedSamples`]: an anonymous private mapping as long as the
+/// series (address space only: pages exist where filled), filled with positioned reads
+/// (`pread`) of the file and emptied with `madvise(MADV_DONTNEED)`. Mapping the file for these
+/// scattered 16 KiB chunks would instead map whole page-cache folios (up to 2 MiB each on
+/// current kernels) and keep a large part of the file resident.
+///
+/// The window is 8·(T + period) bytes of address space, and the view starts `base` bytes into
+/// it, chosen at each [`rebase`](avar::source::SampleWindow::rebase) so that the chunks of
+/// every residue class land on the same pages: the walk faults its pages in once per window
+/// and then only copies into them (a few MiB per thread at 10^9 samples).
+struct PreadWindow<'a> {
+    src: &'a MappedSamples,
+    file: &'a std::fs::File,
+    buf: memmap2::MmapMut,
+    base: usize,
+    period: usize,
+}
+
+impl avar::source::SampleWindow for PreadWindow<'_> {
+    fn fill(&mut self, lo: usize, hi: usize) {
+        use std::os::unix::fs::FileExt;
+        let hi = hi.min(self.src.len);
+        if lo >= hi {
+            return;
+        }
+        let (a, b) = (8 * lo, 8 * hi);
+        let dst = &mut self.buf[self.base + a..self.base + b];
+        if self
+            .file
+            .read_exact_at(dst, (self.src.offset + a) as u64)
+            .is_err()
+        {
+            // a failed read: copy from the map instead (the same bytes)
+            dst.copy_from_slice(
+                &self.src.backing.bytes()[self.src.offset + a..self.src.offset + b],
+            );
+        }
+    }
+
+    fn view(&self) -> &[f64] {
+        let v = &self.buf[self.base..self.base + 8 * self.src.len];
+        // SAFETY: `base` is a multiple of 8 in a page-aligned map, so the pointer is aligned
+        // for f64; the range is inside the map, which lives as long as `self`; every bit
+        // pattern is a valid f64.
+        unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), self.src.len) }
+    }
+
+    fn clear(&mut self) {}
+
+    fn rebase(&mut self, origin: usize, period: usize) {
+        // sample origin + j·period then sits at byte 8·period·(j + 1) whatever the origin
+        if period <= self.period {
+            self.base = 8 * (period - origin % period);
+        }
+    }
+}
+
+fn page_size() -> usize {
+    // SAFETY: sysconf has no preconditions.
+    let p = unsafe { libc::sysconf(libc::_SC_PAGESIZE) };
+    if p > 0 { p as usize } else { 4096 }
+}
+
+fn whole_rows(name: &str, len: usize, channels: usize, size: usize) -> Error {
+    let row = channels * size;
+    Error::File {
+        file: name.to_string(),
+        message: format!(
+            "size {len} bytes is not a whole number of rows of {channels} × {size} bytes \
+             ({} bytes left over): wrong --binary type or --channels?",
+            len % row
+        ),
+    }
+}
+
+/// Whether `file` holds gzip data: it starts with the gzip magic bytes and its first byte
+/// decompresses (raw samples can begin with the magic bytes by chance: f64 1.19e117 does;
+/// they are then read raw, as by [`crate::io::read_bytes`]).
+fn is_gzip(file: &Path) -> bool {
+    let mut head = [0u8; 2];
+    let magic = std::fs::File::open(file)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok_and(|()| head == [0x1f, 0x8b]);
+    magic
+        && std::fs::File::open(file).is_ok_and(|f| {
+            let mut one = [0u8; 1];
+            flate2::read::MultiGzDecoder::new(std::io::BufReader::new(f))
+                .read(&mut one)
+                .is_ok()
+        })
+}
+
+/// Whether `file` is a regular file (not standard input `-`, a pipe or a FIFO).
+fn is_regular(file: &Path) -> bool {
+    file.as_os_str() != "-" && std::fs::metadata(file).is_ok_and(|m| m.is_file())
+}
+
+/// Opens the raw binary `file` laid out as `layout` as one [`SampleSource`] per channel of
+/// `channels` (0-based; all channels when empty), in that order. A single f64 channel without
+/// scale in a regular uncompressed file is mapped in place; everything else (other types,
+/// several channels, a stride, a scale, gzip, standard input `-` or a pipe) is decoded once, in
+/// one sequential pass, into compact temporary f64 files (see the module docs). `name` is used
+/// in messages. Errors like [`crate::io::parse_binary`]: a file that is not a whole number of
+/// rows, an empty file, and a non-finite value (naming its row and channel).
+///
+/// ```
+/// use avar::SampleSource;
+/// use imunoise::io::BinaryType;
+/// use imunoise::source::{decode_binary, BinaryLayout};
+/// let dir = tempfile::tempdir().unwrap();
+/// let p = dir.path().join("x.i16");
+/// let bytes: Vec<u8> = [1i16, 10, 2, 20, 3, 30].iter().flat_map(|v| v.to_le_bytes()).collect();
+/// std::fs::write(&p, bytes).unwrap();
+/// let layout = BinaryLayout { scale: Some(0.5), ..BinaryLayout::new(BinaryType::I16, 2) };
+/// let s = decode_binary(&p, "x.i16", &layout, &[]).unwrap();
+/// assert_eq!(s[0].samples(), &[0.5, 1.0, 1.5]);
+/// assert_eq!(s[1].samples(), &[5.0, 10.0, 15.0]);
+/// ```
+pub fn decode_binary(
+    file: &Path,
+    name: &str,
+    layout: &BinaryLayout,
+    channels: &[usize],
+) -> Result<Vec<MappedSamples>> {
+    layout.check()?;
+    let all: Vec<usize> = (0..layout.channels).collect();
+    let channels = if channels.is_empty() { &all } else { channels };
+    if let Some(&c) = channels.iter().find(|&&c| c >= layout.channels) {
+        return Err(Error::Usage(format!(
+            "--columns: column {} does not exist (the file has {} columns)",
+            c + 1,
+            layout.channels
+        )));
+    }
+    let in_place = layout.kind == BinaryType::F64
+        && layout.channels == 1
+        && layout.stride.is_none_or(|s| s == 8)
+        && layout.scale.is_none_or(|s| s == 1.0)
+        && layout.header.is_multiple_of(8)
+        && cfg!(target_endian = "little")
+        && is_regular(file)
+        && !is_gzip(file);
+    if in_place {
+        return Ok(vec![MappedSamples::map_f64(file, name, layout.header)?]);
+    }
+    if is_regular(file) && !is_gzip(file) {
+        return decode_file(file, name, layout, channels);
+    }
+    let reader: Box<dyn Read> = if file.as_os_str() == "-" {
+        Box::new(std::io::stdin().lock())
+    } else {
+        let f = std::fs::File::open(file).map_err(|e| Error::io(name, e))?;
+        if is_regular(file) && is_gzip(file) {
+            Box::new(flate2::read::MultiGzDecoder::new(std::io::BufReader::new(
+                f,
+            )))
+        } else {
+            Box::new(f)
+        }
+    };
+    decode_stream(reader, name, layout, channels)
+}
+
+/// The single decoding pass of [`decode_binary`]: rows in blocks of about 4 MiB, each selected
+/// channel converted, scaled, checked and appended to its temporary file.
+fn decode_stream(
+    mut reader: Box<dyn Read>,
+    name: &str,
+    layout: &BinaryLayout,
+    channels: &[usize],
+) -> Result<Vec<MappedSamples>> {
+    let tmp_err = |e: std::io::Error| Error::File {
+        file: name.to_string(),
+        message: format!("cannot write the temporary decoded copy: {e}"),
+    };
+    let row = layout.row_bytes();
+    let size = layout.kind.size();
+    let scale = layout.scale.unwrap_or(1.0);
+    let mut files = Vec::with_capacity(channels.len());
+    for _ in channels {
+        files.push(tempfile::tempfile().map_err(tmp_err)?);
+    }
+    // skip the header
+    let mut skipped = 0usize;
+    let mut sink = [0u8; 4096];
+    while skipped < layout.header {
+        let want = (layout.header - skipped).min(sink.len());
+        let got = read_full(&mut reader, &mut sink[..want]).map_err(|e| Error::io(name, e))?;
+        if got == 0 {
+            break;
+        }
+        skipped += got;
+    }
+    let rows_per_block = ((4 << 20) / row).max(1);
+    let mut buf = vec![0u8; rows_per_block * row];
+    let mut outs: Vec<Vec<u8>> = channels
+        .iter()
+        .map(|_| Vec::with_capacity(rows_per_block * 8))
+        .collect();
+    let mut rows = 0usize;
+    let mut total = 0usize;
+    loop {
+        let got = read_full(&mut reader, &mut buf).map_err(|e| Error::io(name, e))?;
+        total += got;
+        let whole = got / row;
+        for (o, &c) in outs.iter_mut().zip(channels) {
+            o.clear();
+            for r in 0..whole {
+                let at = r * row + c * size;
+                let v = read_value(layout.kind, &buf[at..at + size]);
+                let v = if layout.scale.is_some() { v * scale } else { v };
+                if !v.is_finite() {
+                    return Err(Error::Located {
+                        file: name.to_string(),
+                        line: rows + r + 1,
+                        column: c + 1,
+                        message: format!(
+                            "{v} in row {} channel {}: values must be finite",
+                            rows + r + 1,
+                            c + 1
+                        ),
+                    });
+                }
+                o.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        for (f, o) in files.iter_mut().zip(&outs) {
+            f.write_all(o).map_err(tmp_err)?;
+        }
+        rows += whole;
+        if got < buf.len() {
+            if got % row != 0 {
+                return Err(whole_rows(name, total, layout.channels, size));
+            }
+            break;
+        }
+    }
+    if rows == 0 {
+        return Err(Error::File {
+            file: name.to_string(),
+            message: "the file is empty".to_string(),
+        });
+    }
+    files
+        .iter()
+        .map(|f| MappedSamples::from_file(f, name, 0))
+        .collect()
+}
+
+/// The decoding pass of [`decode_binary`] for a regular uncompressed file: blocks of rows
+/// read with positioned reads and decoded in parallel (rayon), each channel's values written
+/// at their place in its temporary file; a non-finite value of the first block that holds
+/// one is reported.
+fn decode_file(
+    file: &Path,
+    name: &str,
+    layout: &BinaryLayout,
+    channels: &[usize],
+) -> Result<Vec<MappedSamples>> {
+    use rayon::prelude::*;
+    use std::os::unix::fs::FileExt;
+    let tmp_err = |e: std::io::Error| Error::File {
+        file: name.to_string(),
+        message: format!("cannot write the temporary decoded copy: {e}"),
+    };
+    let f = std::fs::File::open(file).map_err(|e| Error::io(name, e))?;
+    let size = f.metadata().map_err(|e| Error::io(name, e))?.len() as usize;
+    let body = size.saturating_sub(layout.header);
+    let row = layout.row_bytes();
+    let kind = layout.kind;
+    if body == 0 {
+        return Err(Error::File {
+            file: name.to_string(),
+            message: "the file is empty".to_string(),
+        });
+    }
+    if !body.is_multiple_of(row) {
+        return Err(whole_rows(name, body, layout.channels, kind.size()));
+    }
+    let rows = body / row;
+    // blocks of about 1 MiB of input, which stay in cache while every channel is taken out
+    let per_block = ((1 << 20) / row).max(1);
+    if 8 * rows * channels.len() <= memory_budget() {
+        return decode_to_memory(&f, name, layout, channels, rows, per_block);
+    }
+    let mut files = Vec::with_capacity(channels.len());
+    for _ in channels {
+        let t = tempfile::tempfile().map_err(tmp_err)?;
+        t.set_len(8 * rows as u64).map_err(tmp_err)?;
+        files.push(t);
+    }
+    let blocks = rows.div_ceil(per_block);
+    let results: Vec<Result<()>> = (0..blocks)
+        .into_par_iter()
+        .map_init(
+            || (Vec::new(), Vec::new()),
+            |(inb, outb): &mut (Vec<u8>, Vec<u8>), b| {
+                let r0 = b * per_block;
+                let k = per_block.min(rows - r0);
+                inb.resize(k * row, 0);
+                f.read_exact_at(inb, (layout.header + r0 * row) as u64)
+                    .map_err(|e| Error::io(name, e))?;
+                for (t, &c) in files.iter().zip(channels) {
+                    outb.clear();
+                    for r in 0..k {
+                        let at = r * row + c * kind.size();
+                        let v = read_value(kind, &inb[at..at + kind.size()]);
+                        let v = match layout.scale {
+                            Some(s) => v * s,
+                            None => v,
+                        };
+                        if !v.is_finite() {
+                            return Err(Error::Located {
+                                file: name.to_string(),
+                                line: r0 + r + 1,
+                                column: c + 1,
+                                message: format!(
+                                    "{v} in row {} channel {}: values must be finite",
+                                    r0 + r + 1,
+                                    c + 1
+                                ),
+                            });
+                        }
+                        outb.extend_from_slice(&v.to_le_bytes());
+                    }
+                    t.write_all_at(outb, 8 * r0 as u64).map_err(tmp_err)?;
+                }
+                Ok(())
+            },
+        )
+        .collect();
+    results.into_iter().collect::<Result<()>>()?;
+    files
+        .iter()
+        .map(|t| MappedSamples::from_file(t, name, 0))
+        .collect()
+}
+
+/// Bytes of decoded samples [`decode_binary`] keeps in memory rather than in temporary files:
+/// a quarter of the memory available when the input is opened (`MemAvailable`), so that
+/// several channels are decoded without writing gigabytes to the disk while there is room.
+fn memory_budget() -> usize {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|v| v.parse::<usize>().ok())
+        })
+        .map_or(0, |kib| kib * 1024 / 4)
+}
+
+/// One block of rows of `inb` (starting at row `r0`): channel `c` decoded into `out`.
+fn decode_block(
+    inb: &[u8],
+    r0: usize,
+    name: &str,
+    layout: &BinaryLayout,
+    c: usize,
+    out: &mut [u8],
+) -> Result<()> {
+    let (row, size) = (layout.row_bytes(), layout.kind.size());
+    for (r, o) in out.chunks_exact_mut(8).enumerate() {
+        let at = r * row + c * size;
+        let v = read_value(layout.kind, &inb[at..at + size]);
+        let v = match layout.scale {
+            Some(s) => v * s,
+            None => v,
+        };
+        if !v.is_finite() {
+            return Err(Error::Located {
+                file: name.to_string(),
+                line: r0 + r + 1,
+                column: c + 1,
+                message: format!(
+                    "{v} in row {} channel {}: values must be finite",
+                    r0 + r + 1,
+                    c + 1
+                ),
+            });
+        }
+        o.copy_from_slice(&v.to_le_bytes());
+    }
+    Ok(())
+}
+
+/// [`decode_file`] into anonymous memory (when it fits in [`memory_budget`]).
+fn decode_to_memory(
+    f: &std::fs::File,
+    name: &str,
+    layout: &BinaryLayout,
+    channels: &[usize],
+    rows: usize,
+    per_block: usize,
+) -> Result<Vec<MappedSamples>> {
+    use rayon::prelude::*;
+    use std::os::unix::fs::FileExt;
+    let row = layout.row_bytes();
+    let mut maps = Vec::with_capacity(channels.len());
+    for _ in channels {
+        maps.push(memmap2::MmapMut::map_anon(8 * rows).map_err(|e| Error::io(name, e))?);
+    }
+    // per block, its slice of every channel's map
+    let mut per: Vec<Vec<&mut [u8]>> = Vec::new();
+    let mut its: Vec<_> = maps
+        .iter_mut()
+        .map(|m| m.chunks_mut(8 * per_block))
+        .collect();
+    loop {
+        let blk: Vec<&mut [u8]> = its.iter_mut().filter_map(Iterator::next).collect();
+        if blk.is_empty() {
+            break;
+        }
+        per.push(blk);
+    }
+    drop(its);
+    let results: Vec<Result<()>> = per
+        .into_par_iter()
+        .enumerate()
+        .map_init(Vec::new, |inb: &mut Vec<u8>, (b, outs)| {
+            let r0 = b * per_block;
+            let k = per_block.min(rows - r0);
+            inb.resize(k * row, 0);
+            f.read_exact_at(inb, (layout.header + r0 * row) as u64)
+                .map_err(|e| Error::io(name, e))?;
+            for (out, &c) in outs.into_iter().zip(channels) {
+                decode_block(inb, r0, name, layout, c, out)?;
+            }
+            Ok(())
+        })
+        .collect();
+    results.into_iter().collect::<Result<()>>()?;
+    Ok(maps
+        .into_iter()
+        .map(|m| MappedSamples {
+            backing: Backing::Anon(m),
+            offset: 0,
+            len: rows,
+            page: page_size(),
+        })
+        .collect())
+}
+
+/// Reads until `buf` is full or the input ends; returns the bytes read.
+fn read_full(r: &mut dyn Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
+}
+
+/// One little-endian value of type `kind` from exactly `kind.size()` bytes (as
+/// [`crate::io::parse_binary`] converts it).
+fn read_value(kind: BinaryType, b: &[u8]) -> f64 {
+    match kind {
+        BinaryType::F64 => f64::from_le_bytes(b.try_into().expect("8 bytes")),
+        BinaryType::F32 => f32::from_le_bytes(b.try_into().expect("4 bytes")) as f64,
+        BinaryType::I16 => i16::from_le_bytes(b.try_into().expect("2 bytes")) as f64,
+        BinaryType::I32 => i32::from_le_bytes(b.try_into().expect("4 bytes")) as f64,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, bytes: &[u8]) -> std::path::PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    }
+
+    #[test]
+    fn decoding_matches_the_in_memory_reader() {
+        let dir = tempfile::tempdir().unwrap();
+        let vals: Vec<i32> = (0..3000).map(|i| (i * 7919) % 2001 - 1000).collect();
+        let bytes: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let p = write(dir.path(), "x.i32", &bytes);
+        let layout = BinaryLayout {
+            scale: Some(1.0 / 131.0),
+            ..BinaryLayout::new(BinaryType::I32, 3)
+        };
+        let s = decode_binary(&p, "x.i32", &layout, &[2, 0]).unwrap();
+        let t = crate::io::parse_binary(&bytes, "x.i32", BinaryType::I32, 3).unwrap();
+        let scaled =
+            |c: usize| -> Vec<f64> { t.columns[c].iter().map(|v| v * (1.0 / 131.0)).collect() };
+        assert_eq!(s[0].samples(), &scaled(2)[..]);
+        assert_eq!(s[1].samples(), &scaled(0)[..]);
+    }
+
+    #[test]
+    fn stride_header_and_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        // 16-byte header, rows of one f32 and 4 padding bytes
+        let mut bytes = vec![0xAAu8; 16];
+        for v in [1.0f32, 2.0, 3.0] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+            bytes.extend_from_slice(&[0xFF; 4]);
+        }
+        let p = write(dir.path(), "x.bin", &bytes);
+        let layout = BinaryLayout {
+            stride: Some(8),
+            header: 16,
+            ..BinaryLayout::new(BinaryType::F32, 1)
+        };
+        let s = decode_binary(&p, "x.bin", &layout, &[]).unwrap();
+        assert_eq!(s[0].samples(), &[1.0, 2.0, 3.0]);
+        // a partial row
+        let p = write(dir.path(), "y.f64", &[0u8; 12]);
+        let e = decode_binary(&p, "y.f64", &BinaryLayout::new(BinaryType::F64, 1), &[]);
+        assert!(e.unwrap_err().to_string().contains("4 bytes left over"));
+        // a NaN, named by row and channel
+        let mut b: Vec<u8> = Vec::new();
+        for v in [1.0f64, 2.0, f64::NAN, 4.0] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        let p = write(dir.path(), "z.f64", &b);
+        let e = decode_binary(&p, "z.f64", &BinaryLayout::new(BinaryType::F64, 2), &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("row 2 channel 1"), "{e}");
+    }
+
+    #[test]
+    fn gzip_is_decoded_and_release_keeps_values() {
+        use flate2::write::GzEncoder;
+        let dir = tempfile::tempdir().unwrap();
+        let vals: Vec<f64> = (0..100_000).map(|i| (i as f64).sin()).collect();
+        let raw: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let mut gz = GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        gz.write_all(&raw).unwrap();
+        let p = write(dir.path(), "x.f64.gz", &gz.finish().unwrap());
+        let s = decode_binary(&p, "x.f64.gz", &BinaryLayout::new(BinaryType::F64, 1), &[]).unwrap();
+        assert_eq!(s[0].samples(), &vals[..]);
+        // in place, released, read again: the same values
+        let p = write(dir.path(), "x.f64", &raw);
+        let s = decode_binary(&p, "x.f64", &BinaryLayout::new(BinaryType::F64, 1), &[]).unwrap();
+        s[0].release(0, vals.len());
+        assert_eq!(s[0].samples(), &vals[..]);
+    }
+}

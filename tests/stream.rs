@@ -1,0 +1,229 @@
+//! Issue 13: the streamed Allan variance from files gives exactly the in-memory results, for
+//! every kind of source (raw f64 mapped in place; other types, interleaved channels, a scale,
+//! gzip, standard input decoded once) and for any thread count.
+
+use avar::{AvarConfig, CiMethod};
+use imunoise::Ui;
+use imunoise::io::BinaryType;
+use imunoise::pipeline::estimate::{avar_streamed, compute};
+use imunoise::pipeline::read::Input;
+use std::io::Write;
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+/// Rows: above the kernel's streaming threshold (2^22), not a multiple of any chunk.
+const N: usize = (1 << 22) + 12_345;
+
+/// Channel c at row r: a random walk plus white noise around an offset (xorshift, fixed seed).
+fn channels(n: usize, k: usize) -> Vec<Vec<f64>> {
+    (0..k)
+        .map(|c| {
+            let mut s = 0x2545_F491_4F6C_DD1Du64 ^ ((c as u64 + 1) << 40);
+            let mut walk = 0.0;
+            (0..n)
+                .map(|_| {
+                    s ^= s << 13;
+                    s ^= s >> 7;
+                    s ^= s << 17;
+                    let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                    walk += 1e-3 * u;
+                    100.0 * (c as f64 + 1.0) + u + walk
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Interleaves the channels as raw little-endian values of `kind`.
+fn raw(cols: &[Vec<f64>], kind: BinaryType) -> Vec<u8> {
+    let mut out = Vec::with_capacity(cols.len() * cols[0].len() * kind.size());
+    for r in 0..cols[0].len() {
+        for c in cols {
+            let v = c[r];
+            match kind {
+                BinaryType::F64 => out.extend_from_slice(&v.to_le_bytes()),
+                BinaryType::F32 => out.extend_from_slice(&(v as f32).to_le_bytes()),
+                BinaryType::I16 => out.extend_from_slice(&((v * 100.0) as i16).to_le_bytes()),
+                BinaryType::I32 => out.extend_from_slice(&((v * 1e6) as i32).to_le_bytes()),
+            }
+        }
+    }
+    out
+}
+
+fn no_ci() -> AvarConfig {
+    AvarConfig {
+        ci: CiMethod::None,
+        ..AvarConfig::default()
+    }
+}
+
+/// The streamed path against the in-memory one (reading the whole file into a table), with
+/// one and with two threads.
+fn check(input: &Input, config: &AvarConfig) {
+    let quiet = Ui::quiet();
+    let table = input.read(&quiet).unwrap();
+    let mem = compute(&table, table.rate().unwrap(), config, &quiet).unwrap();
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let streamed = pool.install(|| avar_streamed(input, config, &quiet).unwrap());
+        assert_eq!(
+            streamed,
+            mem,
+            "{} with {threads} threads",
+            input.file.display()
+        );
+    }
+}
+
+#[test]
+fn every_binary_source_matches_the_in_memory_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let cols = channels(N, 3);
+    let write = |name: &str, bytes: &[u8]| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    };
+    // one f64 channel: mapped in place
+    let p = write("one.f64", &raw(&cols[..1], BinaryType::F64));
+    let one = Input {
+        binary: Some(BinaryType::F64),
+        rate: Some(200.0),
+        ..Input::new(&p)
+    };
+    check(&one, &no_ci());
+    // three interleaved f64 channels, two selected and renamed: decoded in one pass
+    let p = write("three.f64", &raw(&cols, BinaryType::F64));
+    check(
+        &Input {
+            binary: Some(BinaryType::F64),
+            channels: Some(3),
+            columns: Some("3,1".into()),
+            names: Some("gz,gx".into()),
+            rate: Some(200.0),
+            ..Input::new(&p)
+        },
+        &no_ci(),
+    );
+    // i16 counts with a scale, two channels
+    let p = write("counts.i16", &raw(&cols[..2], BinaryType::I16));
+    check(
+        &Input {
+            binary: Some(BinaryType::I16),
+            channels: Some(2),
+            scale: Some(1.0 / 131.0),
+            rate: Some(100.0),
+            ..Input::new(&p)
+        },
+        &no_ci(),
+    );
+    // f32, gzip-compressed
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    gz.write_all(&raw(&cols[1..2], BinaryType::F32)).unwrap();
+    let p = write("one.f32.gz", &gz.finish().unwrap());
+    check(
+        &Input {
+            binary: Some(BinaryType::F32),
+            rate: Some(100.0),
+            ..Input::new(&p)
+        },
+        &no_ci(),
+    );
+    // the chi-square CI (the in-memory estimator on the mapped samples)
+    check(&one, &AvarConfig::default());
+}
+
+/// The command streams binary from a file and from standard input (decoded once into a
+/// temporary file) with the same output as the library's in-memory path, whatever the
+/// number of threads (RAYON_NUM_THREADS).
+#[test]
+fn command_file_and_stdin_match_in_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let cols = channels(N, 1);
+    let p = dir.path().join("w.f64");
+    std::fs::write(&p, raw(&cols, BinaryType::F64)).unwrap();
+    let quiet = Ui::quiet();
+    let input = Input {
+        binary: Some(BinaryType::F64),
+        rate: Some(50.0),
+        ..Input::new(&p)
+    };
+    let table = input.read(&quiet).unwrap();
+    let mem = compute(&table, 50.0, &no_ci(), &quiet).unwrap();
+    let expected = serde_json::to_string(&imunoise::pipeline::estimate::to_json(&mem)).unwrap();
+    let run = |from_stdin: bool, threads: &str| -> String {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_imunoise"));
+        cmd.arg("avar")
+            .arg(if from_stdin { Path::new("-") } else { &p })
+            .args([
+                "--binary", "f64", "--rate", "50", "--ci", "none", "--format", "json",
+            ])
+            .env("RAYON_NUM_THREADS", threads)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        if from_stdin {
+            cmd.stdin(std::fs::File::open(&p).unwrap());
+        }
+        let out = cmd.output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout)
+            .unwrap()
+            .trim_end()
+            .to_string()
+    };
+    for threads in ["1", "2"] {
+        assert_eq!(run(false, threads), expected, "file, {threads} threads");
+        assert_eq!(run(true, threads), expected, "stdin, {threads} threads");
+    }
+}
+
+/// Errors name the file and, for a bad value, its row and channel; a partial row is named.
+#[test]
+fn streamed_errors_are_located() {
+    let dir = tempfile::tempdir().unwrap();
+    let quiet = Ui::quiet();
+    let mut vals = vec![1.0f64; 64];
+    vals[41] = f64::INFINITY;
+    let bytes: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let p = dir.path().join("bad.f64");
+    std::fs::write(&p, &bytes).unwrap();
+    let two = Input {
+        binary: Some(BinaryType::F64),
+        channels: Some(2),
+        rate: Some(1.0),
+        ..Input::new(&p)
+    };
+    let e = avar_streamed(&two, &no_ci(), &quiet)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("row 21 channel 2"), "{e}");
+    let p = dir.path().join("partial.f64");
+    std::fs::write(&p, &bytes[..20]).unwrap();
+    let one = Input {
+        binary: Some(BinaryType::F64),
+        rate: Some(1.0),
+        ..Input::new(&p)
+    };
+    let e = avar_streamed(&one, &no_ci(), &quiet)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("partial.f64") && e.contains("4 bytes left over"),
+        "{e}"
+    );
+    // in place, a non-finite sample is named by its index
+    let p = dir.path().join("inf.f64");
+    std::fs::write(&p, &bytes).unwrap();
+    let e = avar_streamed(&Input { file: p, ..one }, &no_ci(), &quiet)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("41"), "{e}");
+}
