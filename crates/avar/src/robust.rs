@@ -61,8 +61,11 @@
 //! `stride_costs_no_precision` repeats a smaller version of this.
 //!
 //! Only rate input and the overlapping estimator are supported (the M-estimator needs the
-//! individual differences). Memory: the T + 1 centred prefix sums and one buffer of at most
-//! T − 2m + 1 differences per worker thread, reused across scales.
+//! individual differences). The stride-1 scales (m < 2·[`STRIDE_DIVISOR`]) are solved together,
+//! each pass over the prefix sums forming their differences on the fly and serving every
+//! scale's Newton step (`solve_lockstep`), so that the few small scales cost a handful of passes
+//! in all instead of a buffer and five passes each. Memory: the T + 1 centred prefix sums and one
+//! buffer of at most T/2 strided differences per worker thread, reused across the larger scales.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
