@@ -1,7 +1,5 @@
 #!/usr/bin/env bash
-# Every test: the Rust workspace, then the Python package (wheel built with maturin into a
-# venv under target/, then pytest). CI runs exactly this (.ci/run); so does the README.
+# Every test, exactly what CI runs (.ci/run): `cargo test --workspace`, then the Python package
+# (wheel built with maturin into a venv under target/, then pytest).
 set -euo pipefail
-cd "$(dirname "$0")/.."
-cargo test --workspace
-bash scripts/test-python.sh
+exec bash "$(dirname "$0")/../.ci/run"
