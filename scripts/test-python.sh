@@ -27,7 +27,7 @@ step "imunoise binary ready"
 
 rm -rf "$root/target/wheels"
 (cd python && CARGO_TARGET_DIR="$root/target" "$venv/bin/maturin" build \
-    --interpreter "$venv/bin/python" --out "$root/target/wheels")
+    --profile dev --interpreter "$venv/bin/python" --out "$root/target/wheels")
 wheel=$(ls "$root"/target/wheels/imunoise-*.whl)
 "$venv/bin/python" -m pip install --quiet --force-reinstall --no-deps "$wheel"
 step "wheel built and installed: $(basename "$wheel")"
