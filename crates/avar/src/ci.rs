@@ -335,155 +335,238 @@ pub(crate) fn apply(
     }
 }
 
-/// Lag-1 ACF noise identification on the non-overlapping cluster means at cluster size m,
-/// streamed from the cumulative sums (no per-scale buffer): identical in exact arithmetic to
-/// [`identify_noise`] on the materialised means.
-fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
-    let c: &[f64] = &cum.c;
-    let n = (c.len() - 1) / m;
+/// The non-overlapping cluster means of one scale, read from cumulative sums at the cluster
+/// boundaries: y_i = (c(i + 1) − c(i))·`inv`, where c(i) = `c[i·step − k0]` is the cumulative
+/// sum at sample i·m. The whole cumulative sum gives step = m, k0 = 0; a stored copy of the
+/// boundary values step = 1; a window of the cumulative sum starting at sample k0 step = m.
+/// Every view of the same values gives the same y_i, bit for bit.
+#[derive(Clone, Copy)]
+pub(crate) struct ClusterMeans<'a> {
+    pub(crate) c: &'a [f64],
+    pub(crate) step: usize,
+    pub(crate) k0: usize,
+    pub(crate) inv: f64,
+}
+
+impl ClusterMeans<'_> {
+    /// y_lo, y_{lo+1}, … into `out` (strided reads of the cumulative sums).
+    #[inline]
+    fn gather(&self, lo: usize, out: &mut [f64]) {
+        let mut it = self.c[lo * self.step - self.k0..].iter().step_by(self.step);
+        let mut prev = it.next().copied().unwrap_or(0.0);
+        for (v, &next) in out.iter_mut().zip(it) {
+            *v = (next - prev) * self.inv;
+            prev = next;
+        }
+    }
+}
+
+/// Cluster means per block of the identification (blocks are summed in parallel, their
+/// parts added in block order: the grid depends only on the number of means).
+pub(crate) const ID_BLOCK: usize = 1 << 14;
+/// Values per sub-block gathered into a stack buffer, then summed with 8 lanes.
+const ID_SUB: usize = 512;
+
+/// Sum of the 8 lanes in a fixed order.
+#[inline]
+fn red8(v: [f64; 8]) -> f64 {
+    ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]))
+}
+
+/// Block `b` of the least-squares line through (i, y_i), i < n: (Σ y_i, Σ (i − tm)·y_i).
+pub(crate) fn fit_block(y: &ClusterMeans<'_>, b: usize, n: usize) -> (f64, f64) {
+    let tm = (n as f64 - 1.0) / 2.0;
+    let (mut sy, mut sty) = ([0.0f64; 8], [0.0f64; 8]);
+    let mut buf = [0.0f64; ID_SUB];
+    let end = ((b + 1) * ID_BLOCK).min(n);
+    let mut sb = b * ID_BLOCK;
+    while sb < end {
+        let ns = (end - sb).min(ID_SUB);
+        y.gather(sb, &mut buf[..ns]);
+        // i − tm, exact (half-integers far below 2^53)
+        let t0 = sb as f64 - tm;
+        let mut it = buf[..ns].chunks_exact(8);
+        let mut k0 = 0u32;
+        for ch in &mut it {
+            for l in 0..8 {
+                sy[l] += ch[l];
+                sty[l] += (t0 + (k0 + l as u32) as f64) * ch[l];
+            }
+            k0 += 8;
+        }
+        for (l, &v) in it.remainder().iter().enumerate() {
+            sy[l] += v;
+            sty[l] += (t0 + (k0 + l as u32) as f64) * v;
+        }
+        sb += ns;
+    }
+    (red8(sy), red8(sty))
+}
+
+/// The residuals r_i = y_i − (ȳ + slope·(i − tm)) of the line through the n cluster means,
+/// and the means μ_d of their d-th differences (d = 0, 1, 2; from the end points, since the
+/// residuals have mean 0).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct IdLine {
+    n: usize,
+    ym: f64,
+    slope: f64,
+    mu: [f64; 3],
+}
+
+impl IdLine {
+    /// The line from the fit blocks' parts (in block order) and y_0, y_1, y_{n−2}, y_{n−1}.
+    pub(crate) fn new(n: usize, parts: &[(f64, f64)], ends: [f64; 4]) -> IdLine {
+        let nf = n as f64;
+        let tm = (nf - 1.0) / 2.0;
+        let sy: f64 = parts.iter().map(|p| p.0).sum();
+        let sty: f64 = parts.iter().map(|p| p.1).sum();
+        let ym = sy / nf;
+        let sxx = nf * (nf * nf - 1.0) / 12.0;
+        let slope = if sxx > 0.0 { sty / sxx } else { 0.0 };
+        let r = |i: usize, y: f64| y - (ym + slope * (i as f64 - tm));
+        let (r0, r1, rn2, rn1) = (
+            r(0, ends[0]),
+            r(1, ends[1]),
+            r(n - 2, ends[2]),
+            r(n - 1, ends[3]),
+        );
+        let mu = [
+            0.0,
+            (rn1 - r0) / (n - 1) as f64,
+            ((rn1 - rn2) - (r1 - r0)) / (n - 2) as f64,
+        ];
+        IdLine { n, ym, slope, mu }
+    }
+
+    /// Number of d-th differences of the residuals, and the number of blocks they take.
+    pub(crate) fn blocks(&self, d: usize) -> usize {
+        (self.n - d).div_ceil(ID_BLOCK)
+    }
+}
+
+/// Block `b` of level d: (Σ x_i x_{i+1}, Σ x_i²) of x = (d-th difference of the residuals) − μ_d,
+/// in one tight loop with the last d + 1 residuals carried along.
+pub(crate) fn level_block(y: &ClusterMeans<'_>, line: &IdLine, d: usize, b: usize) -> (f64, f64) {
+    let len = line.n - d;
+    let tm = (line.n as f64 - 1.0) / 2.0;
+    let (ym, slope, mu_d) = (line.ym, line.slope, line.mu[d]);
+    let lo = b * ID_BLOCK;
+    let end = ((b + 1) * ID_BLOCK).min(len);
+    // sub-blocks of ID_SUB values of x^(d) − μ_d (plus the one after, for the lag product),
+    // formed in a small buffer, then summed with 8 lanes
+    let mut rb = [0.0f64; ID_SUB + 3];
+    let mut xb = [0.0f64; ID_SUB + 1];
+    let (mut lag, mut sq) = ([0.0f64; 8], [0.0f64; 8]);
+    let mut sb = lo;
+    while sb < end {
+        let se = (sb + ID_SUB).min(end);
+        // x_i for i in [sb, xe): one past the sub-block when it exists
+        let xe = (se + 1).min(len);
+        let nx = xe - sb;
+        y.gather(sb, &mut rb[..nx + d]);
+        let t0 = sb as f64 - tm;
+        for (k, v) in rb[..nx + d].iter_mut().enumerate() {
+            *v -= ym + slope * (t0 + (k as u32) as f64);
+        }
+        for (k, v) in xb[..nx].iter_mut().enumerate() {
+            let x = match d {
+                0 => rb[k],
+                1 => rb[k + 1] - rb[k],
+                _ => (rb[k + 2] - rb[k + 1]) - (rb[k + 1] - rb[k]),
+            };
+            *v = x - mu_d;
+        }
+        let ns = se - sb;
+        // squares of x_sb .. x_{se−1}; products x_i x_{i+1} for i + 1 < xe
+        let np = nx - 1;
+        let mut it = xb[..ns].chunks_exact(8);
+        for ch in &mut it {
+            for l in 0..8 {
+                sq[l] += ch[l] * ch[l];
+            }
+        }
+        for (l, v) in it.remainder().iter().enumerate() {
+            sq[l] += v * v;
+        }
+        let (a, bb) = (&xb[..np], &xb[1..np + 1]);
+        let mut ia = a.chunks_exact(8);
+        let mut ib = bb.chunks_exact(8);
+        for (ca, cb) in (&mut ia).zip(&mut ib) {
+            for l in 0..8 {
+                lag[l] += ca[l] * cb[l];
+            }
+        }
+        for (l, (va, vb)) in ia.remainder().iter().zip(ib.remainder()).enumerate() {
+            lag[l] += va * vb;
+        }
+        sb = se;
+    }
+    (red8(lag), red8(sq))
+}
+
+/// What the parts of level d (in block order) say: `Ok(id)` the identification (`None`: the
+/// lag-1 ACF is not finite), `Err(())` difference once more.
+pub(crate) fn decide_level(
+    parts: &[(f64, f64)],
+    d: usize,
+    n: usize,
+) -> Result<Option<NoiseId>, ()> {
+    let num: f64 = parts.iter().map(|p| p.0).sum();
+    let den: f64 = parts.iter().map(|p| p.1).sum();
+    let r1 = num / den;
+    if !r1.is_finite() {
+        return Ok(None);
+    }
+    let rho = r1 / (1.0 + r1);
+    if rho < 0.25 || d >= 2 {
+        return Ok(Some(NoiseId::decide(r1, d as u32, n)));
+    }
+    Err(())
+}
+
+/// Lag-1 ACF noise identification ([`identify_noise`]'s method) on the n cluster means of
+/// `y`, computed block by block in parallel (no buffer of the means): identical in exact
+/// arithmetic to [`identify_noise`] on the materialised means. `None` for fewer than
+/// [`MIN_ID_CLUSTERS`] means or a constant series.
+pub(crate) fn identify_cluster_means(y: &ClusterMeans<'_>, n: usize) -> Option<NoiseId> {
     if n < MIN_ID_CLUSTERS {
         return None;
     }
-    let inv = cum.factor / m as f64;
-    let n_id = n;
-    let y = |i: usize| (c[(i + 1) * m] - c[i * m]) * inv;
-    // y_lo, y_{lo+1}, … into `out` (strided reads of the cumulative sums)
-    let gather = |lo: usize, out: &mut [f64]| {
-        let mut it = c[lo * m..].iter().step_by(m);
-        let mut prev = it.next().copied().unwrap_or(0.0);
-        for (v, &next) in out.iter_mut().zip(it) {
-            *v = (next - prev) * inv;
-            prev = next;
-        }
-    };
-    const B: usize = 1 << 14;
-    // sub-block of values gathered into a stack buffer, then summed with 8 lanes
-    const S: usize = 512;
-    let blocks = n.div_ceil(B);
-    // pass 1: least-squares line through (i, y_i)
-    let nf = n as f64;
-    let tm = (nf - 1.0) / 2.0;
-    let parts: Vec<(f64, f64)> = (0..blocks)
+    let fit: Vec<(f64, f64)> = (0..n.div_ceil(ID_BLOCK))
         .into_par_iter()
-        .map(|b| {
-            let (mut sy, mut sty) = ([0.0f64; 8], [0.0f64; 8]);
-            let mut buf = [0.0f64; S];
-            let end = ((b + 1) * B).min(n);
-            let mut sb = b * B;
-            while sb < end {
-                let ns = (end - sb).min(S);
-                gather(sb, &mut buf[..ns]);
-                // i − tm, exact (half-integers far below 2^53)
-                let t0 = sb as f64 - tm;
-                let mut it = buf[..ns].chunks_exact(8);
-                let mut k0 = 0u32;
-                for ch in &mut it {
-                    for l in 0..8 {
-                        sy[l] += ch[l];
-                        sty[l] += (t0 + (k0 + l as u32) as f64) * ch[l];
-                    }
-                    k0 += 8;
-                }
-                for (l, &v) in it.remainder().iter().enumerate() {
-                    sy[l] += v;
-                    sty[l] += (t0 + (k0 + l as u32) as f64) * v;
-                }
-                sb += ns;
-            }
-            let red =
-                |v: [f64; 8]| ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]));
-            (red(sy), red(sty))
-        })
+        .map(|b| fit_block(y, b, n))
         .collect();
-    let sy: f64 = parts.iter().map(|p| p.0).sum();
-    let sty: f64 = parts.iter().map(|p| p.1).sum();
-    let ym = sy / nf;
-    let sxx = nf * (nf * nf - 1.0) / 12.0;
-    let slope = if sxx > 0.0 { sty / sxx } else { 0.0 };
-    let r = |i: usize| y(i) - (ym + slope * (i as f64 - tm));
-    // level by level (most scales stop at d = 0): per block, the lag-1 products and squares of
-    // x^(d) − μ_d, where x^(d) is the d-th difference of the residuals (μ_d from the end
-    // points: the residuals have mean 0), in one tight loop with the last d + 1 residuals
-    // carried along
-    let mu = [
-        0.0,
-        (r(n - 1) - r(0)) / (n - 1) as f64,
-        ((r(n - 1) - r(n - 2)) - (r(1) - r(0))) / (n - 2) as f64,
-    ];
+    let at = |i: usize| {
+        let mut v = [0.0];
+        y.gather(i, &mut v);
+        v[0]
+    };
+    let line = IdLine::new(n, &fit, [at(0), at(1), at(n - 2), at(n - 1)]);
+    // level by level (most scales stop at d = 0)
     for d in 0..=2usize {
-        let len = n - d;
-        let mu_d = mu[d];
-        let parts: Vec<(f64, f64)> = (0..len.div_ceil(B))
+        let parts: Vec<(f64, f64)> = (0..line.blocks(d))
             .into_par_iter()
-            .map(|b| {
-                let lo = b * B;
-                let end = ((b + 1) * B).min(len);
-                // sub-blocks of S values of x^(d) − μ_d (plus the one after, for the lag
-                // product), formed in a small buffer, then summed with 8 lanes
-                let mut rb = [0.0f64; S + 3];
-                let mut xb = [0.0f64; S + 1];
-                let (mut lag, mut sq) = ([0.0f64; 8], [0.0f64; 8]);
-                let mut sb = lo;
-                while sb < end {
-                    let se = (sb + S).min(end);
-                    // x_i for i in [sb, xe): one past the sub-block when it exists
-                    let xe = (se + 1).min(len);
-                    let nx = xe - sb;
-                    gather(sb, &mut rb[..nx + d]);
-                    let t0 = sb as f64 - tm;
-                    for (k, v) in rb[..nx + d].iter_mut().enumerate() {
-                        *v -= ym + slope * (t0 + (k as u32) as f64);
-                    }
-                    for (k, v) in xb[..nx].iter_mut().enumerate() {
-                        let x = match d {
-                            0 => rb[k],
-                            1 => rb[k + 1] - rb[k],
-                            _ => (rb[k + 2] - rb[k + 1]) - (rb[k + 1] - rb[k]),
-                        };
-                        *v = x - mu_d;
-                    }
-                    let ns = se - sb;
-                    // squares of x_sb .. x_{se−1}; products x_i x_{i+1} for i + 1 < xe
-                    let np = nx - 1;
-                    let mut it = xb[..ns].chunks_exact(8);
-                    for ch in &mut it {
-                        for l in 0..8 {
-                            sq[l] += ch[l] * ch[l];
-                        }
-                    }
-                    for (l, v) in it.remainder().iter().enumerate() {
-                        sq[l] += v * v;
-                    }
-                    let (a, bb) = (&xb[..np], &xb[1..np + 1]);
-                    let mut ia = a.chunks_exact(8);
-                    let mut ib = bb.chunks_exact(8);
-                    for (ca, cb) in (&mut ia).zip(&mut ib) {
-                        for l in 0..8 {
-                            lag[l] += ca[l] * cb[l];
-                        }
-                    }
-                    for (l, (va, vb)) in ia.remainder().iter().zip(ib.remainder()).enumerate() {
-                        lag[l] += va * vb;
-                    }
-                    sb = se;
-                }
-                let red =
-                    |v: [f64; 8]| ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]));
-                (red(lag), red(sq))
-            })
+            .map(|b| level_block(y, &line, d, b))
             .collect();
-        let num: f64 = parts.iter().map(|p| p.0).sum();
-        let den: f64 = parts.iter().map(|p| p.1).sum();
-        let r1 = num / den;
-        if !r1.is_finite() {
-            return None;
-        }
-        let rho = r1 / (1.0 + r1);
-        if rho < 0.25 || d >= 2 {
-            return Some(NoiseId::decide(r1, d as u32, n_id));
+        if let Ok(id) = decide_level(&parts, d, n) {
+            return id;
         }
     }
     None
+}
+
+/// [`identify_cluster_means`] at cluster size m from the whole cumulative sum.
+pub(crate) fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
+    let c: &[f64] = &cum.c;
+    let n = (c.len() - 1) / m;
+    let y = ClusterMeans {
+        c,
+        step: m,
+        k0: 0,
+        inv: cum.factor / m as f64,
+    };
+    identify_cluster_means(&y, n)
 }
 
 fn chi_square(cum: &Cumulative<'_>, config: &AvarConfig, points: &mut [AvarPoint]) {
@@ -491,13 +574,24 @@ fn chi_square(cum: &Cumulative<'_>, config: &AvarConfig, points: &mut [AvarPoint
         .par_iter()
         .map(|p| identify_noise_streaming(cum, p.m as usize))
         .collect();
+    apply_chi_square(&ids, cum.t(), config, points);
+}
+
+/// The chi-square intervals from the identification at each point (`None`: too few clusters,
+/// or a constant series) for T rate samples.
+pub(crate) fn apply_chi_square(
+    ids: &[Option<NoiseId>],
+    t: usize,
+    config: &AvarConfig,
+    points: &mut [AvarPoint],
+) {
     let mut last: Option<(f64, i32)> = None;
     let first_known = ids
         .iter()
         .flatten()
         .next()
         .map(|i| (i.alpha_edf, i.alpha_rg));
-    let n_phase = cum.t() as u64 + 1;
+    let n_phase = t as u64 + 1;
     for (p, id) in points.iter_mut().zip(ids) {
         let (alpha, alpha_rg) = match id {
             Some(id) => (id.alpha_edf, id.alpha_rg),

@@ -369,6 +369,11 @@ impl Checkpoints {
 /// T/G block sums into the checkpoint buffer, then a sequential compensated scan over it in
 /// place). Errors on non-finite samples (naming the first index) and on overflow.
 pub(crate) fn checkpoints(x: &[f64]) -> Result<Checkpoints, AvarError> {
+    checkpoints_io(x, Io::NONE.release)
+}
+
+/// [`checkpoints`], telling `release` about each chunk of samples once it is summed.
+pub(crate) fn checkpoints_io(x: &[f64], release: Release<'_>) -> Result<Checkpoints, AvarError> {
     let t = x.len();
     let pivot = pivot_of(x);
     let n_blocks = t.div_ceil(G);
@@ -376,10 +381,12 @@ pub(crate) fn checkpoints(x: &[f64]) -> Result<Checkpoints, AvarError> {
     ck[..n_blocks]
         .par_chunks_mut(PCHUNK / G)
         .zip(x.par_chunks(PCHUNK))
-        .for_each(|(out, xs)| {
+        .enumerate()
+        .for_each(|(i, (out, xs))| {
             for (o, b) in out.iter_mut().zip(xs.chunks(G)) {
                 o.0 = lane_sum(b, pivot);
             }
+            release(i * PCHUNK, i * PCHUNK + xs.len());
         });
     if !pivot.is_finite() || ck.iter().any(|s| !s.0.is_finite()) {
         if let Some((index, value)) = first_non_finite(x) {
@@ -1695,43 +1702,91 @@ fn stream_group<const SEG: usize>(
 /// The full centred cumulative sum (T + 1 entries) written into `c` from the checkpoints.
 pub(crate) fn prefix_from_checkpoints(x: &[f64], ck: &Checkpoints, c: &mut Vec<f64>) {
     let t = x.len();
-    let (pivot, delta) = (ck.pivot, ck.delta);
     c.clear();
     c.reserve(t + 1);
     let spare = &mut c.spare_capacity_mut()[..t + 1];
     spare[0].write(0.0);
     spare[1..]
         .par_chunks_mut(PCHUNK)
-        .zip(x.par_chunks(PCHUNK))
         .enumerate()
-        .for_each(|(i, (out, xs))| {
-            let g = i * (PCHUNK / G);
-            let (hi, lo) = ck.get(x, g);
-            let mut run = Neumaier { hi, lo };
-            const B: usize = 8;
-            let mut io = out.chunks_exact_mut(B);
-            let mut ix = xs.chunks_exact(B);
-            for (o, v) in (&mut io).zip(&mut ix) {
-                let mut local = [0.0f64; B];
-                let mut s = 0.0;
-                for l in 0..B {
-                    s += (v[l] - pivot) - delta;
-                    local[l] = s;
-                }
-                for l in 0..B {
-                    o[l].write(run.hi + (run.lo + local[l]));
-                }
-                run.add(s);
-            }
-            let mut s = 0.0;
-            for (o, v) in io.into_remainder().iter_mut().zip(ix.remainder()) {
-                s += (v - pivot) - delta;
-                o.write(run.hi + (run.lo + s));
-            }
-        });
+        .for_each(|(i, out)| prefix_chunk(x, ck, i, out));
     // SAFETY: the loop above wrote all t + 1 elements (index 0, then every chunk of
-    // `spare[1..]` in full: exact blocks of 8 plus the remainder).
+    // `spare[1..]` in full: `prefix_chunk` writes one value per sample of its chunk).
     unsafe { c.set_len(t + 1) };
+}
+
+/// C_k for the samples of PCHUNK-chunk `i` (k = i·PCHUNK + 1 ..= i·PCHUNK + its length),
+/// written to `out` (as long as the chunk): from the checkpoint at the chunk start, a running
+/// compensated sum of local sums of 8 centred samples. Every stored C_k is a deterministic
+/// function of k and the checkpoints, whichever range of chunks is rebuilt.
+#[inline]
+fn prefix_chunk(x: &[f64], ck: &Checkpoints, i: usize, out: &mut [std::mem::MaybeUninit<f64>]) {
+    let (pivot, delta) = (ck.pivot, ck.delta);
+    let xs = &x[i * PCHUNK..((i + 1) * PCHUNK).min(x.len())];
+    debug_assert_eq!(out.len(), xs.len());
+    let (hi, lo) = ck.get(x, i * (PCHUNK / G));
+    let mut run = Neumaier { hi, lo };
+    const B: usize = 8;
+    let mut io = out.chunks_exact_mut(B);
+    let mut ix = xs.chunks_exact(B);
+    for (o, v) in (&mut io).zip(&mut ix) {
+        let mut local = [0.0f64; B];
+        let mut s = 0.0;
+        for l in 0..B {
+            s += (v[l] - pivot) - delta;
+            local[l] = s;
+        }
+        for l in 0..B {
+            o[l].write(run.hi + (run.lo + local[l]));
+        }
+        run.add(s);
+    }
+    let mut s = 0.0;
+    for (o, v) in io.into_remainder().iter_mut().zip(ix.remainder()) {
+        s += (v - pivot) - delta;
+        o.write(run.hi + (run.lo + s));
+    }
+}
+
+/// The centred cumulative sum C_k for k in [k0, k_hi] written to `c` (its allocation is
+/// reused), with the same values as [`prefix_from_checkpoints`] (the same checkpoints from
+/// [`checkpoints`]), bit for bit: the whole chunks that hold k_lo ..= k_hi are rebuilt, so k0 ≤
+/// k_lo is 0 or a chunk start. Returns k0 (`c[k − k0]` = C_k). Needs k_lo ≤ k_hi ≤ T.
+pub(crate) fn prefix_window(
+    x: &[f64],
+    ck: &Checkpoints,
+    k_lo: usize,
+    k_hi: usize,
+    c: &mut Vec<f64>,
+) -> usize {
+    let t = x.len();
+    debug_assert!(k_lo <= k_hi && k_hi <= t);
+    c.clear();
+    if k_hi == 0 {
+        c.push(0.0);
+        return 0;
+    }
+    // C_k (k ≥ 1) lies in chunk (k − 1) / PCHUNK; C_0 = 0 is not in any chunk
+    let i0 = k_lo.saturating_sub(1) / PCHUNK;
+    let k0 = if k_lo == 0 { 0 } else { 1 + i0 * PCHUNK };
+    let i1 = k_hi.saturating_sub(1) / PCHUNK;
+    let end = (1 + (i1 + 1) * PCHUNK).min(t + 1);
+    c.reserve_exact(end - k0);
+    let spare = &mut c.spare_capacity_mut()[..end - k0];
+    let mut at = 0;
+    if k0 == 0 {
+        spare[0].write(0.0);
+        at = 1;
+    }
+    for i in i0..=i1 {
+        let len = PCHUNK.min(t - i * PCHUNK);
+        prefix_chunk(x, ck, i, &mut spare[at..at + len]);
+        at += len;
+    }
+    debug_assert_eq!(at, end - k0);
+    // SAFETY: `at` values were written from the start of `spare`, and at = end − k0.
+    unsafe { c.set_len(at) };
+    k0
 }
 
 /// The centred cumulative sum of rate samples, written into `c` (its allocation is reused):

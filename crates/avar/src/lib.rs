@@ -42,6 +42,7 @@
 //! ```
 
 pub mod ci;
+mod ci_stream;
 pub mod config;
 pub mod error;
 mod haar;
@@ -208,12 +209,14 @@ fn estimate(
         && matches!(config.estimator, Estimator::Overlapping)
         && data.len() >= kernel::STREAM_MIN_T
     {
-        if matches!(config.ci, CiMethod::None) {
-            return allan_variance_streamed(data, rate_hz, config);
+        if matches!(config.ci, CiMethod::None | CiMethod::ChiSquare) {
+            // no series-sized buffer: the streamed kernel, and the chi-square interval's
+            // noise identification from checkpoints and windows of the cumulative sum
+            return source::streamed(data, rate_hz, config, &kernel::Io::NONE);
         }
-        // the CI needs the cumulative sum; the AV itself comes from the streamed kernel, as
-        // without a CI (faster at this length, and more precise at small m: no rounding of a
-        // long cumulative sum enters the differences)
+        // the Gaussian interval needs the cumulative sum; the AV itself comes from the
+        // streamed kernel, as without a CI (faster at this length, and more precise at small
+        // m: no rounding of a long cumulative sum enters the differences)
         let cum = cumulative(data, rate_hz, config.input, scratch)?;
         let ms = config.scales.cluster_sizes(data.len())?;
         let (sums, mean) = kernel::overlapping_sums_stream(data, &ms)?;
@@ -225,28 +228,6 @@ fn estimate(
     let sums = match config.estimator {
         Estimator::Overlapping => kernel::overlapping_sums(&cum.c, &ms),
         Estimator::NonOverlapping => kernel::nonoverlapping_sums(&cum.c, &ms),
-    };
-    finish(cum, rate_hz, config, &ms, &sums)
-}
-
-/// Overlapping AV of long rate series without a series-sized buffer (used when no confidence
-/// interval needs the full cumulative sum): the sums are streamed from the samples and sparse
-/// checkpoints of the centred cumulative sum. The values agree with the buffered path to
-/// rounding (not bit for bit); each path alone is deterministic.
-fn allan_variance_streamed(
-    data: &[f64],
-    rate_hz: f64,
-    config: &AvarConfig,
-) -> Result<AllanVariance, AvarError> {
-    check_len(data.len(), data.len())?;
-    let t = data.len();
-    let ms = config.scales.cluster_sizes(t)?;
-    let (sums, mean) = kernel::overlapping_sums_stream(data, &ms)?;
-    let cum = Cumulative {
-        c: Cow::Borrowed(&[]),
-        factor: 1.0,
-        mean,
-        t,
     };
     finish(cum, rate_hz, config, &ms, &sums)
 }

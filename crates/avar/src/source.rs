@@ -115,20 +115,24 @@ impl SampleSource for SliceSource<'_> {
 /// Whether [`allan_variance_source`] streams a series of `t` samples with `config` (holding
 /// no series-sized buffer, releasing the source's pages as it goes), rather than running the
 /// in-memory estimator on the source's samples: rate input, the overlapping estimator, no
-/// confidence interval, and at least 2^22 samples (below that the buffered kernel is faster
-/// and its buffer small).
+/// confidence interval or the chi-square one, and at least 2^22 samples (below that the
+/// buffered kernel is faster and its buffer small). The Gaussian interval needs the whole
+/// cumulative sum (8 bytes per sample).
 ///
 /// ```
 /// use avar::{AvarConfig, CiMethod};
 /// use avar::source::streams;
 /// let no_ci = AvarConfig { ci: CiMethod::None, ..Default::default() };
 /// assert!(streams(1 << 22, &no_ci));
-/// assert!(!streams(1 << 22, &AvarConfig::default())); // a chi-square CI needs the prefix
+/// assert!(streams(1 << 22, &AvarConfig::default())); // chi-square
+/// assert!(!streams(1 << 21, &no_ci));
+/// let gaussian = AvarConfig { ci: CiMethod::Gaussian, ..Default::default() };
+/// assert!(!streams(1 << 22, &gaussian));
 /// ```
 pub fn streams(t: usize, config: &AvarConfig) -> bool {
     matches!(config.input, InputKind::Rate)
         && matches!(config.estimator, Estimator::Overlapping)
-        && matches!(config.ci, CiMethod::None)
+        && matches!(config.ci, CiMethod::None | CiMethod::ChiSquare)
         && t >= kernel::STREAM_MIN_T
 }
 
@@ -183,8 +187,10 @@ pub fn allan_variance_source<S: SampleSource + ?Sized>(
     Ok(av)
 }
 
-/// The streamed no-CI estimate of `allan_variance_streamed`, releasing as it goes.
-fn streamed(
+/// The streamed estimate, releasing as it goes: the sums of the streamed kernel, then (for
+/// the chi-square interval) the noise identification from checkpoints and windows of the
+/// cumulative sum ([`crate::ci_stream`]), the same values as the in-memory path's.
+pub(crate) fn streamed(
     data: &[f64],
     rate_hz: f64,
     config: &AvarConfig,
@@ -200,7 +206,17 @@ fn streamed(
         mean,
         t,
     };
-    finish(cum, rate_hz, config, &ms, &sums)
+    let bare = AvarConfig {
+        ci: CiMethod::None,
+        ..config.clone()
+    };
+    let mut av = finish(cum, rate_hz, &bare, &ms, &sums)?;
+    if config.ci == CiMethod::ChiSquare {
+        let ids = crate::ci_stream::identify_streamed(data, &ms, io.release)?;
+        crate::ci::apply_chi_square(&ids, t, config, &mut av.points);
+        av.ci = config.ci;
+    }
+    Ok(av)
 }
 
 #[cfg(test)]
