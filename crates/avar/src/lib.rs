@@ -41,6 +41,38 @@
 //! assert!(av.points[0].avar.abs() < 1e-30);
 //! ```
 
+/// Defines `fn $name(args) -> ret` running `$body` (an `#[inline(always)]` function of the same
+/// signature, written as plain lane loops) compiled for AVX-512F or AVX2 when the CPU has them
+/// (detected at run time), else as it is. The body's operations and their order are fixed by
+/// its code (no FMA contraction), so every instruction set gives the same bits.
+macro_rules! simd_dispatch {
+    ($(#[$attr:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty => $body:ident) => {
+        $(#[$attr])*
+        $vis fn $name($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f")]
+                fn avx512($($arg: $ty),*) -> $ret {
+                    $body($($arg),*)
+                }
+                #[target_feature(enable = "avx2")]
+                fn avx2($($arg: $ty),*) -> $ret {
+                    $body($($arg),*)
+                }
+                if std::arch::is_x86_feature_detected!("avx512f") {
+                    // SAFETY: the CPU supports AVX-512F (checked above).
+                    return unsafe { avx512($($arg),*) };
+                }
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2 (checked above).
+                    return unsafe { avx2($($arg),*) };
+                }
+            }
+            $body($($arg),*)
+        }
+    };
+}
+
 pub mod ci;
 mod ci_stream;
 pub mod config;

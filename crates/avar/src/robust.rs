@@ -306,35 +306,12 @@ pub fn robust_mean_square(d: &[f64], bw: &Biweight) -> Result<f64, AvarError> {
     robust_mean_square_detail(d, bw).map(|r| r.s)
 }
 
-/// Σ χ_c(u) and −Σ u χ_c'(u) over u = d²·`inv` (`inv_c2` = 1/c²), branch-free in eight
-/// accumulator lanes so that the compiler vectorizes it (w = 0 past c² instead of a branch),
-/// with AVX-512 or AVX2 where the CPU has them. The lanes and their order of summation are
-/// fixed by the code (no FMA contraction), so every instruction set gives the same bits.
-fn chi_sums(d: &[f64], inv: f64, inv_c2: f64) -> (f64, f64) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F (checked above).
-            return unsafe { chi_sums_avx512(d, inv, inv_c2) };
-        }
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked above).
-            return unsafe { chi_sums_avx2(d, inv, inv_c2) };
-        }
-    }
-    chi_sums_lanes(d, inv, inv_c2)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn chi_sums_avx512(d: &[f64], inv: f64, inv_c2: f64) -> (f64, f64) {
-    chi_sums_lanes(d, inv, inv_c2)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn chi_sums_avx2(d: &[f64], inv: f64, inv_c2: f64) -> (f64, f64) {
-    chi_sums_lanes(d, inv, inv_c2)
+simd_dispatch! {
+    /// Σ χ_c(u) and −Σ u χ_c'(u) over u = d²·`inv` (`inv_c2` = 1/c²), branch-free in eight
+    /// accumulator lanes so that the compiler vectorizes it (w = 0 past c² instead of a branch),
+    /// with AVX-512 or AVX2 where the CPU has them. The lanes and their order of summation are
+    /// fixed by the code (no FMA contraction), so every instruction set gives the same bits.
+    fn chi_sums(d: &[f64], inv: f64, inv_c2: f64) -> (f64, f64) => chi_sums_lanes
 }
 
 #[inline(always)]
@@ -928,53 +905,17 @@ fn lockstep_pass<const N: usize>(c: &[f64], ms: &[usize], f: &BlockSums<N>) -> V
     out
 }
 
-/// Σ χ_c(u), −Σ u χ_c'(u) (as [`chi_sums`]) over u = D²·`inv`, D formed from the three slices.
-fn chi_sums_diff(
-    hi: &[f64],
-    mid: &[f64],
-    lo: &[f64],
-    inv_m: f64,
-    inv: f64,
-    inv_c2: f64,
-) -> [f64; 2] {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F (checked above).
-            return unsafe { chi_sums_diff_avx512(hi, mid, lo, inv_m, inv, inv_c2) };
-        }
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked above).
-            return unsafe { chi_sums_diff_avx2(hi, mid, lo, inv_m, inv, inv_c2) };
-        }
-    }
-    chi_sums_diff_lanes(hi, mid, lo, inv_m, inv, inv_c2)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn chi_sums_diff_avx512(
-    hi: &[f64],
-    mid: &[f64],
-    lo: &[f64],
-    inv_m: f64,
-    inv: f64,
-    inv_c2: f64,
-) -> [f64; 2] {
-    chi_sums_diff_lanes(hi, mid, lo, inv_m, inv, inv_c2)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn chi_sums_diff_avx2(
-    hi: &[f64],
-    mid: &[f64],
-    lo: &[f64],
-    inv_m: f64,
-    inv: f64,
-    inv_c2: f64,
-) -> [f64; 2] {
-    chi_sums_diff_lanes(hi, mid, lo, inv_m, inv, inv_c2)
+simd_dispatch! {
+    /// Σ χ_c(u), −Σ u χ_c'(u) (as [`chi_sums`]) over u = D²·`inv`, D formed from the three
+    /// slices.
+    fn chi_sums_diff(
+        hi: &[f64],
+        mid: &[f64],
+        lo: &[f64],
+        inv_m: f64,
+        inv: f64,
+        inv_c2: f64,
+    ) -> [f64; 2] => chi_sums_diff_lanes
 }
 
 #[inline(always)]
