@@ -8,7 +8,8 @@
 //! written out: the streamed kernel's acc ← fma(d, d, acc), a correctly rounded fused operation
 //! in every path), so results are bit-identical on every run of the same binary on the same data.
 //!
-//! Long rate series without a CI take a streamed path ([`overlapping_sums_stream`]): no
+//! Long rate series take a streamed path ([`overlapping_sums_stream`]; the chi-square interval
+//! is streamed too, by the `ci_stream` module from [`checkpoints`] and [`prefix_window`]): no
 //! series-sized buffer, only checkpoints of the centred cumulative sum every [`G`] samples (built
 //! by the near-scale walk itself, job by job in local frames, while each chunk is in cache, so
 //! that the series is read from memory once for the near scales and once for the far ones); each

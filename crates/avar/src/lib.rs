@@ -183,6 +183,11 @@ pub(crate) fn cumulative<'a>(
 /// * `rate_hz`: sampling rate (Hz, finite, > 0); τ = m / rate_hz.
 /// * `config`: scales, estimator, input kind, CI family and level.
 ///
+/// Memory: rate series of at least 2^22 samples with the overlapping estimator and no CI or
+/// the chi-square CI allocate no series-sized buffer (checkpoints of the cumulative sum, 16
+/// bytes per 64 samples, and per-thread windows); otherwise the cumulative sum takes 8 bytes
+/// per sample.
+///
 /// Errors: empty input, fewer than [`MIN_SAMPLES`] rate samples, a NaN/inf sample (with its
 /// index), a bad rate or alpha, scales that do not fit (2m > T), an empty grid.
 ///

@@ -143,9 +143,11 @@ pub fn streams(t: usize, config: &AvarConfig) -> bool {
 /// checkpoints of the cumulative sum (16 bytes per 128 samples once the near scales are done,
 /// a few MiB per thread before) and per-thread chunk buffers and windows, and the source is
 /// told which ranges it may release (a memory-mapped file then keeps a bounded window
-/// resident). Otherwise the in-memory estimator runs on `source.samples()`
-/// (with a confidence interval it allocates the series-sized cumulative sum, 8 bytes per
-/// sample). Series of extreme magnitude whose AV would leave the range of f64 are estimated
+/// resident). The chi-square interval then reads the source three more times (its noise
+/// identification from checkpoints of 16 bytes per 64 samples and a 16 MiB window of the
+/// cumulative sum per thread, see the `ci_stream` module). Otherwise the in-memory estimator
+/// runs on `source.samples()` (with the Gaussian interval it allocates the series-sized
+/// cumulative sum, 8 bytes per sample). Series of extreme magnitude whose AV would leave the range of f64 are estimated
 /// on a rescaled in-memory copy, as by [`crate::allan_variance`].
 ///
 /// ```
