@@ -1,6 +1,6 @@
 //! The streamed kernel of the overlapping Hadamard (OHVAR) and modified Allan (MVAR, hence TVAR)
 //! variances of rate data: no series-sized buffer, one read of the series for all near scales
-//! and one for all far ones (plus one to build the checkpoints).
+//! (which also builds the checkpoints) and one for all far ones.
 //!
 //! With c_k = Σ_{i<k} (y_i − pivot) the phase (in rate units, τ0 = 1; the pivot is the mean of
 //! the first samples and cancels in every difference below) and P_k = Σ_{i<k} c_i the summed
@@ -18,16 +18,21 @@
 //! every [`G`] samples as compensated pairs, [`Frames`]; directly from the samples for m < G)
 //! and carries the recurrence over its length only, so rounding cannot drift beyond one segment.
 //! With AVX-512 the 16 segments of a chunk are the lanes of two vectors (the e rows are
-//! transposed in registers). Near scales (m ≤ [`NEAR_MAX_M`]) walk the chunks in order, all
-//! scales per chunk while its samples are in cache (the lagged rows were read shortly before);
-//! far scales take shorter segments ([`SEG_FAR`]) and walk the chunks by residue class of step
-//! [`CLASS_STEP`], so that for m a multiple of the step the lagged rows are chunks the class
-//! visited a few steps earlier (still in cache).
+//! transposed in registers, the loads aligned to cache lines).
 //!
-//! Determinism: a chunk's partial sum depends only on (samples, m, chunk index), the chunk grid
-//! only on m, and partials are added in chunk order with Neumaier's compensation, so results
-//! are bit-identical for any thread count and whatever other scales are requested. The vector
-//! and portable paths perform the same operations in the same order (acc ← fma(v, v, acc)).
+//! Near scales (m ≤ [`NEAR_MAX_M`]) walk the chunks in order, in parallel jobs, all scales per
+//! chunk while its samples are in cache (the lagged rows were read shortly before); each job
+//! keeps its checkpoints in a local frame that it extends block by block as it goes (third
+//! differences do not depend on the frame), and hands its block sums on to the global frame.
+//! Far scales take shorter segments ([`SEG_FAR`]) and walk the chunks by residue class of step
+//! [`CLASS_STEP`]: for m a multiple of the step the lagged rows are chunks the class visited a
+//! few steps earlier, read from a ring of copies ([`Ring`]) that stays in cache.
+//!
+//! Determinism: a chunk's partial sum depends only on the samples, m, the chunk index and the
+//! frame of its checkpoints (the near jobs' grid depends only on T), and partials are added in
+//! chunk order with Neumaier's compensation, so results are bit-identical for any thread count
+//! and whatever other scales are requested. The vector and portable paths perform the same
+//! operations in the same order (acc ← fma(v, v, acc)).
 //!
 //! Phase (angle) input and chi-square intervals keep the buffered path of the modules.
 
@@ -89,11 +94,21 @@ struct Entry {
     p: (f64, f64),
 }
 
-/// The checkpoints of the phase c and the summed phase P (pivot-centred, origin 0) at every
-/// G-th index up to T.
+/// The checkpoints of the phase c and the summed phase P (pivot-centred) at every G-th index,
+/// from index `g0` on (entry g − g0 holds c and P at gG), in one frame: the global one (origin
+/// 0, `g0` = 0, built by [`Frames::scan`]) or a near job's local one (origin g0·G, where c = P = 0,
+/// extended block by block by [`Frames::extend`]). Third differences at lag m do not depend on
+/// the frame (a change of origin adds a constant to c and a linear function of k to P), as long
+/// as their four points lie in it.
 struct Frames {
     pivot: f64,
+    g0: usize,
+    /// Index of the last checkpoint of the series, ⌊T/G⌋ (every later point is reached by a
+    /// local sum from it).
+    last: usize,
     ck: Vec<Entry>,
+    /// The running compensated c and P of a local frame's next entry.
+    run: (Neumaier, Neumaier),
 }
 
 /// Σ (v − pivot) and Σ (v − pivot)·(G − 1 − r) over one full block of G samples (r the index in
@@ -122,23 +137,28 @@ fn split(a: f64) -> (f64, f64) {
     (hi, a - hi)
 }
 
+/// Rows of samples per job of the parallel block pass.
+const PCH: usize = 1 << 16;
+
+/// The block sums of every full block of `y` into `sums[g].p` (one parallel pass).
+fn block_pass(y: &[f64], pivot: f64, sums: &mut [Entry]) {
+    let nb = y.len() / G;
+    sums[..nb]
+        .par_chunks_mut(PCH / G)
+        .zip(y[..nb * G].par_chunks(PCH))
+        .for_each(|(out, ys)| {
+            for (o, b) in out.iter_mut().zip(ys.chunks_exact(G)) {
+                o.p = block_sums(b, pivot);
+            }
+        });
+}
+
 impl Frames {
-    /// One parallel pass of block sums (written into the checkpoint buffer), then a sequential
-    /// compensated scan in place. Errors on non-finite samples (naming the first) and overflow.
-    fn build(y: &[f64]) -> Result<Frames, AvarError> {
-        const PCH: usize = 1 << 16;
-        let t = y.len();
-        let pivot = pivot_of(y);
-        let nb = t / G;
-        let mut ck = vec![Entry::default(); nb + 1];
-        ck[..nb]
-            .par_chunks_mut(PCH / G)
-            .zip(y[..nb * G].par_chunks(PCH))
-            .for_each(|(out, ys)| {
-                for (o, b) in out.iter_mut().zip(ys.chunks_exact(G)) {
-                    (o.p.0, o.p.1) = block_sums(b, pivot);
-                }
-            });
+    /// The global frame from the block sums in `sums[g].p` (g < ⌊T/G⌋; `sums` has ⌊T/G⌋ + 1
+    /// entries): a sequential compensated scan in place. Errors on non-finite samples (naming
+    /// the first) and overflow.
+    fn scan(y: &[f64], pivot: f64, mut ck: Vec<Entry>) -> Result<Frames, AvarError> {
+        let nb = y.len() / G;
         let bad = |e: &Entry| !(e.p.0.is_finite() && e.p.1.is_finite());
         if !pivot.is_finite()
             || ck[..nb].iter().any(bad)
@@ -146,32 +166,77 @@ impl Frames {
         {
             return Err(non_finite_or_overflow(y));
         }
-        let (mut c, mut p) = (Neumaier::default(), Neumaier::default());
+        let mut fr = Frames::local(pivot, 0, nb);
+        fr.ck = Vec::new();
         for e in ck.iter_mut() {
-            let (b1, b2) = e.p;
-            *e = Entry {
-                c: (c.hi, c.lo),
-                p: (p.hi, p.lo),
-            };
-            // P_{g+1} = P_g + G·c_g + Σ of the block's local partial sums (G·c exact)
-            p.add(G as f64 * c.hi);
-            p.add(G as f64 * c.lo);
-            p.add(b2);
-            c.add(b1);
+            let b = e.p;
+            *e = fr.next_entry(b);
         }
         let last = ck[nb];
         if !(last.c.0.is_finite() && last.p.0.is_finite() && last.p.1.is_finite()) {
             return Err(AvarError::Overflow);
         }
-        Ok(Frames { pivot, ck })
+        fr.ck = ck;
+        Ok(fr)
+    }
+
+    /// An empty local frame with origin g0·G (c = P = 0 there), for a series of `last`·G to
+    /// `last`·G + G − 1 samples.
+    fn local(pivot: f64, g0: usize, last: usize) -> Frames {
+        Frames {
+            pivot,
+            g0,
+            last,
+            ck: vec![Entry::default()],
+            run: Default::default(),
+        }
+    }
+
+    /// The entry at the current block start, then the running values advanced over the block
+    /// with block sums `(b1, b2)`: P_{g+1} = P_g + G·c_g + b2 (G·c exact), c_{g+1} = c_g + b1.
+    #[inline]
+    fn next_entry(&mut self, (b1, b2): (f64, f64)) -> Entry {
+        let (c, p) = &mut self.run;
+        let e = Entry {
+            c: (c.hi, c.lo),
+            p: (p.hi, p.lo),
+        };
+        p.add(G as f64 * c.hi);
+        p.add(G as f64 * c.lo);
+        p.add(b2);
+        c.add(b1);
+        e
+    }
+
+    /// Extends a local frame to the entries up to min(g_end, last), summing each new block of
+    /// `y` (now in cache) and handing its sums to `keep(g, sums)`.
+    fn extend(&mut self, y: &[f64], g_end: usize, mut keep: impl FnMut(usize, (f64, f64))) {
+        let g_end = g_end.min(self.last);
+        while self.g0 + self.ck.len() <= g_end {
+            let g = self.g0 + self.ck.len() - 1;
+            let b = block_sums(&y[g * G..(g + 1) * G], self.pivot);
+            keep(g, b);
+            let _ = self.next_entry(b);
+            let (c, p) = &self.run;
+            self.ck.push(Entry {
+                c: (c.hi, c.lo),
+                p: (p.hi, p.lo),
+            });
+        }
+    }
+
+    /// The entry at gG (g0 ≤ g ≤ last, and extended that far).
+    #[inline(always)]
+    fn entry(&self, g: usize) -> Entry {
+        self.ck[g - self.g0]
     }
 
     /// c_p as an unevaluated pair: the checkpoint below p plus the local sum of the centred
     /// samples in between (fewer than 2G; p ≤ T).
     #[inline]
     fn c_at(&self, y: &[f64], p: usize) -> (f64, f64) {
-        let g = (p / G).min(self.ck.len() - 1);
-        let (hi, lo) = self.ck[g].c;
+        let g = (p / G).min(self.last);
+        let (hi, lo) = self.entry(g).c;
         if p == g * G {
             return (hi, lo);
         }
@@ -186,8 +251,8 @@ impl Frames {
     /// with r = p − gG (r·c_g exact: r < 2^7 times the two halves of a split).
     #[inline]
     fn p_at(&self, y: &[f64], p: usize) -> (f64, f64) {
-        let g = (p / G).min(self.ck.len() - 1);
-        let e = self.ck[g];
+        let g = (p / G).min(self.last);
+        let e = self.entry(g);
         if p == g * G {
             return e.p;
         }
@@ -302,6 +367,56 @@ fn seg_sum(y: &[f64], kind: Diff, m: usize, s: usize, e: usize, hw: (f64, f64)) 
     }
 }
 
+/// The starting values of the NSEG segments of the chunk at `a` (a multiple of G) for m ≥ G a
+/// multiple of G, when every point is a checkpoint: lane by lane the operations of [`start`]
+/// (so the same values), on arrays of the 16 segments (vectorised).
+#[inline(always)]
+fn starts_on_checkpoints<const SEG: usize>(
+    fr: &Frames,
+    kind: Diff,
+    m: usize,
+    a: usize,
+    st: &mut SegState,
+) {
+    let third = |f: &dyn Fn(Entry) -> (f64, f64), out: &mut [f64; NSEG]| {
+        let mut hi = [[0.0f64; NSEG]; 4];
+        let mut lo = [[0.0f64; NSEG]; 4];
+        for j in 0..4 {
+            for l in 0..NSEG {
+                (hi[j][l], lo[j][l]) = f(fr.entry((a + l * SEG - j * m) / G));
+            }
+        }
+        for (l, o) in out.iter_mut().enumerate() {
+            *o = third_diff(
+                (hi[0][l], lo[0][l]),
+                (hi[1][l], lo[1][l]),
+                (hi[2][l], lo[2][l]),
+                (hi[3][l], lo[3][l]),
+            );
+        }
+    };
+    third(&|e| e.c, &mut st.h);
+    if kind == Diff::Modified {
+        third(&|e| e.p, &mut st.w);
+    }
+}
+
+/// [`starts_on_checkpoints`] compiled for AVX-512.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn starts_on_checkpoints_avx512<const SEG: usize>(
+    fr: &Frames,
+    kind: Diff,
+    m: usize,
+    a: usize,
+    st: &mut SegState,
+) {
+    starts_on_checkpoints::<SEG>(fr, kind, m, a, st)
+}
+
 /// The recurrences of the NSEG segments of one chunk for one scale.
 #[derive(Clone, Copy, Default)]
 struct SegState {
@@ -323,24 +438,26 @@ fn reduce(acc: &[f64; NSEG]) -> f64 {
     v[0]
 }
 
-/// Advances the 16 segments of the full chunk at `a` (3m + 8 ≤ a, a + NSEG·SEG + 8 ≤ T) over the
-/// columns read in the windows [jb − s, jb − s + 8) for jb = j0, j0 + 8, … < j1 (multiples of
-/// 8), plus the window at jb = SEG when j1 = SEG, skipping the columns outside [0, SEG): with
-/// `s` the misalignment of y[a] in elements, the loads of y_k (and, for m a multiple of 8, of
-/// every lag) are 64-byte aligned. Per group of eight segments and window, the rows
-/// e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) are formed, transposed in registers, and each
-/// lane steps its recurrence column by column in increasing k: the operations of [`seg_run`] in
-/// the same order, so the values are bit-identical to the portable path whatever s.
+/// Where the recurrences of a full chunk read their samples: for each lag j (0: y_k, 1: y_{k−m},
+/// 2: y_{k−2m}, 3: y_{k−3m}) a slice and the index in it of row 0, column 0, so that row l,
+/// column c is at `off + l·SEG + c`; each slice reaches 8 elements before and after the rows.
+type Rows<'a> = [(&'a [f64], usize); 4];
+
+/// Advances the 16 segments of a full chunk (its rows in `rows`) over the columns read in the
+/// windows [jb − s, jb − s + 8) for jb = j0, j0 + 8, … < j1 (multiples of 8), plus the window at
+/// jb = SEG when j1 = SEG, skipping the columns outside [0, SEG): with `s` the misalignment of
+/// row 0 in elements (the same in every slice), the loads are 64-byte aligned. Per group of
+/// eight segments and window, the rows e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) are
+/// formed, transposed in registers, and each lane steps its recurrence column by column in
+/// increasing k: the operations of [`seg_run`] in the same order, so the values are
+/// bit-identical to the portable path whatever s and wherever the rows are read from.
 ///
 /// # Safety
 /// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-#[allow(clippy::too_many_arguments)]
 unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
-    y: &[f64],
-    m: usize,
-    a: usize,
+    rows: &Rows<'_>,
     s: usize,
     j0: usize,
     j1: usize,
@@ -349,18 +466,18 @@ unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
     use crate::kernel::transpose8x8;
     use std::arch::x86_64::*;
     assert!(
-        a >= 3 * m + 8
-            && a + NSEG * SEG + 8 <= y.len()
+        rows.iter()
+            .all(|(r, off)| *off >= 8 && off + NSEG * SEG + 8 <= r.len())
             && s < 8
             && j0.is_multiple_of(8)
             && j1.is_multiple_of(8)
             && j1 <= SEG
     );
-    // SAFETY: AVX-512F is available (caller contract); every load reads y[k − λ] for
-    // k ∈ [a − 8, a + NSEG·SEG + 8) and λ ∈ {0, m, 2m, 3m}, inside `y` (asserted); the state
-    // arrays hold NSEG = 16 values.
+    // SAFETY: AVX-512F is available (caller contract); every load reads 8 elements from
+    // off + l·SEG + jb − s with l < NSEG, jb ≤ SEG, s < 8: inside [off − 8, off + NSEG·SEG + 8)
+    // of its slice (asserted); the state arrays hold NSEG = 16 values.
     unsafe {
-        let py = y.as_ptr();
+        let p = rows.map(|(r, off)| r.as_ptr().add(off));
         let three = _mm512_set1_pd(3.0);
         let mut h = [_mm512_setzero_pd(); 2];
         let mut w = [_mm512_setzero_pd(); 2];
@@ -371,17 +488,17 @@ unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
             acc[g] = _mm512_loadu_pd(st.acc.as_ptr().add(8 * g));
         }
         // the eight columns jb − s + c of rows 8g … 8g + 7, transposed (lane r of column c: e at
-        // k = a + (8g + r)·SEG + jb − s + c), then the steps of the columns c in `cols`
+        // row 8g + r, column jb − s + c), then the steps of the columns c in `cols`
         macro_rules! window {
             ($jb:expr, $cols:expr) => {
                 for g in 0..2 {
                     let mut e = [_mm512_setzero_pd(); 8];
                     for (r, er) in e.iter_mut().enumerate() {
-                        let k = a + (8 * g + r) * SEG + $jb - s;
-                        let y0 = _mm512_loadu_pd(py.add(k));
-                        let y1 = _mm512_loadu_pd(py.add(k - m));
-                        let y2 = _mm512_loadu_pd(py.add(k - 2 * m));
-                        let y3 = _mm512_loadu_pd(py.add(k - 3 * m));
+                        let q = (8 * g + r) * SEG + $jb;
+                        let y0 = _mm512_loadu_pd(p[0].add(q).sub(s));
+                        let y1 = _mm512_loadu_pd(p[1].add(q).sub(s));
+                        let y2 = _mm512_loadu_pd(p[2].add(q).sub(s));
+                        let y3 = _mm512_loadu_pd(p[3].add(q).sub(s));
                         *er = _mm512_fmadd_pd(_mm512_sub_pd(y2, y1), three, _mm512_sub_pd(y0, y3));
                     }
                     let cols = transpose8x8!(e);
@@ -417,6 +534,62 @@ unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
     }
 }
 
+/// The far walk's copies of the chunks its residue class visited last, in contiguous slots:
+/// the lagged rows of a far scale that is a whole number q of class steps are then read from
+/// the copies of the chunks q, 2q and 3q steps back, instead of from the series, where rows
+/// 2^k·8 bytes apart map to the same cache sets and evict each other.
+struct Ring {
+    buf: Vec<f64>,
+    /// Index in `buf` of the first 64-byte aligned element.
+    base: usize,
+    slots: usize,
+    /// The index in its class of the chunk each slot holds.
+    held: Vec<usize>,
+    /// Class step (samples) and the index in its class of the current chunk.
+    step: usize,
+    tc: usize,
+}
+
+/// Elements of a ring slot: a far chunk and 8 samples either side, at any misalignment.
+const SLOT: usize = NSEG * SEG_FAR + 24;
+
+impl Ring {
+    /// A ring of `slots` slots for the walk of class step `step` (0 slots: no ring).
+    fn new(slots: usize, step: usize) -> Ring {
+        let buf = vec![0.0f64; slots * SLOT + 8];
+        let base = (8 - (buf.as_ptr() as usize % 64) / 8) % 8;
+        Ring {
+            buf,
+            base,
+            slots,
+            held: vec![usize::MAX; slots],
+            step,
+            tc: 0,
+        }
+    }
+
+    /// Copies the chunk at `a` (the `tc`-th of its class), with 8 samples either side, into its
+    /// slot at the misalignment `mis` of y[a], when it lies that far inside the series.
+    fn put(&mut self, y: &[f64], a: usize, tc: usize, mis: usize) {
+        self.tc = tc;
+        if self.slots == 0 || a < 8 || a + NSEG * SEG_FAR + 8 > y.len() {
+            return;
+        }
+        let slot = tc % self.slots;
+        let at = self.base + slot * SLOT + mis;
+        self.buf[at..at + NSEG * SEG_FAR + 16].copy_from_slice(&y[a - 8..a + NSEG * SEG_FAR + 8]);
+        self.held[slot] = tc;
+    }
+
+    /// The rows of the chunk `back` class steps before the current one, if held.
+    fn rows(&self, back: usize, mis: usize) -> Option<(&[f64], usize)> {
+        let tc = self.tc.checked_sub(back)?;
+        let slot = tc % self.slots.max(1);
+        (self.slots > 0 && self.held[slot] == tc)
+            .then(|| (&self.buf[..], self.base + slot * SLOT + mis + 8))
+    }
+}
+
 /// Whether the AVX-512 chunk kernel can run.
 fn have_avx512() -> bool {
     #[cfg(target_arch = "x86_64")]
@@ -430,8 +603,9 @@ fn have_avx512() -> bool {
 }
 
 /// The partial sums of chunk `i` (segment length SEG) for every scale of `batch`, into `out`.
-/// Full chunks run the vector kernel when `simd`, all scales per column block; the others (and
-/// every chunk without `simd`) run [`seg_sum`] per segment. The same value either way.
+/// Full chunks run the vector kernel when `simd`, all scales per column block, reading the
+/// lagged rows from the `ring` where it holds them; the others (and every chunk without `simd`)
+/// run [`seg_sum`] per segment. The same value either way.
 #[allow(clippy::too_many_arguments)]
 fn chunk_partials<const SEG: usize>(
     y: &[f64],
@@ -440,6 +614,7 @@ fn chunk_partials<const SEG: usize>(
     batch: &[usize],
     i: usize,
     simd: bool,
+    ring: Option<&Ring>,
     states: &mut Vec<SegState>,
     out: &mut [f64],
 ) {
@@ -452,6 +627,13 @@ fn chunk_partials<const SEG: usize>(
     states.clear();
     for &m in batch.iter().filter(|&&m| full(m)) {
         let mut st = SegState::default();
+        #[cfg(target_arch = "x86_64")]
+        if m.is_multiple_of(G) {
+            // SAFETY: `simd` (hence `full`) is set only when AVX-512F is present.
+            unsafe { starts_on_checkpoints_avx512::<SEG>(fr, kind, m, a, &mut st) };
+            states.push(st);
+            continue;
+        }
         for l in 0..NSEG {
             (st.h[l], st.w[l]) = start(y, fr, kind, m, a + l * SEG);
         }
@@ -459,20 +641,35 @@ fn chunk_partials<const SEG: usize>(
     }
     #[cfg(target_arch = "x86_64")]
     if !states.is_empty() {
+        // the rows of each lag: from the ring when m is a whole number of class steps whose
+        // chunks it holds, else from the series
+        let rows_of = |m: usize| -> Rows<'_> {
+            std::array::from_fn(|j| {
+                let from_ring = ring.filter(|r| j > 0 && m.is_multiple_of(r.step));
+                from_ring
+                    .and_then(|r| r.rows(j * m / r.step, mis))
+                    .unwrap_or((y, a - j * m))
+            })
+        };
+        let rows: Vec<Rows<'_>> = batch
+            .iter()
+            .filter(|&&m| full(m))
+            .map(|&m| rows_of(m))
+            .collect();
         for j0 in (0..SEG).step_by(BLK) {
-            let mut st = states.iter_mut();
-            for &m in batch.iter().filter(|&&m| full(m)) {
-                let s = st.next().expect("one state per full scale");
+            for (r, st) in rows.iter().zip(states.iter_mut()) {
                 // SAFETY: `simd` is set only when AVX-512F is present; the chunk is full for m.
                 unsafe {
                     match kind {
-                        Diff::Hadamard => block_avx512::<false, SEG>(y, m, a, mis, j0, j0 + BLK, s),
-                        Diff::Modified => block_avx512::<true, SEG>(y, m, a, mis, j0, j0 + BLK, s),
+                        Diff::Hadamard => block_avx512::<false, SEG>(r, mis, j0, j0 + BLK, st),
+                        Diff::Modified => block_avx512::<true, SEG>(r, mis, j0, j0 + BLK, st),
                     }
                 }
             }
         }
     }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (ring, mis);
     let mut st = states.iter();
     for (o, &m) in out.iter_mut().zip(batch) {
         *o = if full(m) {
@@ -498,6 +695,81 @@ pub(crate) fn third_diff_sums(y: &[f64], ms: &[u64], kind: Diff) -> Result<Vec<f
     third_diff_sums_with(y, ms, kind, have_avx512(), NEAR_MAX_M, CLASS_STEP)
 }
 
+/// Target near chunks per job of the near walk (8.4 M samples), and the fewest jobs: a function
+/// of the series length only, so that the local frames (hence the sums) do not depend on the
+/// thread count.
+const JOB_CHUNKS: usize = 480;
+const MIN_JOBS: usize = 8;
+
+/// Near chunks per job for `n_chunks` chunks: jobs of equal length, about [`JOB_CHUNKS`] each but
+/// at least [`MIN_JOBS`] of them.
+fn job_chunks(n_chunks: usize) -> usize {
+    let jobs = n_chunks.div_ceil(JOB_CHUNKS).max(MIN_JOBS);
+    n_chunks.div_ceil(jobs).max(1)
+}
+
+/// The chunk partials (chunk-major, `batch.len()` per chunk) of the near scales `batch` on the
+/// [`SEG_NEAR`] grid, in one pass that also sums the blocks: the chunks are cut into jobs (run in
+/// parallel), each walking its chunks in order in a local frame that starts `warm` samples
+/// before the job (3m ≤ warm for every near scale) and is extended block by block just before
+/// a chunk runs, while its samples are in cache. The block sums of each job's own range go to
+/// `sums` (for the global frame of the far scales).
+#[allow(clippy::too_many_arguments)]
+fn near_walk(
+    y: &[f64],
+    pivot: f64,
+    kind: Diff,
+    batch: &[usize],
+    simd: bool,
+    warm: usize,
+    sums: &mut [Entry],
+) -> Vec<f64> {
+    let t = y.len();
+    let last = t / G;
+    let schunk = NSEG * SEG_NEAR;
+    let n_chunks = kind.k_end(t).div_ceil(schunk);
+    let jc = job_chunks(n_chunks);
+    // each job's own blocks, from its first chunk start to the next job's
+    let mut dsts = Vec::new();
+    let mut rest = &mut sums[..last];
+    for j in 0..n_chunks.div_ceil(jc) {
+        let n = (jc * schunk / G).min(rest.len());
+        let (d, r) = std::mem::take(&mut rest).split_at_mut(n);
+        dsts.push((j, d));
+        rest = r;
+    }
+    let w = batch.len();
+    dsts.into_par_iter()
+        .map_init(Vec::new, |states, (j, dst)| {
+            let chunks = j * jc..((j + 1) * jc).min(n_chunks);
+            let a0 = chunks.start * schunk;
+            let mut fr = Frames::local(pivot, a0.saturating_sub(warm) / G, last);
+            let mut parts = vec![0.0f64; chunks.len() * w];
+            for (i, o) in chunks.zip(parts.chunks_exact_mut(w)) {
+                fr.extend(y, ((i + 1) * schunk).div_ceil(G), |g, b| {
+                    if let Some(d) = g.checked_sub(a0 / G).and_then(|q| dst.get_mut(q)) {
+                        d.p = b;
+                    }
+                });
+                chunk_partials::<SEG_NEAR>(y, &fr, kind, batch, i, simd, None, states, o);
+            }
+            parts
+        })
+        .flatten()
+        .collect()
+}
+
+/// out[s] = the Neumaier sum, in chunk order, of the partials `part(i, s)` of chunks 0..n.
+fn combine(n: usize, idx: &[usize], part: impl Fn(usize, usize) -> f64, out: &mut [f64]) {
+    for (s, &o) in idx.iter().enumerate() {
+        let mut acc = Neumaier::default();
+        for i in 0..n {
+            acc.add(part(i, s));
+        }
+        out[o] = acc.value();
+    }
+}
+
 /// [`third_diff_sums`] with the vector kernel, the near/far threshold and the class step as
 /// parameters (tests cover every path on short series with small values).
 fn third_diff_sums_with(
@@ -508,58 +780,62 @@ fn third_diff_sums_with(
     near_max_m: usize,
     class_step: usize,
 ) -> Result<Vec<f64>, AvarError> {
-    let fr = Frames::build(y)?;
     let t = y.len();
     let k_end = kind.k_end(t);
+    let pivot = pivot_of(y);
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
         (0..ms.len()).partition(|&s| ms[s] as usize <= near_max_m);
-    // near scales: the chunks in order (each thread takes contiguous runs of them)
-    let schunk = NSEG * SEG_NEAR;
-    let n_chunks = k_end.div_ceil(schunk);
+    // near scales, building the block sums on the way (or one pass of block sums without them)
+    let mut sums = vec![Entry::default(); t / G + 1];
+    let warm = (3 * near_max_m).next_multiple_of(G);
+    let n_near = k_end.div_ceil(NSEG * SEG_NEAR);
     for idx in near.chunks(SCALE_BATCH) {
         let batch: Vec<usize> = idx.iter().map(|&s| ms[s] as usize).collect();
         let w = batch.len();
-        let parts: Vec<Vec<f64>> = (0..n_chunks)
-            .into_par_iter()
-            .map_init(Vec::new, |states, i| {
-                let mut o = vec![0.0f64; w];
-                chunk_partials::<SEG_NEAR>(y, &fr, kind, &batch, i, simd, states, &mut o);
-                o
-            })
-            .collect();
-        for (s, &o) in idx.iter().enumerate() {
-            let mut acc = Neumaier::default();
-            for p in &parts {
-                acc.add(p[s]);
-            }
-            out[o] = acc.value();
-        }
+        let parts = near_walk(y, pivot, kind, &batch, simd, warm, &mut sums);
+        combine(n_near, idx, |i, s| parts[i * w + s], &mut out);
     }
+    if near.is_empty() {
+        block_pass(y, pivot, &mut sums);
+    }
+    let fr = Frames::scan(y, pivot, sums)?;
     // far scales: the chunks by residue class (chunk i in class i mod n_cls, walked in order)
     let schunk = NSEG * SEG_FAR;
     let n_chunks = k_end.div_ceil(schunk);
     let n_cls = (class_step / schunk).clamp(1, n_chunks.max(1));
+    let step = n_cls * schunk;
     for idx in far.chunks(SCALE_BATCH) {
         let batch: Vec<usize> = idx.iter().map(|&s| ms[s] as usize).collect();
         let w = batch.len();
+        // ring slots back to the largest lag 3q·step of a scale that is q whole steps
+        let q_max = batch
+            .iter()
+            .filter(|&&m| m.is_multiple_of(step))
+            .map(|&m| m / step)
+            .max()
+            .unwrap_or(0);
+        let slots = if simd && q_max > 0 { 3 * q_max + 1 } else { 0 };
         let by_class: Vec<Vec<f64>> = (0..n_cls)
             .into_par_iter()
-            .map_init(Vec::new, |states, r| {
-                let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
-                for (i, o) in (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w)) {
-                    chunk_partials::<SEG_FAR>(y, &fr, kind, &batch, i, simd, states, o);
-                }
-                parts
-            })
+            .map_init(
+                || (Vec::new(), Ring::new(slots, step)),
+                |(states, ring), r| {
+                    let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
+                    let walk = (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w));
+                    for (tc, (i, o)) in walk.enumerate() {
+                        let a = i * schunk;
+                        let mis = (y.as_ptr().wrapping_add(a) as usize % 64) / 8;
+                        ring.put(y, a, tc, mis);
+                        let rg = Some(&*ring);
+                        chunk_partials::<SEG_FAR>(y, &fr, kind, &batch, i, simd, rg, states, o);
+                    }
+                    parts
+                },
+            )
             .collect();
-        for (s, &o) in idx.iter().enumerate() {
-            let mut acc = Neumaier::default();
-            for i in 0..n_chunks {
-                acc.add(by_class[i % n_cls][(i / n_cls) * w + s]);
-            }
-            out[o] = acc.value();
-        }
+        let part = |i: usize, s: usize| by_class[i % n_cls][(i / n_cls) * w + s];
+        combine(n_chunks, idx, part, &mut out);
     }
     Ok(out)
 }
@@ -658,12 +934,10 @@ mod tests {
                 for simd in [false, have_avx512()] {
                     let got = run(&y, kind, simd, split);
                     for ((g, w), m) in got.iter().zip(&want).zip(MS) {
-                        // the terms are exact (integer increments, checkpoints off by u² only);
-                        // a segment sums ≤ 1088 positive squares by fma, each rounding ≤ u of
-                        // the running sum: ≤ 1088·u ≈ 1.2e-13 relative, then exact tree and
-                        // Neumaier steps
+                        // integer terms below 2^53: each fma and the Neumaier sums are exact
+                        // until the totals exceed 2^53, then within u per addition
                         assert!(
-                            rel(*g, *w) < 2e-13,
+                            rel(*g, *w) < 1e-13,
                             "{kind:?} m {m} simd {simd}: {g} vs {w}"
                         );
                     }
