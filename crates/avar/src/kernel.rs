@@ -41,8 +41,8 @@ const PIVOT_LEN: usize = 1024;
 /// Neumaier's compensated accumulator.
 #[derive(Clone, Copy, Default, Debug)]
 pub(crate) struct Neumaier {
-    hi: f64,
-    lo: f64,
+    pub(crate) hi: f64,
+    pub(crate) lo: f64,
 }
 
 impl Neumaier {
@@ -218,7 +218,7 @@ pub(crate) fn nonoverlapping_sums(c: &[f64], ms: &[u64]) -> Vec<f64> {
 }
 
 /// Index and value of the first non-finite sample.
-fn first_non_finite(x: &[f64]) -> Option<(usize, f64)> {
+pub(crate) fn first_non_finite(x: &[f64]) -> Option<(usize, f64)> {
     x.iter().position(|v| !v.is_finite()).map(|i| (i, x[i]))
 }
 
@@ -422,13 +422,13 @@ pub(crate) fn checkpoints_io(x: &[f64], release: Release<'_>) -> Result<Checkpoi
 }
 
 /// The pivot subtracted before summing: the mean of the first [`PIVOT_LEN`] samples.
-fn pivot_of(x: &[f64]) -> f64 {
+pub(crate) fn pivot_of(x: &[f64]) -> f64 {
     let head = &x[..x.len().min(PIVOT_LEN)];
     head.iter().sum::<f64>() / head.len() as f64
 }
 
 #[inline(always)]
-fn two_sum(a: f64, b: f64) -> (f64, f64) {
+pub(crate) fn two_sum(a: f64, b: f64) -> (f64, f64) {
     let s = a + b;
     let bb = s - a;
     (s, (a - (s - bb)) + (b - bb))
@@ -628,6 +628,8 @@ macro_rules! transpose8x8 {
         ]
     }};
 }
+#[cfg(target_arch = "x86_64")]
+pub(crate) use transpose8x8;
 
 /// Halo (columns) of the transposed copy of a near chunk: scales with 2m ≤ XH read their lagged
 /// samples from the copy (see [`build_lanes_avx512`]).

@@ -42,6 +42,7 @@ pub mod edf;
 pub mod hdev;
 pub mod mdev;
 pub mod noise_id;
+mod stream;
 pub mod tdev;
 pub mod totdev;
 
@@ -428,6 +429,33 @@ fn stability_unscaled(
             "the Gaussian interval is defined for the Allan variance only, not for {statistic}: \
              use the chi-square interval"
         )));
+    }
+    // OHDEV, MDEV and TDEV of rate data without an interval: streamed from the samples, no
+    // series-sized cumulative sum (see `stream`)
+    if config.input == InputKind::Rate
+        && config.ci == CiMethod::None
+        && matches!(
+            statistic,
+            Statistic::Ohdev | Statistic::Mdev | Statistic::Tdev
+        )
+    {
+        let t = data.len();
+        check_len(t, t)?;
+        let ms = statistic.cluster_sizes(&config.scales, t)?;
+        let vars = match statistic {
+            Statistic::Ohdev => hdev::ohvar_stream(data, &ms)?,
+            Statistic::Mdev => mdev::mvar_stream(data, &ms)?,
+            _ => tdev::tvar_from_mvar(mdev::mvar_stream(data, &ms)?, rate_hz, &ms),
+        };
+        return Ok(Stability {
+            statistic,
+            rate_hz,
+            n: t,
+            input: config.input,
+            ci: config.ci,
+            alpha: config.alpha,
+            points: new_points(statistic, &ms, vars, t, rate_hz),
+        });
     }
     let mut scratch = Vec::new();
     let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;

@@ -30,8 +30,12 @@ pub fn tvar_reference(
 
 /// TVAR at each m from the fast MVAR.
 pub(crate) fn tvar_fast(cum: &Cumulative<'_>, rate_hz: f64, ms: &[u64]) -> Vec<f64> {
-    mdev::mvar_fast(cum, ms)
-        .into_iter()
+    tvar_from_mvar(mdev::mvar_fast(cum, ms), rate_hz, ms)
+}
+
+/// TVAR = τ²/3 · MVAR at each m (τ = m / rate_hz), from the MVAR values in the order of `ms`.
+pub(crate) fn tvar_from_mvar(mvar: Vec<f64>, rate_hz: f64, ms: &[u64]) -> Vec<f64> {
+    mvar.into_iter()
         .zip(ms)
         .map(|(v, &m)| {
             let tau = m as f64 / rate_hz;

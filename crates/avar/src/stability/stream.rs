@@ -1,0 +1,1066 @@
+//! The streamed kernel of the overlapping Hadamard (OHVAR) and modified Allan (MVAR, hence TVAR)
+//! variances of rate data: no series-sized buffer, one read of the series for all near scales
+//! (which also builds the checkpoints) and one for all far ones.
+//!
+//! With c_k = Σ_{i<k} (y_i − pivot) the phase (in rate units, τ0 = 1; the pivot is the mean of
+//! the first samples and cancels in every difference below) and P_k = Σ_{i<k} c_i the summed
+//! phase, the terms are third differences at lag m, indexed by their newest point k:
+//!
+//! ```text
+//! OHVAR: h_k = c_k − 3c_{k−m} + 3c_{k−2m} − c_{k−3m},  k = 3m … T      (T + 1 − 3m terms)
+//! MVAR:  w_k = P_k − 3P_{k−m} + 3P_{k−2m} − P_{k−3m},  k = 3m … T + 1  (T + 2 − 3m terms)
+//! ```
+//!
+//! (w_k is the sum of the m second differences of phase of the MVAR term j = k − 3m.) They obey
+//! h_{k+1} = h_k + e_k, e_k = (y_k − y_{k−3m}) + 3(y_{k−2m} − y_{k−m}), and w_{k+1} = w_k + h_k:
+//! a recurrence in four lagged streams of the rate samples. The k-axis is cut into chunks of
+//! [`NSEG`] segments; every segment starts from values rebuilt exactly from checkpoints (c and P
+//! every [`G`] samples as compensated pairs, [`Frames`]; directly from the samples for m < G)
+//! and carries the recurrence over its length only, so rounding cannot drift beyond one segment.
+//! With AVX-512 the 16 segments of a chunk are the lanes of two vectors (the e rows are
+//! transposed in registers, the loads aligned to cache lines).
+//!
+//! Near scales (m ≤ [`NEAR_MAX_M`]) walk the chunks in order, in parallel jobs, all scales per
+//! chunk while its samples are in cache (the lagged rows were read shortly before); each job
+//! keeps its checkpoints in a local frame that it extends block by block as it goes (third
+//! differences do not depend on the frame), and hands its block sums on to the global frame.
+//! Far scales take shorter segments ([`SEG_FAR`]) and walk the chunks by residue class of step
+//! [`CLASS_STEP`]: for m a multiple of the step the lagged rows are chunks the class visited a
+//! few steps earlier, read from a ring of copies ([`Ring`]) that stays in cache.
+//!
+//! Determinism: a chunk's partial sum depends only on the samples, m, the chunk index and the
+//! frame of its checkpoints (the near jobs' grid depends only on T), and partials are added in
+//! chunk order with Neumaier's compensation, so results are bit-identical for any thread count
+//! and whatever other scales are requested. The vector and portable paths perform the same
+//! operations in the same order (acc ← fma(v, v, acc)).
+//!
+//! Phase (angle) input and chi-square intervals keep the buffered path of the modules.
+
+use rayon::prelude::*;
+
+use crate::error::AvarError;
+use crate::kernel::{Neumaier, first_non_finite, pivot_of, two_sum};
+
+/// Spacing (samples) of the checkpoints of c and P.
+const G: usize = 64;
+/// Segments per chunk (one vector lane each).
+const NSEG: usize = 16;
+/// Segment length of the near scales: a multiple of G (segment starts are checkpoints), and
+/// 512 bytes more than a multiple of 4 KiB so that the 16 rows fall in different L1 sets.
+const SEG_NEAR: usize = 1024 + G;
+/// Segment length of the far scales: a power of two, so that the chunk width divides the class
+/// step and the dyadic far lags.
+const SEG_FAR: usize = 128;
+/// Largest near cluster size: its lags (3m samples, 6 MiB) stay in the last-level cache.
+const NEAR_MAX_M: usize = 1 << 19;
+/// Class step (samples) of the far walk.
+const CLASS_STEP: usize = 1 << 20;
+/// Columns of a chunk run for every scale of a batch before moving on (rows stay in L1).
+const BLK: usize = 64;
+/// Scales per pass over the chunks (bounds the table of chunk partials).
+const SCALE_BATCH: usize = 64;
+const _: () = assert!(
+    SEG_NEAR.is_multiple_of(G)
+        && SEG_FAR.is_multiple_of(G)
+        && SEG_NEAR.is_multiple_of(BLK)
+        && SEG_FAR.is_multiple_of(BLK)
+        && BLK.is_multiple_of(8)
+        && CLASS_STEP.is_multiple_of(NSEG * SEG_FAR)
+);
+
+/// Which third difference is summed.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Diff {
+    /// h_k, of the phase (OHVAR).
+    Hadamard,
+    /// w_k, of the summed phase (MVAR).
+    Modified,
+}
+
+impl Diff {
+    /// One past the newest point of the last term: T + 1 (OHVAR), T + 2 (MVAR).
+    fn k_end(self, t: usize) -> usize {
+        match self {
+            Diff::Hadamard => t + 1,
+            Diff::Modified => t + 2,
+        }
+    }
+}
+
+/// A checkpoint: c and P at a multiple of G, each as an unevaluated compensated pair (hi, lo).
+#[derive(Clone, Copy, Default)]
+struct Entry {
+    c: (f64, f64),
+    p: (f64, f64),
+}
+
+/// The checkpoints of the phase c and the summed phase P (pivot-centred) at every G-th index,
+/// from index `g0` on (entry g − g0 holds c and P at gG), in one frame: the global one (origin
+/// 0, `g0` = 0, built by [`Frames::scan`]) or a near job's local one (origin g0·G, where c = P = 0,
+/// extended block by block by [`Frames::extend`]). Third differences at lag m do not depend on
+/// the frame (a change of origin adds a constant to c and a linear function of k to P), as long
+/// as their four points lie in it.
+struct Frames {
+    pivot: f64,
+    g0: usize,
+    /// Index of the last checkpoint of the series, ⌊T/G⌋ (every later point is reached by a
+    /// local sum from it).
+    last: usize,
+    ck: Vec<Entry>,
+    /// The running compensated c and P of a local frame's next entry.
+    run: (Neumaier, Neumaier),
+}
+
+/// Σ (v − pivot) and Σ (v − pivot)·(G − 1 − r) over one full block of G samples (r the index in
+/// the block), in eight lanes reduced by a fixed tree: the block's contribution to c and, with
+/// G·c at its start, to P.
+#[inline(always)]
+fn block_sums(b: &[f64], pivot: f64) -> (f64, f64) {
+    let mut s1 = [0.0f64; 8];
+    let mut s2 = [0.0f64; 8];
+    for (j, ch) in b.chunks_exact(8).enumerate() {
+        for l in 0..8 {
+            let v = ch[l] - pivot;
+            s1[l] += v;
+            s2[l] += v * (G - 1 - 8 * j - l) as f64;
+        }
+    }
+    let tree = |s: [f64; 8]| ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]));
+    (tree(s1), tree(s2))
+}
+
+/// Veltkamp's split of `a` into a 26-bit high part and the rest (both exact).
+#[inline(always)]
+fn split(a: f64) -> (f64, f64) {
+    let c = 134_217_729.0 * a;
+    let hi = c - (c - a);
+    (hi, a - hi)
+}
+
+/// Rows of samples per job of the parallel block pass.
+const PCH: usize = 1 << 16;
+
+/// The block sums of every full block of `y` into `sums[g].p` (one parallel pass).
+fn block_pass(y: &[f64], pivot: f64, sums: &mut [Entry]) {
+    let nb = y.len() / G;
+    sums[..nb]
+        .par_chunks_mut(PCH / G)
+        .zip(y[..nb * G].par_chunks(PCH))
+        .for_each(|(out, ys)| {
+            for (o, b) in out.iter_mut().zip(ys.chunks_exact(G)) {
+                o.p = block_sums(b, pivot);
+            }
+        });
+}
+
+impl Frames {
+    /// The global frame from the block sums in `sums[g].p` (g < ⌊T/G⌋; `sums` has ⌊T/G⌋ + 1
+    /// entries): a sequential compensated scan in place. Errors on non-finite samples (naming
+    /// the first) and overflow.
+    fn scan(y: &[f64], pivot: f64, mut ck: Vec<Entry>) -> Result<Frames, AvarError> {
+        let nb = y.len() / G;
+        let bad = |e: &Entry| !(e.p.0.is_finite() && e.p.1.is_finite());
+        if !pivot.is_finite()
+            || ck[..nb].iter().any(bad)
+            || y[nb * G..].iter().any(|v| !v.is_finite())
+        {
+            return Err(non_finite_or_overflow(y));
+        }
+        let mut fr = Frames::local(pivot, 0, nb);
+        fr.ck = Vec::new();
+        for e in ck.iter_mut() {
+            let b = e.p;
+            *e = fr.next_entry(b);
+        }
+        let last = ck[nb];
+        if !(last.c.0.is_finite() && last.p.0.is_finite() && last.p.1.is_finite()) {
+            return Err(AvarError::Overflow);
+        }
+        fr.ck = ck;
+        Ok(fr)
+    }
+
+    /// An empty local frame with origin g0·G (c = P = 0 there), for a series of `last`·G to
+    /// `last`·G + G − 1 samples.
+    fn local(pivot: f64, g0: usize, last: usize) -> Frames {
+        Frames {
+            pivot,
+            g0,
+            last,
+            ck: vec![Entry::default()],
+            run: Default::default(),
+        }
+    }
+
+    /// The entry at the current block start, then the running values advanced over the block
+    /// with block sums `(b1, b2)`: P_{g+1} = P_g + G·c_g + b2 (G·c exact), c_{g+1} = c_g + b1.
+    #[inline]
+    fn next_entry(&mut self, (b1, b2): (f64, f64)) -> Entry {
+        let (c, p) = &mut self.run;
+        let e = Entry {
+            c: (c.hi, c.lo),
+            p: (p.hi, p.lo),
+        };
+        p.add(G as f64 * c.hi);
+        p.add(G as f64 * c.lo);
+        p.add(b2);
+        c.add(b1);
+        e
+    }
+
+    /// Extends a local frame to the entries up to min(g_end, last), summing each new block of
+    /// `y` (now in cache) and handing its sums to `keep(g, sums)`.
+    fn extend(&mut self, y: &[f64], g_end: usize, mut keep: impl FnMut(usize, (f64, f64))) {
+        let g_end = g_end.min(self.last);
+        while self.g0 + self.ck.len() <= g_end {
+            let g = self.g0 + self.ck.len() - 1;
+            let b = block_sums(&y[g * G..(g + 1) * G], self.pivot);
+            keep(g, b);
+            let _ = self.next_entry(b);
+            let (c, p) = &self.run;
+            self.ck.push(Entry {
+                c: (c.hi, c.lo),
+                p: (p.hi, p.lo),
+            });
+        }
+    }
+
+    /// The entry at gG (g0 ≤ g ≤ last, and extended that far).
+    #[inline(always)]
+    fn entry(&self, g: usize) -> Entry {
+        self.ck[g - self.g0]
+    }
+
+    /// c_p as an unevaluated pair: the checkpoint below p plus the local sum of the centred
+    /// samples in between (fewer than 2G; p ≤ T).
+    #[inline]
+    fn c_at(&self, y: &[f64], p: usize) -> (f64, f64) {
+        let g = (p / G).min(self.last);
+        let (hi, lo) = self.entry(g).c;
+        if p == g * G {
+            return (hi, lo);
+        }
+        let mut l = [0.0f64; 4];
+        for (i, v) in y[g * G..p].iter().enumerate() {
+            l[i % 4] += v - self.pivot;
+        }
+        (hi, lo + ((l[0] + l[1]) + (l[2] + l[3])))
+    }
+
+    /// P_p as an unevaluated pair (p ≤ T + 1): P_g + r·c_g + Σ_{i=gG}^{p−2} (y_i − pivot)(p − 1 − i)
+    /// with r = p − gG (r·c_g exact: r < 2^7 times the two halves of a split).
+    #[inline]
+    fn p_at(&self, y: &[f64], p: usize) -> (f64, f64) {
+        let g = (p / G).min(self.last);
+        let e = self.entry(g);
+        if p == g * G {
+            return e.p;
+        }
+        let r = (p - g * G) as f64;
+        let mut l = [0.0f64; 4];
+        for (j, v) in y[g * G..p - 1].iter().enumerate() {
+            l[j % 4] += (v - self.pivot) * (p - 1 - g * G - j) as f64;
+        }
+        let (ah, al) = split(e.c.0);
+        let (s, err) = two_sum(e.p.0, r * ah);
+        (
+            s,
+            ((err + r * al) + (e.p.1 + r * e.c.1)) + ((l[0] + l[1]) + (l[2] + l[3])),
+        )
+    }
+}
+
+/// The error for samples whose sums are not finite: the first non-finite sample, or overflow.
+fn non_finite_or_overflow(y: &[f64]) -> AvarError {
+    match first_non_finite(y) {
+        Some((index, value)) => AvarError::NonFinite { index, value },
+        None => AvarError::Overflow,
+    }
+}
+
+/// a − 3b + 3c − d of four unevaluated pairs, the large parts differenced exactly.
+#[inline(always)]
+fn third_diff(a: (f64, f64), b: (f64, f64), c: (f64, f64), d: (f64, f64)) -> f64 {
+    let (s1, e1) = two_sum(a.0, -d.0);
+    let (s2, e2) = two_sum(c.0, -b.0);
+    let (t3, e3) = two_sum(s2, 2.0 * s2);
+    let (s, e4) = two_sum(s1, t3);
+    s + (((e1 + e4) + (e3 + 3.0 * e2)) + ((a.1 - d.1) + 3.0 * (c.1 - b.1)))
+}
+
+/// f(k) − 3f(k − m) + 3f(k − 2m) − f(k − 3m) of a function returning unevaluated pairs.
+#[inline(always)]
+fn third_diff_at(f: impl Fn(usize) -> (f64, f64), m: usize, k: usize) -> f64 {
+    third_diff(f(k), f(k - m), f(k - 2 * m), f(k - 3 * m))
+}
+
+/// The exact starting values (h_k, w_k) of a segment at k (3m ≤ k; w is 0 for OHVAR). For
+/// m < G straight from the samples: h_k = Σ_{i=k−m}^{k−1} (y_i − 2y_{i−m} + y_{i−2m}) and
+/// w_k = Σ_{i=k−2m}^{k−2} (y_i − y_{i−m})·min(i − k + 2m + 1, k − 1 − i) (the pivot cancels);
+/// otherwise from the checkpoints.
+#[inline]
+fn start(y: &[f64], fr: &Frames, kind: Diff, m: usize, k: usize) -> (f64, f64) {
+    if m < G {
+        let h = (k - m..k)
+            .map(|i| (y[i] - y[i - m]) - (y[i - m] - y[i - 2 * m]))
+            .sum();
+        let w = match kind {
+            Diff::Hadamard => 0.0,
+            Diff::Modified => (k - 2 * m..k - 1)
+                .map(|i| (y[i] - y[i - m]) * (i + 2 * m + 1 - k).min(k - 1 - i) as f64)
+                .sum(),
+        };
+        return (h, w);
+    }
+    let h = third_diff_at(|p| fr.c_at(y, p), m, k);
+    let w = match kind {
+        Diff::Hadamard => 0.0,
+        Diff::Modified => third_diff_at(|p| fr.p_at(y, p), m, k),
+    };
+    (h, w)
+}
+
+/// Σ v_k² over the segment [s, e) of scale m from the starting values (h, w) at s, where v is
+/// h (OHVAR) or w (MVAR): acc ← fma(v, v, acc); w += h (MVAR); h += e_k (for k < T).
+#[inline(always)]
+fn seg_run<const MOD: bool>(y: &[f64], m: usize, s: usize, e: usize, (h, w): (f64, f64)) -> f64 {
+    let (mut h, mut w) = (h, w);
+    let t = y.len();
+    let mut acc = 0.0f64;
+    for k in s..e {
+        if MOD {
+            acc = w.mul_add(w, acc);
+            w += h;
+        } else {
+            acc = h.mul_add(h, acc);
+        }
+        if k < t {
+            let p = y[k] - y[k - 3 * m];
+            let q = y[k - 2 * m] - y[k - m];
+            h += q.mul_add(3.0, p);
+        }
+    }
+    acc
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma")]
+fn seg_run_fma<const MOD: bool>(y: &[f64], m: usize, s: usize, e: usize, hw: (f64, f64)) -> f64 {
+    seg_run::<MOD>(y, m, s, e, hw)
+}
+
+/// [`seg_run`] with the hardware fused multiply-add where the CPU has it (the same value).
+fn seg_sum(y: &[f64], kind: Diff, m: usize, s: usize, e: usize, hw: (f64, f64)) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU supports FMA (checked above).
+        return unsafe {
+            match kind {
+                Diff::Hadamard => seg_run_fma::<false>(y, m, s, e, hw),
+                Diff::Modified => seg_run_fma::<true>(y, m, s, e, hw),
+            }
+        };
+    }
+    match kind {
+        Diff::Hadamard => seg_run::<false>(y, m, s, e, hw),
+        Diff::Modified => seg_run::<true>(y, m, s, e, hw),
+    }
+}
+
+/// The starting values of the NSEG segments of the chunk at `a` (a multiple of G) for m ≥ G a
+/// multiple of G, when every point is a checkpoint: lane by lane the operations of [`start`]
+/// (so the same values), on arrays of the 16 segments (vectorised).
+#[inline(always)]
+fn starts_on_checkpoints<const SEG: usize>(
+    fr: &Frames,
+    kind: Diff,
+    m: usize,
+    a: usize,
+    st: &mut SegState,
+) {
+    let third = |f: &dyn Fn(Entry) -> (f64, f64), out: &mut [f64; NSEG]| {
+        let mut hi = [[0.0f64; NSEG]; 4];
+        let mut lo = [[0.0f64; NSEG]; 4];
+        for j in 0..4 {
+            for l in 0..NSEG {
+                (hi[j][l], lo[j][l]) = f(fr.entry((a + l * SEG - j * m) / G));
+            }
+        }
+        for (l, o) in out.iter_mut().enumerate() {
+            *o = third_diff(
+                (hi[0][l], lo[0][l]),
+                (hi[1][l], lo[1][l]),
+                (hi[2][l], lo[2][l]),
+                (hi[3][l], lo[3][l]),
+            );
+        }
+    };
+    third(&|e| e.c, &mut st.h);
+    if kind == Diff::Modified {
+        third(&|e| e.p, &mut st.w);
+    }
+}
+
+/// [`starts_on_checkpoints`] compiled for AVX-512.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn starts_on_checkpoints_avx512<const SEG: usize>(
+    fr: &Frames,
+    kind: Diff,
+    m: usize,
+    a: usize,
+    st: &mut SegState,
+) {
+    starts_on_checkpoints::<SEG>(fr, kind, m, a, st)
+}
+
+/// The recurrences of the NSEG segments of one chunk for one scale.
+#[derive(Clone, Copy, Default)]
+struct SegState {
+    h: [f64; NSEG],
+    w: [f64; NSEG],
+    acc: [f64; NSEG],
+}
+
+/// Fixed pairwise reduction of the NSEG segment sums.
+fn reduce(acc: &[f64; NSEG]) -> f64 {
+    let mut v = *acc;
+    let mut n = NSEG;
+    while n > 1 {
+        n /= 2;
+        for i in 0..n {
+            v[i] += v[i + n];
+        }
+    }
+    v[0]
+}
+
+/// Where the recurrences of a full chunk read their samples: for each lag j (0: y_k, 1: y_{k−m},
+/// 2: y_{k−2m}, 3: y_{k−3m}) a slice and the index in it of row 0, column 0, so that row l,
+/// column c is at `off + l·SEG + c`; each slice reaches 8 elements before and after the rows.
+type Rows<'a> = [(&'a [f64], usize); 4];
+
+/// Advances the 16 segments of a full chunk (its rows in `rows`) over the columns read in the
+/// windows [jb − s, jb − s + 8) for jb = j0, j0 + 8, … < j1 (multiples of 8), plus the window at
+/// jb = SEG when j1 = SEG, skipping the columns outside [0, SEG): with `s` the misalignment of
+/// row 0 in elements (the same in every slice), the loads are 64-byte aligned. Per group of
+/// eight segments and window, the rows e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) are
+/// formed, transposed in registers, and each lane steps its recurrence column by column in
+/// increasing k: the operations of [`seg_run`] in the same order, so the values are
+/// bit-identical to the portable path whatever s and wherever the rows are read from.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
+    rows: &Rows<'_>,
+    s: usize,
+    j0: usize,
+    j1: usize,
+    st: &mut SegState,
+) {
+    use crate::kernel::transpose8x8;
+    use std::arch::x86_64::*;
+    assert!(
+        rows.iter()
+            .all(|(r, off)| *off >= 8 && off + NSEG * SEG + 8 <= r.len())
+            && s < 8
+            && j0.is_multiple_of(8)
+            && j1.is_multiple_of(8)
+            && j1 <= SEG
+    );
+    // SAFETY: AVX-512F is available (caller contract); every load reads 8 elements from
+    // off + l·SEG + jb − s with l < NSEG, jb ≤ SEG, s < 8: inside [off − 8, off + NSEG·SEG + 8)
+    // of its slice (asserted); the state arrays hold NSEG = 16 values.
+    unsafe {
+        let p = rows.map(|(r, off)| r.as_ptr().add(off));
+        let three = _mm512_set1_pd(3.0);
+        let mut h = [_mm512_setzero_pd(); 2];
+        let mut w = [_mm512_setzero_pd(); 2];
+        let mut acc = [_mm512_setzero_pd(); 2];
+        for g in 0..2 {
+            h[g] = _mm512_loadu_pd(st.h.as_ptr().add(8 * g));
+            w[g] = _mm512_loadu_pd(st.w.as_ptr().add(8 * g));
+            acc[g] = _mm512_loadu_pd(st.acc.as_ptr().add(8 * g));
+        }
+        // the eight columns jb − s + c of rows 8g … 8g + 7, transposed (lane r of column c: e at
+        // row 8g + r, column jb − s + c), then the steps of the columns c in `cols`
+        macro_rules! window {
+            ($jb:expr, $cols:expr) => {
+                for g in 0..2 {
+                    let mut e = [_mm512_setzero_pd(); 8];
+                    for (r, er) in e.iter_mut().enumerate() {
+                        let q = (8 * g + r) * SEG + $jb;
+                        let y0 = _mm512_loadu_pd(p[0].add(q).sub(s));
+                        let y1 = _mm512_loadu_pd(p[1].add(q).sub(s));
+                        let y2 = _mm512_loadu_pd(p[2].add(q).sub(s));
+                        let y3 = _mm512_loadu_pd(p[3].add(q).sub(s));
+                        *er = _mm512_fmadd_pd(_mm512_sub_pd(y2, y1), three, _mm512_sub_pd(y0, y3));
+                    }
+                    let cols = transpose8x8!(e);
+                    for &c in &cols[$cols] {
+                        if MOD {
+                            acc[g] = _mm512_fmadd_pd(w[g], w[g], acc[g]);
+                            w[g] = _mm512_add_pd(w[g], h[g]);
+                        } else {
+                            acc[g] = _mm512_fmadd_pd(h[g], h[g], acc[g]);
+                        }
+                        h[g] = _mm512_add_pd(h[g], c);
+                    }
+                }
+            };
+        }
+        let mut jb = j0;
+        if jb == 0 && jb < j1 {
+            window!(0, s..);
+            jb += 8;
+        }
+        while jb < j1 {
+            window!(jb, ..);
+            jb += 8;
+        }
+        if j1 == SEG && s > 0 {
+            window!(SEG, ..s);
+        }
+        for g in 0..2 {
+            _mm512_storeu_pd(st.h.as_mut_ptr().add(8 * g), h[g]);
+            _mm512_storeu_pd(st.w.as_mut_ptr().add(8 * g), w[g]);
+            _mm512_storeu_pd(st.acc.as_mut_ptr().add(8 * g), acc[g]);
+        }
+    }
+}
+
+/// The far walk's copies of the chunks its residue class visited last, in contiguous slots:
+/// the lagged rows of a far scale that is a whole number q of class steps are then read from
+/// the copies of the chunks q, 2q and 3q steps back, instead of from the series, where rows
+/// 2^k·8 bytes apart map to the same cache sets and evict each other.
+struct Ring {
+    buf: Vec<f64>,
+    /// Index in `buf` of the first 64-byte aligned element.
+    base: usize,
+    slots: usize,
+    /// The index in its class of the chunk each slot holds.
+    held: Vec<usize>,
+    /// Class step (samples) and the index in its class of the current chunk.
+    step: usize,
+    tc: usize,
+}
+
+/// Elements of a ring slot: a far chunk and 8 samples either side, at any misalignment.
+const SLOT: usize = NSEG * SEG_FAR + 24;
+
+impl Ring {
+    /// A ring of `slots` slots for the walk of class step `step` (0 slots: no ring).
+    fn new(slots: usize, step: usize) -> Ring {
+        let buf = vec![0.0f64; slots * SLOT + 8];
+        let base = (8 - (buf.as_ptr() as usize % 64) / 8) % 8;
+        Ring {
+            buf,
+            base,
+            slots,
+            held: vec![usize::MAX; slots],
+            step,
+            tc: 0,
+        }
+    }
+
+    /// Copies the chunk at `a` (the `tc`-th of its class), with 8 samples either side, into its
+    /// slot at the misalignment `mis` of y[a], when it lies that far inside the series.
+    fn put(&mut self, y: &[f64], a: usize, tc: usize, mis: usize) {
+        self.tc = tc;
+        if self.slots == 0 || a < 8 || a + NSEG * SEG_FAR + 8 > y.len() {
+            return;
+        }
+        let slot = tc % self.slots;
+        let at = self.base + slot * SLOT + mis;
+        self.buf[at..at + NSEG * SEG_FAR + 16].copy_from_slice(&y[a - 8..a + NSEG * SEG_FAR + 8]);
+        self.held[slot] = tc;
+    }
+
+    /// The rows of the chunk `back` class steps before the current one, if held.
+    fn rows(&self, back: usize, mis: usize) -> Option<(&[f64], usize)> {
+        let tc = self.tc.checked_sub(back)?;
+        let slot = tc % self.slots.max(1);
+        (self.slots > 0 && self.held[slot] == tc)
+            .then(|| (&self.buf[..], self.base + slot * SLOT + mis + 8))
+    }
+}
+
+/// Whether the AVX-512 chunk kernel can run.
+fn have_avx512() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx512f")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The partial sums of chunk `i` (segment length SEG) for every scale of `batch`, into `out`.
+/// Full chunks run the vector kernel when `simd`, all scales per column block, reading the
+/// lagged rows from the `ring` where it holds them; the others (and every chunk without `simd`)
+/// run [`seg_sum`] per segment. The same value either way.
+#[allow(clippy::too_many_arguments)]
+fn chunk_partials<const SEG: usize>(
+    y: &[f64],
+    fr: &Frames,
+    kind: Diff,
+    batch: &[usize],
+    i: usize,
+    simd: bool,
+    ring: Option<&Ring>,
+    states: &mut Vec<SegState>,
+    out: &mut [f64],
+) {
+    let t = y.len();
+    let a = i * NSEG * SEG;
+    let k_end = kind.k_end(t);
+    let full = |m: usize| simd && a >= 3 * m + 8 && a + NSEG * SEG + 8 <= t;
+    // misalignment (elements) of y[a] and of every row start (SEG is a multiple of 8)
+    let mis = (y.as_ptr().wrapping_add(a) as usize % 64) / 8;
+    states.clear();
+    for &m in batch.iter().filter(|&&m| full(m)) {
+        let mut st = SegState::default();
+        #[cfg(target_arch = "x86_64")]
+        if m.is_multiple_of(G) {
+            // SAFETY: `simd` (hence `full`) is set only when AVX-512F is present.
+            unsafe { starts_on_checkpoints_avx512::<SEG>(fr, kind, m, a, &mut st) };
+            states.push(st);
+            continue;
+        }
+        for l in 0..NSEG {
+            (st.h[l], st.w[l]) = start(y, fr, kind, m, a + l * SEG);
+        }
+        states.push(st);
+    }
+    #[cfg(target_arch = "x86_64")]
+    if !states.is_empty() {
+        // the rows of each lag: from the ring when m is a whole number of class steps whose
+        // chunks it holds, else from the series
+        let rows_of = |m: usize| -> Rows<'_> {
+            std::array::from_fn(|j| {
+                let from_ring = ring.filter(|r| j > 0 && m.is_multiple_of(r.step));
+                from_ring
+                    .and_then(|r| r.rows(j * m / r.step, mis))
+                    .unwrap_or((y, a - j * m))
+            })
+        };
+        let rows: Vec<Rows<'_>> = batch
+            .iter()
+            .filter(|&&m| full(m))
+            .map(|&m| rows_of(m))
+            .collect();
+        for j0 in (0..SEG).step_by(BLK) {
+            for (r, st) in rows.iter().zip(states.iter_mut()) {
+                // SAFETY: `simd` is set only when AVX-512F is present; the chunk is full for m.
+                unsafe {
+                    match kind {
+                        Diff::Hadamard => block_avx512::<false, SEG>(r, mis, j0, j0 + BLK, st),
+                        Diff::Modified => block_avx512::<true, SEG>(r, mis, j0, j0 + BLK, st),
+                    }
+                }
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (ring, mis);
+    let mut st = states.iter();
+    for (o, &m) in out.iter_mut().zip(batch) {
+        *o = if full(m) {
+            reduce(&st.next().expect("one state per full scale").acc)
+        } else {
+            let mut acc = [0.0f64; NSEG];
+            for (l, al) in acc.iter_mut().enumerate() {
+                let s = (a + l * SEG).max(3 * m);
+                let e = (a + (l + 1) * SEG).min(k_end);
+                if s < e {
+                    *al = seg_sum(y, kind, m, s, e, start(y, fr, kind, m, s));
+                }
+            }
+            reduce(&acc)
+        };
+    }
+}
+
+/// Σ over the terms of the squared third differences (h_k² for OHVAR, w_k² for MVAR, in rate
+/// unit² times m² resp. m⁴) at each m of `ms` (3m ≤ T + 1), streamed from the rate samples `y`.
+/// Errors on non-finite samples (naming the first) and on overflow.
+pub(crate) fn third_diff_sums(y: &[f64], ms: &[u64], kind: Diff) -> Result<Vec<f64>, AvarError> {
+    third_diff_sums_with(y, ms, kind, have_avx512(), NEAR_MAX_M, CLASS_STEP)
+}
+
+/// Target near chunks per job of the near walk (8.4 M samples), and the fewest jobs: a function
+/// of the series length only, so that the local frames (hence the sums) do not depend on the
+/// thread count.
+const JOB_CHUNKS: usize = 480;
+const MIN_JOBS: usize = 8;
+
+/// Near chunks per job for `n_chunks` chunks: jobs of equal length, about [`JOB_CHUNKS`] each but
+/// at least [`MIN_JOBS`] of them.
+fn job_chunks(n_chunks: usize) -> usize {
+    let jobs = n_chunks.div_ceil(JOB_CHUNKS).max(MIN_JOBS);
+    n_chunks.div_ceil(jobs).max(1)
+}
+
+/// The chunk partials (chunk-major, `batch.len()` per chunk) of the near scales `batch` on the
+/// [`SEG_NEAR`] grid, in one pass that also sums the blocks: the chunks are cut into jobs (run in
+/// parallel), each walking its chunks in order in a local frame that starts `warm` samples
+/// before the job (3m ≤ warm for every near scale) and is extended block by block just before
+/// a chunk runs, while its samples are in cache. The block sums of each job's own range go to
+/// `sums` (for the global frame of the far scales).
+#[allow(clippy::too_many_arguments)]
+fn near_walk(
+    y: &[f64],
+    pivot: f64,
+    kind: Diff,
+    batch: &[usize],
+    simd: bool,
+    warm: usize,
+    sums: &mut [Entry],
+) -> Vec<f64> {
+    let t = y.len();
+    let last = t / G;
+    let schunk = NSEG * SEG_NEAR;
+    let n_chunks = kind.k_end(t).div_ceil(schunk);
+    let jc = job_chunks(n_chunks);
+    // each job's own blocks, from its first chunk start to the next job's
+    let mut dsts = Vec::new();
+    let mut rest = &mut sums[..last];
+    for j in 0..n_chunks.div_ceil(jc) {
+        let n = (jc * schunk / G).min(rest.len());
+        let (d, r) = std::mem::take(&mut rest).split_at_mut(n);
+        dsts.push((j, d));
+        rest = r;
+    }
+    let w = batch.len();
+    dsts.into_par_iter()
+        .map_init(Vec::new, |states, (j, dst)| {
+            let chunks = j * jc..((j + 1) * jc).min(n_chunks);
+            let a0 = chunks.start * schunk;
+            let mut fr = Frames::local(pivot, a0.saturating_sub(warm) / G, last);
+            let mut parts = vec![0.0f64; chunks.len() * w];
+            for (i, o) in chunks.zip(parts.chunks_exact_mut(w)) {
+                fr.extend(y, ((i + 1) * schunk).div_ceil(G), |g, b| {
+                    if let Some(d) = g.checked_sub(a0 / G).and_then(|q| dst.get_mut(q)) {
+                        d.p = b;
+                    }
+                });
+                chunk_partials::<SEG_NEAR>(y, &fr, kind, batch, i, simd, None, states, o);
+            }
+            parts
+        })
+        .flatten()
+        .collect()
+}
+
+/// out[s] = the Neumaier sum, in chunk order, of the partials `part(i, s)` of chunks 0..n.
+fn combine(n: usize, idx: &[usize], part: impl Fn(usize, usize) -> f64, out: &mut [f64]) {
+    for (s, &o) in idx.iter().enumerate() {
+        let mut acc = Neumaier::default();
+        for i in 0..n {
+            acc.add(part(i, s));
+        }
+        out[o] = acc.value();
+    }
+}
+
+/// [`third_diff_sums`] with the vector kernel, the near/far threshold and the class step as
+/// parameters (tests cover every path on short series with small values).
+fn third_diff_sums_with(
+    y: &[f64],
+    ms: &[u64],
+    kind: Diff,
+    simd: bool,
+    near_max_m: usize,
+    class_step: usize,
+) -> Result<Vec<f64>, AvarError> {
+    let t = y.len();
+    let k_end = kind.k_end(t);
+    let pivot = pivot_of(y);
+    let mut out = vec![0.0f64; ms.len()];
+    let (near, far): (Vec<usize>, Vec<usize>) =
+        (0..ms.len()).partition(|&s| ms[s] as usize <= near_max_m);
+    // near scales, building the block sums on the way (or one pass of block sums without them)
+    let mut sums = vec![Entry::default(); t / G + 1];
+    let warm = (3 * near_max_m).next_multiple_of(G);
+    let n_near = k_end.div_ceil(NSEG * SEG_NEAR);
+    for idx in near.chunks(SCALE_BATCH) {
+        let batch: Vec<usize> = idx.iter().map(|&s| ms[s] as usize).collect();
+        let w = batch.len();
+        let parts = near_walk(y, pivot, kind, &batch, simd, warm, &mut sums);
+        combine(n_near, idx, |i, s| parts[i * w + s], &mut out);
+    }
+    if near.is_empty() {
+        block_pass(y, pivot, &mut sums);
+    }
+    let fr = Frames::scan(y, pivot, sums)?;
+    // far scales: the chunks by residue class (chunk i in class i mod n_cls, walked in order)
+    let schunk = NSEG * SEG_FAR;
+    let n_chunks = k_end.div_ceil(schunk);
+    let n_cls = (class_step / schunk).clamp(1, n_chunks.max(1));
+    let step = n_cls * schunk;
+    for idx in far.chunks(SCALE_BATCH) {
+        let batch: Vec<usize> = idx.iter().map(|&s| ms[s] as usize).collect();
+        let w = batch.len();
+        // ring slots back to the largest lag 3q·step of a scale that is q whole steps
+        let q_max = batch
+            .iter()
+            .filter(|&&m| m.is_multiple_of(step))
+            .map(|&m| m / step)
+            .max()
+            .unwrap_or(0);
+        let slots = if simd && q_max > 0 { 3 * q_max + 1 } else { 0 };
+        let by_class: Vec<Vec<f64>> = (0..n_cls)
+            .into_par_iter()
+            .map_init(
+                || (Vec::new(), Ring::new(slots, step)),
+                |(states, ring), r| {
+                    let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
+                    let walk = (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w));
+                    for (tc, (i, o)) in walk.enumerate() {
+                        let a = i * schunk;
+                        let mis = (y.as_ptr().wrapping_add(a) as usize % 64) / 8;
+                        ring.put(y, a, tc, mis);
+                        let rg = Some(&*ring);
+                        chunk_partials::<SEG_FAR>(y, &fr, kind, &batch, i, simd, rg, states, o);
+                    }
+                    parts
+                },
+            )
+            .collect();
+        let part = |i: usize, s: usize| by_class[i % n_cls][(i / n_cls) * w + s];
+        combine(n_chunks, idx, part, &mut out);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// White noise plus a random walk plus an offset (xorshift, deterministic).
+    fn series(n: usize, offset: f64) -> Vec<f64> {
+        let mut s = 0x2545_F491_4F6C_DD1Du64;
+        let mut walk = 0.0;
+        (0..n)
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                walk += 1e-2 * u;
+                offset + u + walk
+            })
+            .collect()
+    }
+
+    /// Small integers: the phase and the summed phase are exact integers, so the sums of the
+    /// squared third differences are exact in i128 (an O(T) reference for any m).
+    fn integers(n: usize) -> Vec<f64> {
+        let mut s = 0x9E37_79B9_7F4A_7C15u64;
+        (0..n)
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                (s % 17) as f64 - 8.0
+            })
+            .collect()
+    }
+
+    fn exact_sums(y: &[f64], ms: &[u64], kind: Diff) -> Vec<f64> {
+        let t = y.len();
+        let mut c = vec![0i128; t + 1];
+        for k in 0..t {
+            c[k + 1] = c[k] + y[k] as i128;
+        }
+        let mut p = vec![0i128; t + 2];
+        for k in 0..=t {
+            p[k + 1] = p[k] + c[k];
+        }
+        let f = match kind {
+            Diff::Hadamard => &c,
+            Diff::Modified => &p,
+        };
+        ms.iter()
+            .map(|&m| {
+                let m = m as usize;
+                let acc: i128 = (3 * m..kind.k_end(t))
+                    .map(|k| {
+                        let v = f[k] - 3 * f[k - m] + 3 * f[k - 2 * m] - f[k - 3 * m];
+                        v * v
+                    })
+                    .sum();
+                acc as f64
+            })
+            .collect()
+    }
+
+    fn rel(a: f64, b: f64) -> f64 {
+        (a - b).abs() / b.abs()
+    }
+
+    // n = 3 near chunks and a part: near and far scales, powers of two and others, m < G
+    // (restarts from the samples) and m ≥ G (from the checkpoints), the largest m = ⌊T/3⌋.
+    const N: usize = 3 * NSEG * SEG_NEAR + 4321;
+    const MS: [u64; 14] = [
+        1, 2, 3, 7, 33, 64, 100, 1000, 1024, 4099, 8192, 16_384, 18_848, 18_000,
+    ];
+
+    fn run(y: &[f64], kind: Diff, simd: bool, split: bool) -> Vec<f64> {
+        // split: scales above 2000 are far, walked in classes of step 2 far chunks
+        let (near_max, step) = if split {
+            (2000, 2 * NSEG * SEG_FAR)
+        } else {
+            (NEAR_MAX_M, CLASS_STEP)
+        };
+        third_diff_sums_with(y, &MS, kind, simd, near_max, step).unwrap()
+    }
+
+    /// Exact on integer data (where the sums are exact integers below 2^53 per term and the
+    /// recurrences carry no rounding): every path, near and far.
+    #[test]
+    fn streamed_sums_are_exact_on_integers() {
+        let y = integers(N);
+        for kind in [Diff::Hadamard, Diff::Modified] {
+            let want = exact_sums(&y, &MS, kind);
+            for split in [false, true] {
+                for simd in [false, have_avx512()] {
+                    let got = run(&y, kind, simd, split);
+                    for ((g, w), m) in got.iter().zip(&want).zip(MS) {
+                        // integer terms below 2^53: each fma and the Neumaier sums are exact
+                        // until the totals exceed 2^53, then within u per addition
+                        assert!(
+                            rel(*g, *w) < 1e-13,
+                            "{kind:?} m {m} simd {simd}: {g} vs {w}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Against the plain reference functions (literal formulas on the plainly integrated phase)
+    /// on floating-point data: the reference's phase carries rounding of u·|x| per point
+    /// (|x| ≲ 2·10^4 here), its third differences of size ≳ 0.3·√m lose at most
+    /// 8u·|x|/|h| ≈ 1e-11 relative; ours lose far less (checkpoints compensated, recurrences over
+    /// one segment), so 1e-9 is a bound with margin, not a tuned value.
+    #[test]
+    fn streamed_sums_match_the_reference() {
+        use crate::config::InputKind;
+        let y = series(N, 0.0);
+        for split in [false, true] {
+            let h = run(&y, Diff::Hadamard, have_avx512(), split);
+            let w = run(&y, Diff::Modified, have_avx512(), split);
+            for (s, m) in MS.iter().enumerate() {
+                let n_h = (N + 1 - 3 * *m as usize) as f64;
+                let n_w = (N + 2 - 3 * *m as usize) as f64;
+                let mf = *m as f64;
+                let oh = super::super::hdev::hvar_reference(&y, 1.0, InputKind::Rate, *m, true);
+                assert!(
+                    rel(h[s] / (mf * mf * 6.0 * n_h), oh.unwrap()) < 1e-9,
+                    "ohvar m {m}"
+                );
+                if *m <= 8192 {
+                    // (the O(T·m) reference is too slow beyond)
+                    let mv = super::super::mdev::mvar_reference(&y, 1.0, InputKind::Rate, *m);
+                    let ours = w[s] / (mf * mf * mf * mf * 2.0 * n_w);
+                    assert!(rel(ours, mv.unwrap()) < 1e-9, "mvar m {m}");
+                }
+            }
+        }
+    }
+
+    /// The vector and portable paths give the same bits, at every misalignment of the samples
+    /// within a cache line; the value for m does not depend on the other scales requested; and
+    /// an offset of 10^4 standard deviations changes nothing beyond the rounding of the shifted
+    /// samples themselves (u·10^4·std each: relative 1e-12 on the sums).
+    #[test]
+    fn streamed_sums_are_path_independent_and_offset_proof() {
+        let big = series(N + 8, 0.0);
+        for kind in [Diff::Hadamard, Diff::Modified] {
+            for split in [false, true] {
+                let base = run(&big[..N], kind, false, split);
+                for o in 0..8 {
+                    let got = run(&big[o..o + N], kind, have_avx512(), split);
+                    let portable = run(&big[o..o + N], kind, false, split);
+                    for ((a, b), m) in got.iter().zip(&portable).zip(MS) {
+                        assert_eq!(a.to_bits(), b.to_bits(), "{kind:?} offset {o} m {m}");
+                    }
+                    if o == 0 {
+                        for (a, b) in got.iter().zip(&base) {
+                            assert_eq!(a.to_bits(), b.to_bits());
+                        }
+                    }
+                }
+                let (near_max, step) = if split {
+                    (2000, 2 * NSEG * SEG_FAR)
+                } else {
+                    (NEAR_MAX_M, CLASS_STEP)
+                };
+                for (s, m) in MS.iter().enumerate() {
+                    let one = third_diff_sums_with(&big[..N], &[*m], kind, true, near_max, step);
+                    assert_eq!(one.unwrap()[0].to_bits(), base[s].to_bits(), "m {m}");
+                }
+            }
+            let y = &big[..N];
+            let mean = y.iter().sum::<f64>() / N as f64;
+            let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / N as f64).sqrt();
+            let shifted: Vec<f64> = y.iter().map(|v| v + 1e4 * sd).collect();
+            let a = third_diff_sums(y, &MS, kind).unwrap();
+            let b = third_diff_sums(&shifted, &MS, kind).unwrap();
+            for ((u, v), m) in a.iter().zip(&b).zip(MS) {
+                assert!(rel(*v, *u) < 1e-9, "{kind:?} m {m}: {u} vs {v}");
+            }
+        }
+    }
+
+    /// Bit-identical for 1, 2 and 3 threads (the chunk grid and the order of the sums do not
+    /// depend on the thread count).
+    #[test]
+    fn streamed_sums_do_not_depend_on_the_thread_count() {
+        let y = series(N, 3.0);
+        let on = |threads: usize, kind: Diff, split: bool| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| run(&y, kind, have_avx512(), split))
+        };
+        for kind in [Diff::Hadamard, Diff::Modified] {
+            for split in [false, true] {
+                let one = on(1, kind, split);
+                for threads in [2, 3] {
+                    for ((a, b), m) in one.iter().zip(&on(threads, kind, split)).zip(MS) {
+                        assert_eq!(a.to_bits(), b.to_bits(), "{kind:?} {threads} m {m}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// The first non-finite sample is named, wherever it lies; finite samples whose sums
+    /// overflow are reported as overflow.
+    #[test]
+    fn streamed_sums_reject_non_finite_and_overflow() {
+        for (index, value) in [(0, f64::NAN), (5000, f64::INFINITY), (N - 1, f64::NAN)] {
+            let mut y = series(N, 0.0);
+            y[index] = value;
+            match third_diff_sums(&y, &[1, 8192], Diff::Modified) {
+                Err(AvarError::NonFinite { index: i, .. }) => assert_eq!(i, index),
+                other => panic!("index {index}: {other:?}"),
+            }
+        }
+        let y = vec![1.7e308; N];
+        assert!(matches!(
+            third_diff_sums(&y, &[2], Diff::Hadamard),
+            Err(AvarError::Overflow)
+        ));
+    }
+}
