@@ -4,7 +4,8 @@
 //! For each size T a raw f64 file of T samples (white noise around an offset, written in
 //! blocks; the files of 10^9 samples and the six-channel file are deleted afterwards) is
 //! measured by
-//! * `cat FILE > /dev/null` (second of two runs: the page cache is warm, as for the command);
+//! * `cat FILE > /dev/null` (second of two runs: the page cache is warm, as for the command,
+//!   which runs next, before the in-memory copy of the series is made);
 //! * one vectorised summing pass over the samples in memory, and `avar`'s kernel in memory
 //!   (dyadic scales, without and with the chi-square CI), best of 2;
 //! * the release `imunoise avar FILE --binary f64 --rate 1 --format csv` end to end, without
@@ -268,23 +269,10 @@ pub fn run(args: &[String], root: &Path) -> Result<(), String> {
         let cat = || run_child(timed(Path::new("cat")).arg(&file)).map(|(s, _, _)| s);
         cat()?;
         let t_cat = cat()?;
-        // in memory
-        let x = series(n, 0);
-        let (t_pass, _) = best(2, || Ok(std::hint::black_box(one_pass(&x))))?;
-        let (t_kernel, mem) = best(2, || {
-            allan_variance(&x, 1.0, &no_ci).map_err(|e| e.to_string())
-        })?;
         let with_ci = n <= ci_max;
-        let (t_kernel_ci, mem_ci) = if with_ci {
-            let (t, av) = best(2, || {
-                allan_variance(&x, 1.0, &chi2).map_err(|e| e.to_string())
-            })?;
-            (t, Some(av))
-        } else {
-            (f64::NAN, None)
-        };
-        drop(x);
-        // end to end
+        // end to end first, while the freshly written file is in the page cache (as for the
+        // smaller sizes): the in-memory copy of the series made afterwards would evict part
+        // of a large file
         let e2e = |ci: &str| {
             best(2, || {
                 run_child(timed(&bin).arg("avar").arg(&file).args([
@@ -293,14 +281,29 @@ pub fn run(args: &[String], root: &Path) -> Result<(), String> {
             })
         };
         let (t_e2e, (_, out, rss)) = e2e("none")?;
-        let mut same = csv_points(&out)? == vec![triples(&mem)];
-        let (t_e2e_ci, rss_ci) = if let Some(mem_ci) = &mem_ci {
+        let (t_e2e_ci, out_ci, rss_ci) = if with_ci {
             let (t, (_, out, rss)) = e2e("chi2")?;
-            same &= csv_points(&out)? == vec![triples(mem_ci)];
-            (t, rss)
+            (t, Some(out), rss)
         } else {
-            (f64::NAN, f64::NAN)
+            (f64::NAN, None, f64::NAN)
         };
+        // in memory
+        let x = series(n, 0);
+        let (t_pass, _) = best(2, || Ok(std::hint::black_box(one_pass(&x))))?;
+        let (t_kernel, mem) = best(2, || {
+            allan_variance(&x, 1.0, &no_ci).map_err(|e| e.to_string())
+        })?;
+        let mut same = csv_points(&out)? == vec![triples(&mem)];
+        let t_kernel_ci = if let Some(out_ci) = &out_ci {
+            let (t, av) = best(2, || {
+                allan_variance(&x, 1.0, &chi2).map_err(|e| e.to_string())
+            })?;
+            same &= csv_points(out_ci)? == vec![triples(&av)];
+            t
+        } else {
+            f64::NAN
+        };
+        drop(x);
         let ms = |s: f64| {
             if s.is_nan() {
                 "—".to_string()
