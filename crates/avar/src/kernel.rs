@@ -34,7 +34,7 @@ pub(crate) const CHUNK: usize = 1 << 14;
 /// Width of the chunks used when building the cumulative sum.
 const PCHUNK: usize = 1 << 16;
 /// Number of independent accumulator lanes in the inner loops.
-const LANES: usize = 16;
+pub(crate) const LANES: usize = 16;
 /// How many leading samples form the pivot subtracted before summing.
 const PIVOT_LEN: usize = 1024;
 
@@ -62,8 +62,9 @@ impl Neumaier {
     }
 }
 
+/// The fixed pairwise reduction of [`LANES`] accumulators.
 #[inline(always)]
-fn reduce_lanes(acc: &[f64; LANES]) -> f64 {
+pub(crate) fn reduce_lanes(acc: &[f64; LANES]) -> f64 {
     // fixed pairwise tree
     let mut v = *acc;
     let mut w = LANES;
@@ -1803,12 +1804,14 @@ pub(crate) fn centred_prefix_into(x: &[f64], c: &mut Vec<f64>) -> Result<f64, Av
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     const SCHUNK: usize = NSEG * SEG_NEAR;
 
-    fn series(n: usize, offset: f64) -> Vec<f64> {
+    /// Uniform white noise on [−0.5, 0.5) plus a slow random walk, plus `offset` (xorshift,
+    /// deterministic).
+    pub(crate) fn series(n: usize, offset: f64) -> Vec<f64> {
         let mut s = 0x2545_F491_4F6C_DD1Du64;
         let mut walk = 0.0;
         (0..n)

@@ -8,7 +8,6 @@
 
 use rayon::prelude::*;
 
-use super::stream::{self, Diff};
 use super::{
     BLOCK, Statistic, check_m, fused_sums, plain_phase, split_near_far, sum_in_blocks,
     sum_in_blocks_walk, sumsq_range,
@@ -104,20 +103,6 @@ pub(crate) fn hvar_fast(cum: &Cumulative<'_>, ms: &[u64], overlapping: bool) -> 
             finish(m, s, nt)
         },
     )
-}
-
-/// OHVAR of rate samples `y` at each m (3m ≤ T), streamed from the samples without a cumulative
-/// sum ([`super::stream`]): rate unit².
-pub(crate) fn ohvar_stream(y: &[f64], ms: &[u64]) -> Result<Vec<f64>, AvarError> {
-    let sums = stream::third_diff_sums(y, ms, Diff::Hadamard)?;
-    Ok(sums
-        .into_iter()
-        .zip(ms)
-        .map(|(s, &m)| {
-            let f = 1.0 / m as f64;
-            s * f * f / (6.0 * Statistic::Ohdev.n_terms(y.len(), m) as f64)
-        })
-        .collect())
 }
 
 /// Σ_{i=lo}^{hi−1} (third difference of c at lag m, at i)², from four contiguous slices in

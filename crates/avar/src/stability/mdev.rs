@@ -5,7 +5,6 @@
 //! Averaging the phase over m before differencing separates white from flicker phase noise
 //! (MDEV falls as τ^{−3/2} for white PM, τ^{−1} for flicker PM).
 
-use super::stream::{self, Diff};
 use super::{
     BLOCK, Statistic, check_m, fused_sums, plain_phase, split_near_far, sum_in_blocks,
     sum_in_blocks_walk,
@@ -85,21 +84,6 @@ pub(crate) fn mvar_fast(cum: &Cumulative<'_>, ms: &[u64]) -> Vec<f64> {
             )
         },
     )
-}
-
-/// MVAR of rate samples `y` at each m (3m ≤ T + 1), streamed from the samples without a
-/// cumulative sum ([`super::stream`]): rate unit².
-pub(crate) fn mvar_stream(y: &[f64], ms: &[u64]) -> Result<Vec<f64>, AvarError> {
-    let sums = stream::third_diff_sums(y, ms, Diff::Modified)?;
-    Ok(sums
-        .into_iter()
-        .zip(ms)
-        .map(|(s, &m)| {
-            let f = 1.0 / m as f64;
-            let n = Statistic::Mdev.n_terms(y.len(), m) as f64;
-            s * f * f / ((m * m) as f64 * 2.0 * n)
-        })
-        .collect())
 }
 
 /// Second differences d_i for i in lo..lo + out.len() into `out` (contiguous slices).

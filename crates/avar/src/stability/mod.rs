@@ -52,6 +52,7 @@ use crate::config::{AvarConfig, CiMethod, Estimator, InputKind, Scales};
 use crate::error::AvarError;
 use crate::haar::chi2_interval;
 use crate::{Cumulative, MIN_SAMPLES, check_len, cumulative, validate_rate_alpha};
+use stream::Diff;
 
 /// A member of the frequency-stability family.
 ///
@@ -359,15 +360,7 @@ fn stability_unscaled(
             let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;
             apply_chi_square(&cum, statistic, config.input, config.alpha, &mut points);
         }
-        return Ok(Stability {
-            statistic,
-            rate_hz,
-            n: t,
-            input: config.input,
-            ci: config.ci,
-            alpha: config.alpha,
-            points,
-        });
+        return Ok(curve(statistic, rate_hz, t, config, points));
     }
     if matches!(statistic, Statistic::Adev | Statistic::Oadev) {
         let est = if statistic == Statistic::Adev {
@@ -443,19 +436,12 @@ fn stability_unscaled(
         check_len(t, t)?;
         let ms = statistic.cluster_sizes(&config.scales, t)?;
         let vars = match statistic {
-            Statistic::Ohdev => hdev::ohvar_stream(data, &ms)?,
-            Statistic::Mdev => mdev::mvar_stream(data, &ms)?,
-            _ => tdev::tvar_from_mvar(mdev::mvar_stream(data, &ms)?, rate_hz, &ms),
+            Statistic::Ohdev => stream::variances(data, &ms, Diff::Hadamard)?,
+            Statistic::Mdev => stream::variances(data, &ms, Diff::Modified)?,
+            _ => tdev::tvar_from_mvar(stream::variances(data, &ms, Diff::Modified)?, rate_hz, &ms),
         };
-        return Ok(Stability {
-            statistic,
-            rate_hz,
-            n: t,
-            input: config.input,
-            ci: config.ci,
-            alpha: config.alpha,
-            points: new_points(statistic, &ms, vars, t, rate_hz),
-        });
+        let points = new_points(statistic, &ms, vars, t, rate_hz);
+        return Ok(curve(statistic, rate_hz, t, config, points));
     }
     let mut scratch = Vec::new();
     let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;
@@ -473,7 +459,19 @@ fn stability_unscaled(
     if config.ci == CiMethod::ChiSquare {
         apply_chi_square(&cum, statistic, config.input, config.alpha, &mut points);
     }
-    Ok(Stability {
+    Ok(curve(statistic, rate_hz, t, config, points))
+}
+
+/// The curve of `statistic` for T = `t` rate samples with the configuration's input kind and
+/// interval.
+fn curve(
+    statistic: Statistic,
+    rate_hz: f64,
+    t: usize,
+    config: &AvarConfig,
+    points: Vec<StabilityPoint>,
+) -> Stability {
+    Stability {
         statistic,
         rate_hz,
         n: t,
@@ -481,7 +479,7 @@ fn stability_unscaled(
         ci: config.ci,
         alpha: config.alpha,
         points,
-    })
+    }
 }
 
 /// The points of a curve from its variances (no interval yet).

@@ -39,12 +39,12 @@
 use rayon::prelude::*;
 
 use crate::error::AvarError;
-use crate::kernel::{Neumaier, first_non_finite, pivot_of, two_sum};
+use crate::kernel::{LANES, Neumaier, first_non_finite, pivot_of, reduce_lanes, two_sum};
 
 /// Spacing (samples) of the checkpoints of c and P.
 const G: usize = 64;
-/// Segments per chunk (one vector lane each).
-const NSEG: usize = 16;
+/// Segments per chunk (one vector lane each; reduced by the kernel's fixed tree).
+const NSEG: usize = LANES;
 /// Segment length of the near scales: a multiple of G (segment starts are checkpoints), and
 /// 512 bytes more than a multiple of 4 KiB so that the 16 rows fall in different L1 sets.
 const SEG_NEAR: usize = 1024 + G;
@@ -515,19 +515,6 @@ struct SegState {
     acc: [f64; NSEG],
 }
 
-/// Fixed pairwise reduction of the NSEG segment sums.
-fn reduce(acc: &[f64; NSEG]) -> f64 {
-    let mut v = *acc;
-    let mut n = NSEG;
-    while n > 1 {
-        n /= 2;
-        for i in 0..n {
-            v[i] += v[i + n];
-        }
-    }
-    v[0]
-}
-
 /// Where the recurrences of a full chunk read their samples: for each lag j (0: y_k, 1: y_{k−m},
 /// 2: y_{k−2m}, 3: y_{k−3m}) a slice and the index in it of row 0, column 0, so that row l,
 /// column c is at `off + l·SEG + c`; each slice reaches 8 elements before and after the rows.
@@ -777,7 +764,7 @@ fn chunk_partials<const SEG: usize>(
     let mut st = states.iter();
     for (o, &m) in out.iter_mut().zip(batch) {
         *o = if full(m) {
-            reduce(&st.next().expect("one state per full scale").acc)
+            reduce_lanes(&st.next().expect("one state per full scale").acc)
         } else {
             let mut acc = [0.0f64; NSEG];
             for (l, al) in acc.iter_mut().enumerate() {
@@ -787,9 +774,29 @@ fn chunk_partials<const SEG: usize>(
                     *al = seg_sum(y, kind, m, s, e, start(y, fr, kind, m, s));
                 }
             }
-            reduce(&acc)
+            reduce_lanes(&acc)
         };
     }
+}
+
+/// OHVAR ([`Diff::Hadamard`], 3m ≤ T) or MVAR ([`Diff::Modified`], 3m ≤ T + 1) of the rate
+/// samples `y` at each m of `ms`, in rate unit²: Σ h_k² / (6 m² (T + 1 − 3m)) resp.
+/// Σ w_k² / (2 m⁴ (T + 2 − 3m)) from [`third_diff_sums`].
+pub(crate) fn variances(y: &[f64], ms: &[u64], kind: Diff) -> Result<Vec<f64>, AvarError> {
+    let t = y.len();
+    let sums = third_diff_sums(y, ms, kind)?;
+    Ok(sums
+        .into_iter()
+        .zip(ms)
+        .map(|(s, &m)| {
+            let f = 1.0 / m as f64;
+            let n = (kind.k_end(t) - 3 * m as usize) as f64;
+            match kind {
+                Diff::Hadamard => s * f * f / (6.0 * n),
+                Diff::Modified => s * f * f / ((m * m) as f64 * 2.0 * n),
+            }
+        })
+        .collect())
 }
 
 /// Σ over the terms of the squared third differences (h_k² for OHVAR, w_k² for MVAR, in rate
@@ -950,33 +957,15 @@ fn third_diff_sums_with(
 mod tests {
     use super::*;
 
-    /// White noise plus a random walk plus an offset (xorshift, deterministic).
-    fn series(n: usize, offset: f64) -> Vec<f64> {
-        let mut s = 0x2545_F491_4F6C_DD1Du64;
-        let mut walk = 0.0;
-        (0..n)
-            .map(|_| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-                walk += 1e-2 * u;
-                offset + u + walk
-            })
-            .collect()
-    }
+    use crate::kernel::tests::series;
 
-    /// Small integers: the phase and the summed phase are exact integers, so the sums of the
-    /// squared third differences are exact in i128 (an O(T) reference for any m).
+    /// Small integers from −8 to 8 (from the bits of [`series`]): the phase and the summed
+    /// phase are exact integers, so the sums of the squared third differences are exact in
+    /// i128 (an O(T) reference for any m).
     fn integers(n: usize) -> Vec<f64> {
-        let mut s = 0x9E37_79B9_7F4A_7C15u64;
-        (0..n)
-            .map(|_| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                (s % 17) as f64 - 8.0
-            })
+        series(n, 0.0)
+            .iter()
+            .map(|v| ((v.to_bits() >> 11) % 17) as f64 - 8.0)
             .collect()
     }
 
