@@ -872,3 +872,97 @@ fn errors_are_clear() {
     bad[7] = f64::NAN;
     assert!(stability(&bad, 1.0, Statistic::Ohdev, &AvarConfig::default()).is_err());
 }
+
+#[test]
+fn streamed_ohdev_mdev_tdev_long_series() {
+    // rate data without an interval take the streamed kernel (stability/stream.rs): here long
+    // enough for its far walk (m > 2^19: residue classes of step 2^20, lagged rows from the ring
+    // of chunk copies for m = 2^20) beside the near one, with near and far m that are not powers
+    // of two. Small-integer samples make an exact O(T) reference for every m (phase x and its
+    // running sum S are integers below 2^53): h_k = x_{k+3m} − 3x_{k+2m} + 3x_{k+m} − x_k and
+    // w_j = S_{j+3m} − 3S_{j+2m} + 3S_{j+m} − S_j, squared and summed in i128.
+    let t = 3 * (1usize << 20) + 12_345;
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let y: Vec<f64> = (0..t)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % 17) as f64 - 8.0
+        })
+        .collect();
+    let mut x = vec![0i64; t + 1];
+    for k in 0..t {
+        x[k + 1] = x[k] + y[k] as i64;
+    }
+    let mut sx = vec![0i64; t + 2];
+    for k in 0..=t {
+        sx[k + 1] = sx[k] + x[k];
+    }
+    let third = |v: &[i64], i: usize, m: usize| {
+        (v[i + 3 * m] - 3 * v[i + 2 * m] + 3 * v[i + m] - v[i]) as i128
+    };
+    let ms: Vec<u64> = vec![1, 3, 64, 1000, 65_536, 524_288, 786_437, 1 << 20];
+    let cfg = no_ci(Scales::Explicit(ms.clone()), InputKind::Rate);
+    let rate = 2.0;
+    let run = |threads: usize, data: &[f64]| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                [Statistic::Ohdev, Statistic::Mdev, Statistic::Tdev]
+                    .map(|st| stability(data, rate, st, &cfg).unwrap())
+            })
+    };
+    let [oh, md, td] = run(2, &y);
+    for ((p, q), r) in oh.points.iter().zip(&md.points).zip(&td.points) {
+        let m = p.m as usize;
+        let mf = m as f64;
+        let (n_h, n_w) = (t + 1 - 3 * m, t + 2 - 3 * m);
+        let sh: i128 = (0..n_h).map(|i| third(&x, i, m).pow(2)).sum();
+        let sw: i128 = (0..n_w).map(|j| third(&sx, j, m).pow(2)).sum();
+        let want_h = sh as f64 / (6.0 * mf * mf * n_h as f64);
+        let want_w = sw as f64 / (2.0 * mf.powi(4) * n_w as f64);
+        // the streamed terms are exact here (integer increments, compensated restarts); the
+        // sums of ≤ 1088 squares per segment round by ≤ 1088·u ≈ 1.2e-13 relative, and the
+        // i128 totals convert with u: 1e-12 bounds both with margin
+        assert!(
+            rel(p.var, want_h) < 1e-12,
+            "ohdev m={m}: {} vs {want_h}",
+            p.var
+        );
+        assert!(
+            rel(q.var, want_w) < 1e-12,
+            "mdev m={m}: {} vs {want_w}",
+            q.var
+        );
+        let tau = mf / rate;
+        assert_eq!(r.var, tau * tau / 3.0 * q.var, "tdev m={m}");
+        assert_eq!((p.n_terms, q.n_terms), (n_h as u64, n_w as u64));
+    }
+    // bit-identical for 1, 2 and 3 threads
+    for threads in [1, 3] {
+        let other = run(threads, &y);
+        for (a, b) in [&oh, &md, &td].into_iter().zip(&other) {
+            for (p, q) in a.points.iter().zip(&b.points) {
+                assert_eq!(
+                    p.var.to_bits(),
+                    q.var.to_bits(),
+                    "{} m={}",
+                    a.statistic,
+                    p.m
+                );
+            }
+        }
+    }
+    // offset-proof: + 10^4 standard deviations (σ² = 24 for these samples) changes the values
+    // by the rounding of the shifted samples only (u·10^4σ each, relative ~1e-12)
+    let shifted: Vec<f64> = y.iter().map(|v| v + 1e4 * 24f64.sqrt()).collect();
+    let [oh2, md2, _] = run(2, &shifted);
+    for (a, b) in [(&oh, &oh2), (&md, &md2)] {
+        for (p, q) in a.points.iter().zip(&b.points) {
+            assert!(rel(q.var, p.var) < 1e-9, "{} m={}", a.statistic, p.m);
+        }
+    }
+}
