@@ -640,7 +640,7 @@ const _: () = assert!(XH.is_multiple_of(8) && SEG_NEAR.is_multiple_of(8));
 /// Eight f64 on one cache line (the element of the transposed copy).
 #[derive(Clone, Copy, Default)]
 #[repr(C, align(64))]
-struct Line([f64; 8]);
+pub(crate) struct Line([f64; 8]);
 
 /// Transposed copy of the NSEG rows of the full chunk [a, a + NSEG·SEG) with a halo of `halo`
 /// columns, written to `dst` (2·(halo + SEG) lines): `dst[2c + g]` holds, in lane r,
@@ -652,7 +652,12 @@ struct Line([f64; 8]);
 /// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn build_lanes_avx512<const SEG: usize>(x: &[f64], a: usize, halo: usize, dst: &mut [Line]) {
+pub(crate) unsafe fn build_lanes_avx512<const SEG: usize>(
+    x: &[f64],
+    a: usize,
+    halo: usize,
+    dst: &mut [Line],
+) {
     use std::arch::x86_64::*;
     let cols = halo + SEG;
     assert!(

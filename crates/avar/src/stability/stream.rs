@@ -39,7 +39,9 @@
 use rayon::prelude::*;
 
 use crate::error::AvarError;
-use crate::kernel::{LANES, Neumaier, first_non_finite, pivot_of, reduce_lanes, two_sum};
+#[cfg(target_arch = "x86_64")]
+use crate::kernel::build_lanes_avx512;
+use crate::kernel::{LANES, Line, Neumaier, first_non_finite, pivot_of, reduce_lanes, two_sum};
 
 /// Spacing (samples) of the checkpoints of c and P.
 const G: usize = 64;
@@ -515,6 +517,68 @@ struct SegState {
     acc: [f64; NSEG],
 }
 
+/// The vectors (h, w, acc), two of each, of a [`SegState`] (16 segments). Needs
+/// `std::arch::x86_64::*` in scope and AVX-512F enabled at the use site, as the macros below.
+#[cfg(target_arch = "x86_64")]
+macro_rules! load_state {
+    ($st:expr) => {{
+        let st: &SegState = &*$st;
+        let (ph, pw, pa) = (st.h.as_ptr(), st.w.as_ptr(), st.acc.as_ptr());
+        (
+            [_mm512_loadu_pd(ph), _mm512_loadu_pd(ph.add(8))],
+            [_mm512_loadu_pd(pw), _mm512_loadu_pd(pw.add(8))],
+            [_mm512_loadu_pd(pa), _mm512_loadu_pd(pa.add(8))],
+        )
+    }};
+}
+
+/// Stores the vectors (h, w, acc) back into a [`SegState`].
+#[cfg(target_arch = "x86_64")]
+macro_rules! store_state {
+    ($st:expr, $h:expr, $w:expr, $acc:expr) => {
+        for g in 0..2 {
+            _mm512_storeu_pd($st.h.as_mut_ptr().add(8 * g), $h[g]);
+            _mm512_storeu_pd($st.w.as_mut_ptr().add(8 * g), $w[g]);
+            _mm512_storeu_pd($st.acc.as_mut_ptr().add(8 * g), $acc[g]);
+        }
+    };
+}
+
+/// e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) from the four lagged vectors.
+#[cfg(target_arch = "x86_64")]
+macro_rules! e_of {
+    ($y0:expr, $y1:expr, $y2:expr, $y3:expr, $three:expr) => {
+        _mm512_fmadd_pd(_mm512_sub_pd($y2, $y1), $three, _mm512_sub_pd($y0, $y3))
+    };
+}
+
+/// One step of the recurrences of group g with the increment e, as in [`seg_run`]:
+/// acc ← fma(v, v, acc) (v = w for MVAR, h for OHVAR); w += h (MVAR); h += e.
+#[cfg(target_arch = "x86_64")]
+macro_rules! step_state {
+    ($mod:expr, $h:ident, $w:ident, $acc:ident, $g:expr, $e:expr) => {
+        if $mod {
+            $acc[$g] = _mm512_fmadd_pd($w[$g], $w[$g], $acc[$g]);
+            $w[$g] = _mm512_add_pd($w[$g], $h[$g]);
+        } else {
+            $acc[$g] = _mm512_fmadd_pd($h[$g], $h[$g], $acc[$g]);
+        }
+        $h[$g] = _mm512_add_pd($h[$g], $e);
+    };
+}
+
+/// Where a scale's recurrences over a full chunk read their samples.
+enum Src<'a> {
+    /// Rows of samples, transposed in registers ([`block_avx512`]).
+    Rows(Rows<'a>),
+    /// Lane-layout copies: per lag, the buffer and the line index of chunk column 0
+    /// ([`lanes_avx512`]).
+    Lanes([&'a [Line]; 4], [usize; 4]),
+}
+
+/// Halo (columns) of the lane-layout copy of a chunk: scales with 3m ≤ XH read it.
+const XH: usize = 512;
+
 /// Where the recurrences of a full chunk read their samples: for each lag j (0: y_k, 1: y_{k−m},
 /// 2: y_{k−2m}, 3: y_{k−3m}) a slice and the index in it of row 0, column 0, so that row l,
 /// column c is at `off + l·SEG + c`; each slice reaches 8 elements before and after the rows.
@@ -556,24 +620,11 @@ unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
     unsafe {
         let p = rows.map(|(r, off)| r.as_ptr().add(off));
         let three = _mm512_set1_pd(3.0);
-        let mut h = [_mm512_setzero_pd(); 2];
-        let mut w = [_mm512_setzero_pd(); 2];
-        let mut acc = [_mm512_setzero_pd(); 2];
-        for g in 0..2 {
-            h[g] = _mm512_loadu_pd(st.h.as_ptr().add(8 * g));
-            w[g] = _mm512_loadu_pd(st.w.as_ptr().add(8 * g));
-            acc[g] = _mm512_loadu_pd(st.acc.as_ptr().add(8 * g));
-        }
+        let (mut h, mut w, mut acc) = load_state!(st);
         // one step of the recurrences of group g with the column c
         macro_rules! step {
             ($g:expr, $c:expr) => {
-                if MOD {
-                    acc[$g] = _mm512_fmadd_pd(w[$g], w[$g], acc[$g]);
-                    w[$g] = _mm512_add_pd(w[$g], h[$g]);
-                } else {
-                    acc[$g] = _mm512_fmadd_pd(h[$g], h[$g], acc[$g]);
-                }
-                h[$g] = _mm512_add_pd(h[$g], $c);
+                step_state!(MOD, h, w, acc, $g, $c)
             };
         }
         // the eight columns jb − s + c of rows 8g … 8g + 7, transposed (lane r of column c: e at
@@ -587,7 +638,7 @@ unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
                     let y1 = _mm512_loadu_pd(p[1].add(q).sub(s));
                     let y2 = _mm512_loadu_pd(p[2].add(q).sub(s));
                     let y3 = _mm512_loadu_pd(p[3].add(q).sub(s));
-                    *er = _mm512_fmadd_pd(_mm512_sub_pd(y2, y1), three, _mm512_sub_pd(y0, y3));
+                    *er = e_of!(y0, y1, y2, y3, three);
                 }
                 transpose8x8!(e)
             }};
@@ -617,22 +668,56 @@ unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
                 }
             }
         }
-        for g in 0..2 {
-            _mm512_storeu_pd(st.h.as_mut_ptr().add(8 * g), h[g]);
-            _mm512_storeu_pd(st.w.as_mut_ptr().add(8 * g), w[g]);
-            _mm512_storeu_pd(st.acc.as_mut_ptr().add(8 * g), acc[g]);
-        }
+        store_state!(st, h, w, acc);
     }
 }
 
-/// The far walk's copies of the chunks its residue class visited last, in contiguous slots:
-/// the lagged rows of a far scale that is a whole number q of class steps are then read from
-/// the copies of the chunks q, 2q and 3q steps back, instead of from the series, where rows
-/// 2^k·8 bytes apart map to the same cache sets and evict each other.
+/// [`block_avx512`] from lane-layout copies ([`build_lanes_avx512`]): the samples of lag j of
+/// chunk column c are the line pair at `src[j] + 2c` (lane r of line 2c + g: row 8g + r), so
+/// that e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) is formed from aligned loads without
+/// transposes. Over the columns [j0, j1): the operations of [`seg_run`] in the same order, so
+/// the values are bit-identical to the portable path.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn lanes_avx512<const MOD: bool>(
+    buf: [&[Line]; 4],
+    src: [usize; 4],
+    j0: usize,
+    j1: usize,
+    st: &mut SegState,
+) {
+    use std::arch::x86_64::*;
+    assert!(j0 <= j1 && (0..4).all(|j| src[j] + 2 * j1 <= buf[j].len()));
+    // SAFETY: AVX-512F is available (caller contract); the loads read the aligned lines
+    // buf[j][src[j] + 2c + g] for c < j1, g < 2, inside the buffers (asserted).
+    unsafe {
+        let p: [*const f64; 4] = std::array::from_fn(|j| buf[j].as_ptr().add(src[j]).cast());
+        let three = _mm512_set1_pd(3.0);
+        let (mut h, mut w, mut acc) = load_state!(st);
+        for c in j0..j1 {
+            for g in 0..2 {
+                let o = 16 * c + 8 * g;
+                let y0 = _mm512_load_pd(p[0].add(o));
+                let y1 = _mm512_load_pd(p[1].add(o));
+                let y2 = _mm512_load_pd(p[2].add(o));
+                let y3 = _mm512_load_pd(p[3].add(o));
+                step_state!(MOD, h, w, acc, g, e_of!(y0, y1, y2, y3, three));
+            }
+        }
+        store_state!(st, h, w, acc);
+    }
+}
+
+/// The far walk's lane-layout copies ([`build_lanes_avx512`]) of the chunks its residue class
+/// visited last, in contiguous slots: a far scale that is a whole number q of class steps reads
+/// its lagged samples from the copies of the chunks q, 2q and 3q steps back, as aligned lane
+/// vectors, instead of from the series (where rows 2^k·8 bytes apart map to the same cache
+/// sets and evict each other, and would have to be transposed).
 struct Ring {
-    buf: Vec<f64>,
-    /// Index in `buf` of the first 64-byte aligned element.
-    base: usize,
+    buf: Vec<Line>,
     slots: usize,
     /// The index in its class of the chunk each slot holds.
     held: Vec<usize>,
@@ -641,17 +726,11 @@ struct Ring {
     tc: usize,
 }
 
-/// Elements of a ring slot: a far chunk and 8 samples either side, at any misalignment.
-const SLOT: usize = NSEG * SEG_FAR + 24;
-
 impl Ring {
     /// A ring of `slots` slots for the walk of class step `step` (0 slots: no ring).
     fn new(slots: usize, step: usize) -> Ring {
-        let buf = vec![0.0f64; slots * SLOT + 8];
-        let base = (8 - (buf.as_ptr() as usize % 64) / 8) % 8;
         Ring {
-            buf,
-            base,
+            buf: vec![Line::default(); slots * 2 * SEG_FAR],
             slots,
             held: vec![usize::MAX; slots],
             step,
@@ -659,25 +738,28 @@ impl Ring {
         }
     }
 
-    /// Copies the chunk at `a` (the `tc`-th of its class), with 8 samples either side, into its
-    /// slot at the misalignment `mis` of y[a], when it lies that far inside the series.
-    fn put(&mut self, y: &[f64], a: usize, tc: usize, mis: usize) {
+    /// Copies the full chunk at `a` (the `tc`-th of its class) into its slot, transposed.
+    fn put(&mut self, y: &[f64], a: usize, tc: usize) {
         self.tc = tc;
-        if self.slots == 0 || a < 8 || a + NSEG * SEG_FAR + 8 > y.len() {
+        if self.slots == 0 || a + NSEG * SEG_FAR > y.len() {
             return;
         }
         let slot = tc % self.slots;
-        let at = self.base + slot * SLOT + mis;
-        self.buf[at..at + NSEG * SEG_FAR + 16].copy_from_slice(&y[a - 8..a + NSEG * SEG_FAR + 8]);
+        let dst = &mut self.buf[2 * SEG_FAR * slot..2 * SEG_FAR * (slot + 1)];
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: a ring has slots only with AVX-512F (see the far walk); the chunk is full.
+        unsafe {
+            build_lanes_avx512::<SEG_FAR>(y, a, 0, dst)
+        };
         self.held[slot] = tc;
     }
 
-    /// The rows of the chunk `back` class steps before the current one, if held.
-    fn rows(&self, back: usize, mis: usize) -> Option<(&[f64], usize)> {
+    /// The line index of column 0 of the chunk `back` class steps before the current one, if
+    /// held.
+    fn lanes(&self, back: usize) -> Option<usize> {
         let tc = self.tc.checked_sub(back)?;
         let slot = tc % self.slots.max(1);
-        (self.slots > 0 && self.held[slot] == tc)
-            .then(|| (&self.buf[..], self.base + slot * SLOT + mis + 8))
+        (self.slots > 0 && self.held[slot] == tc).then_some(2 * SEG_FAR * slot)
     }
 }
 
@@ -706,7 +788,7 @@ fn chunk_partials<const SEG: usize>(
     i: usize,
     simd: bool,
     ring: Option<&Ring>,
-    states: &mut Vec<SegState>,
+    (states, xt): &mut (Vec<SegState>, Vec<Line>),
     out: &mut [f64],
 ) {
     let t = y.len();
@@ -732,35 +814,58 @@ fn chunk_partials<const SEG: usize>(
     }
     #[cfg(target_arch = "x86_64")]
     if !states.is_empty() {
-        // the rows of each lag: from the ring when m is a whole number of class steps whose
-        // chunks it holds, else from the series
-        let rows_of = |m: usize| -> Rows<'_> {
-            std::array::from_fn(|j| {
-                let from_ring = ring.filter(|r| j > 0 && m.is_multiple_of(r.step));
-                from_ring
-                    .and_then(|r| r.rows(j * m / r.step, mis))
-                    .unwrap_or((y, a - j * m))
-            })
+        // where each full scale reads its samples: the lane copy of this chunk with a halo of
+        // XH columns (3m ≤ XH, built once for all of them), the ring (far scales that are whole
+        // class steps, chunks held), else the rows of the series
+        let halo = a >= XH && batch.iter().any(|&m| full(m) && 3 * m <= XH);
+        if halo {
+            xt.resize(2 * (XH + SEG), Line::default());
+            // SAFETY: `simd` is set only when AVX-512F is present; a ≥ XH, the chunk is full.
+            unsafe { build_lanes_avx512::<SEG>(y, a, XH, xt) };
+        }
+        let xt: &[Line] = xt;
+        let from_ring = |m: usize| {
+            let r = ring.filter(|r| m.is_multiple_of(r.step))?;
+            let q = m / r.step;
+            let src = [r.lanes(0)?, r.lanes(q)?, r.lanes(2 * q)?, r.lanes(3 * q)?];
+            Some(Src::Lanes([&r.buf[..]; 4], src))
         };
-        let rows: Vec<Rows<'_>> = batch
+        let srcs: Vec<Src<'_>> = batch
             .iter()
             .filter(|&&m| full(m))
-            .map(|&m| rows_of(m))
+            .map(|&m| {
+                if halo && 3 * m <= XH {
+                    Src::Lanes([xt; 4], [0, m, 2 * m, 3 * m].map(|l| 2 * (XH - l)))
+                } else {
+                    from_ring(m)
+                        .unwrap_or_else(|| Src::Rows(std::array::from_fn(|j| (y, a - j * m))))
+                }
+            })
             .collect();
         for j0 in (0..SEG).step_by(BLK) {
-            for (r, st) in rows.iter().zip(states.iter_mut()) {
+            for (src, st) in srcs.iter().zip(states.iter_mut()) {
                 // SAFETY: `simd` is set only when AVX-512F is present; the chunk is full for m.
                 unsafe {
-                    match kind {
-                        Diff::Hadamard => block_avx512::<false, SEG>(r, mis, j0, j0 + BLK, st),
-                        Diff::Modified => block_avx512::<true, SEG>(r, mis, j0, j0 + BLK, st),
+                    match (kind, src) {
+                        (Diff::Hadamard, Src::Rows(r)) => {
+                            block_avx512::<false, SEG>(r, mis, j0, j0 + BLK, st)
+                        }
+                        (Diff::Modified, Src::Rows(r)) => {
+                            block_avx512::<true, SEG>(r, mis, j0, j0 + BLK, st)
+                        }
+                        (Diff::Hadamard, Src::Lanes(b, o)) => {
+                            lanes_avx512::<false>(*b, *o, j0, j0 + BLK, st)
+                        }
+                        (Diff::Modified, Src::Lanes(b, o)) => {
+                            lanes_avx512::<true>(*b, *o, j0, j0 + BLK, st)
+                        }
                     }
                 }
             }
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = (ring, mis);
+    let _ = (ring, mis, xt);
     let mut st = states.iter();
     for (o, &m) in out.iter_mut().zip(batch) {
         *o = if full(m) {
@@ -851,7 +956,7 @@ fn near_walk(
     }
     let w = batch.len();
     dsts.into_par_iter()
-        .map_init(Default::default, |(states, buf), (j, dst)| {
+        .map_init(Default::default, |(scratch, buf), (j, dst)| {
             let chunks = j * jc..((j + 1) * jc).min(n_chunks);
             let a0 = chunks.start * schunk;
             let g0 = a0.saturating_sub(warm) / G;
@@ -863,7 +968,7 @@ fn near_walk(
                         d.p = b;
                     }
                 });
-                chunk_partials::<SEG_NEAR>(y, &fr, kind, batch, i, simd, None, states, o);
+                chunk_partials::<SEG_NEAR>(y, &fr, kind, batch, i, simd, None, scratch, o);
             }
             *buf = fr.ck;
             parts
@@ -932,16 +1037,14 @@ fn third_diff_sums_with(
         let by_class: Vec<Vec<f64>> = (0..n_cls)
             .into_par_iter()
             .map_init(
-                || (Vec::new(), Ring::new(slots, step)),
-                |(states, ring), r| {
+                || (Default::default(), Ring::new(slots, step)),
+                |(scratch, ring), r| {
                     let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
                     let walk = (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w));
                     for (tc, (i, o)) in walk.enumerate() {
-                        let a = i * schunk;
-                        let mis = (y.as_ptr().wrapping_add(a) as usize % 64) / 8;
-                        ring.put(y, a, tc, mis);
+                        ring.put(y, i * schunk, tc);
                         let rg = Some(&*ring);
-                        chunk_partials::<SEG_FAR>(y, &fr, kind, &batch, i, simd, rg, states, o);
+                        chunk_partials::<SEG_FAR>(y, &fr, kind, &batch, i, simd, rg, scratch, o);
                     }
                     parts
                 },
