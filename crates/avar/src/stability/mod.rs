@@ -21,7 +21,12 @@
 //! formula, O(T·m)) and the fast path (O(T) per scale, parallel over scales, deterministic for
 //! any thread count, offset-proof: the rate series is centred with its exact mean before it is
 //! integrated). ADEV and HDEV of rate data at power-of-two scales skip the cumulative sum:
-//! a pyramid of block sums reads the series once. The scale grid comes from
+//! a pyramid of block sums reads the series once. OHDEV, MDEV and TDEV of rate data without a
+//! chi-square interval are streamed from the samples (`stream.rs`: third-difference recurrences
+//! restarted from compensated checkpoints, one read of the series for the near scales and one
+//! for the far ones, vectorised with AVX-512, scalar elsewhere); phase (angle) input and
+//! chi-square intervals, which need the phase itself, build the series-sized cumulative sum as
+//! before. The scale grid comes from
 //! [`crate::Scales`] (the same configuration as the AV), limited to the cluster sizes each
 //! statistic admits ([`Statistic::max_m`]).
 //!

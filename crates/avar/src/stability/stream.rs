@@ -34,7 +34,9 @@
 //! and whatever other scales are requested. The vector and portable paths perform the same
 //! operations in the same order (acc ← fma(v, v, acc)).
 //!
-//! Phase (angle) input and chi-square intervals keep the buffered path of the modules.
+//! Without AVX-512 every segment runs the scalar loop of [`seg_run`] (the same values, slower).
+//! Phase (angle) input and chi-square intervals keep the buffered path of the modules: the
+//! phase samples are not rate samples, and the noise identification reads the phase.
 
 use rayon::prelude::*;
 
@@ -469,7 +471,7 @@ fn starts_on_checkpoints<const SEG: usize>(
     }
 }
 
-/// out[l] = [`third_diff`] of the pairs `f(entries[j][l])`, j = 0 … 3, for every lane l.
+/// `out[l]` = [`third_diff`] of the pairs `f(entries[j][l])`, j = 0 … 3, for every lane l.
 #[inline(always)]
 fn third_on_lanes(
     entries: &[[Entry; NSEG]; 4],
@@ -977,7 +979,7 @@ fn near_walk(
         .collect()
 }
 
-/// out[s] = the Neumaier sum, in chunk order, of the partials `part(i, s)` of chunks 0..n.
+/// `out[s]` = the Neumaier sum, in chunk order, of the partials `part(i, s)` of chunks 0..n.
 fn combine(n: usize, idx: &[usize], part: impl Fn(usize, usize) -> f64, out: &mut [f64]) {
     for (s, &o) in idx.iter().enumerate() {
         let mut acc = Neumaier::default();
