@@ -347,7 +347,7 @@ impl Checkpoints {
     /// C_p as an unevaluated sum (hi, lo): the checkpoint below p plus the short sequential
     /// local sum of the centred samples in between. A deterministic function of p.
     #[inline]
-    fn at(&self, x: &[f64], p: usize) -> (f64, f64) {
+    pub(crate) fn at(&self, x: &[f64], p: usize) -> (f64, f64) {
         let g = p / G;
         let (hi, lo) = self.get(x, g);
         if p == g * G {

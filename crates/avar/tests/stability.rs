@@ -966,3 +966,44 @@ fn streamed_ohdev_mdev_tdev_long_series() {
         }
     }
 }
+
+#[test]
+fn streamed_totdev_long_series() {
+    // rate data of at least 2^22 samples without an interval: TOTDEV from the AV's streamed
+    // kernel (interior terms) and recurrences over the reflected ends restarted every 4096
+    // terms from checkpoints; against the plain reference (reflected series built explicitly),
+    // for 1, 2 and 3 threads, and offset-proof
+    let t = (1usize << 22) + 4321;
+    let y = mixed(t, 21);
+    let ms = vec![1u64, 2, 7, 1000, 65_539, 1 << 20, 1 << 21];
+    let cfg = no_ci(Scales::Explicit(ms.clone()), InputKind::Rate);
+    let run = |threads: usize, data: &[f64]| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| stability(data, 1.0, Statistic::Totdev, &cfg).unwrap())
+    };
+    let s = run(2, &y);
+    for p in &s.points {
+        let r = totdev::totvar_reference(&y, 1.0, InputKind::Rate, p.m).unwrap();
+        assert!(rel(p.var, r) < TOL_REFERENCE, "m={}: {} vs {r}", p.m, p.var);
+        assert_eq!(p.n_terms, t as u64 - 1);
+    }
+    for threads in [1, 3] {
+        for (p, q) in s.points.iter().zip(&run(threads, &y).points) {
+            assert_eq!(
+                p.var.to_bits(),
+                q.var.to_bits(),
+                "{threads} threads m={}",
+                p.m
+            );
+        }
+    }
+    let mean = y.iter().sum::<f64>() / t as f64;
+    let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / t as f64).sqrt();
+    let shifted: Vec<f64> = y.iter().map(|v| v + 1e4 * sd).collect();
+    for (p, q) in s.points.iter().zip(&run(2, &shifted).points) {
+        assert!(rel(q.var, p.var) < 1e-9, "offset m={}", p.m);
+    }
+}

@@ -428,14 +428,14 @@ fn stability_unscaled(
              use the chi-square interval"
         )));
     }
-    // OHDEV, MDEV and TDEV of rate data without an interval: streamed from the samples, no
-    // series-sized cumulative sum (see `stream`)
+    // OHDEV, MDEV and TDEV (any length) and TOTDEV (long series) of rate data without an
+    // interval: streamed from the samples, no series-sized cumulative sum (see `stream`)
     if config.input == InputKind::Rate
         && config.ci == CiMethod::None
-        && matches!(
+        && (matches!(
             statistic,
             Statistic::Ohdev | Statistic::Mdev | Statistic::Tdev
-        )
+        ) || (statistic == Statistic::Totdev && data.len() >= crate::kernel::STREAM_MIN_T))
     {
         let t = data.len();
         check_len(t, t)?;
@@ -443,6 +443,7 @@ fn stability_unscaled(
         let vars = match statistic {
             Statistic::Ohdev => stream::variances(data, &ms, Diff::Hadamard)?,
             Statistic::Mdev => stream::variances(data, &ms, Diff::Modified)?,
+            Statistic::Totdev => totdev::totvar_stream(data, &ms)?,
             _ => tdev::tvar_from_mvar(stream::variances(data, &ms, Diff::Modified)?, rate_hz, &ms),
         };
         let points = new_points(statistic, &ms, vars, t, rate_hz);

@@ -205,3 +205,96 @@ fn mid_sumsq(c: &[f64], m: usize, lo: usize, hi: usize) -> f64 {
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
+
+/// Length of the segments of reflected terms that restart from exact values (checkpoints).
+const EDGE_SEG: usize = 4096;
+
+/// TOTVAR of rate samples `y` at each m (2m ≤ T), streamed without a series-sized cumulative
+/// sum: the interior terms (m ≤ i ≤ T − m, ordinary second differences) are the overlapping
+/// AV's sums from its streamed kernel; the 2(m − 1) terms at the reflected ends are carried by
+/// their own recurrences in i over segments of [`EDGE_SEG`] terms, each started from phase
+/// values rebuilt exactly from the checkpoints of the centred cumulative sum (one more read of
+/// the series). Rate unit². Deterministic for any thread count (fixed segment grid, segment
+/// sums added in order with Neumaier's compensation).
+pub(crate) fn totvar_stream(y: &[f64], ms: &[u64]) -> Result<Vec<f64>, AvarError> {
+    use rayon::prelude::*;
+    let t = y.len();
+    let (interior, _) = crate::kernel::overlapping_sums_stream(y, ms)?;
+    let ck = crate::kernel::checkpoints(y)?;
+    let x = |p: usize| ck.at(y, p);
+    // every (scale, end, segment) of the reflected terms, in a fixed order
+    let jobs: Vec<(usize, bool, usize, usize)> = ms
+        .iter()
+        .enumerate()
+        .flat_map(|(s, &m)| {
+            let m = m as usize;
+            let left = (1..m)
+                .step_by(EDGE_SEG)
+                .map(move |a| (s, true, a, (a + EDGE_SEG).min(m)));
+            let right = (t + 1 - m..t)
+                .step_by(EDGE_SEG)
+                .map(move |a| (s, false, a, (a + EDGE_SEG).min(t)));
+            left.chain(right)
+        })
+        .collect();
+    let sums: Vec<f64> = jobs
+        .par_iter()
+        .map(|&(s, left, a, b)| {
+            let m = ms[s] as usize;
+            // d_i = x*_{i+m} − 2x*_i + x*_{i−m} with x*_{−j} = 2x_0 − x_j (x_0 = 0 here) on the
+            // left and x*_{T+j} = 2x_T − x_{T−j} on the right; d_{i+1} − d_i from the samples
+            let mut d = if left {
+                signed_sum(&[(1.0, x(a + m)), (-2.0, x(a)), (-1.0, x(m - a))])
+            } else {
+                let xt = x(t);
+                signed_sum(&[
+                    (2.0, xt),
+                    (-1.0, x(2 * t - a - m)),
+                    (-2.0, x(a)),
+                    (1.0, x(a - m)),
+                ])
+            };
+            let mut acc = 0.0f64;
+            for i in a..b {
+                acc += d * d;
+                if i + 1 < b {
+                    let far = if left {
+                        y[m - i - 1]
+                    } else {
+                        y[2 * t - i - m - 1]
+                    };
+                    let near = if left { y[i + m] } else { y[i - m] };
+                    d += (near - 2.0 * y[i]) + far;
+                }
+            }
+            acc
+        })
+        .collect();
+    let mut out = interior;
+    for (o, s) in out.iter_mut().zip(0..) {
+        let mut acc = crate::kernel::Neumaier::default();
+        acc.add(*o);
+        for (job, v) in jobs.iter().zip(&sums) {
+            if job.0 == s {
+                acc.add(*v);
+            }
+        }
+        let m = ms[s] as f64;
+        let f = 1.0 / m;
+        *o = acc.value() * f * f / (2.0 * (t - 1) as f64);
+    }
+    Ok(out)
+}
+
+/// Σ c_j·v_j of unevaluated pairs v_j = (hi, lo) with coefficients ±1, ±2 (exact scalings): the
+/// high parts added exactly (two-sums), the low parts and the errors added plainly.
+fn signed_sum(terms: &[(f64, (f64, f64))]) -> f64 {
+    let mut hi = 0.0;
+    let mut lo = 0.0;
+    for &(c, (h, l)) in terms {
+        let (s, e) = crate::kernel::two_sum(hi, c * h);
+        hi = s;
+        lo += e + c * l;
+    }
+    hi + lo
+}
