@@ -782,6 +782,7 @@ fn have_avx512() -> bool {
 /// lagged rows from the `ring` where it holds them; the others (and every chunk without `simd`)
 /// run [`seg_sum`] per segment. The same value either way.
 #[allow(clippy::too_many_arguments)]
+#[inline(never)]
 fn chunk_partials<const SEG: usize>(
     y: &[f64],
     fr: &Frames,
@@ -933,6 +934,7 @@ fn job_chunks(n_chunks: usize) -> usize {
 /// a chunk runs, while its samples are in cache. The block sums of each job's own range go to
 /// `sums` (for the global frame of the far scales).
 #[allow(clippy::too_many_arguments)]
+#[inline(never)]
 fn near_walk(
     y: &[f64],
     pivot: f64,

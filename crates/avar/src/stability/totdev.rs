@@ -4,6 +4,11 @@
 //! extended at both ends by odd reflection, x*_{−j} = 2x_0 − x_j and
 //! x*_{N−1+j} = 2x_{N−1} − x_{N−1−j}. Every τ uses N − 2 terms, which tightens the interval at
 //! long τ (EDF ≈ 1.5·T/τ for white FM against ≈ 1.1·T/τ for the overlapping AV).
+//!
+//! Rate series of at least 2^22 samples without a chi-square interval are streamed
+//! (`totvar_stream`: the interior terms from the AV's streamed kernel, the reflected ends by
+//! recurrences restarted from checkpoints); shorter ones, phase input and intervals use the
+//! cumulative sum (`totvar_fast`).
 
 use super::{
     BLOCK, Stability, Statistic, check_m, fused_sums, plain_phase, split_near_far, sum_in_blocks,
