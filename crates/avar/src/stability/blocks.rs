@@ -25,22 +25,115 @@ const CHUNK: usize = 1 << 14;
 const SMALL_MAX: u32 = 10;
 
 /// Σ of squared order-`order` differences (2: first differences, 3: second differences) of a
-/// block-sum sequence, for the terms whose first block index is in `lo..hi`.
-#[inline]
+/// block-sum sequence, for the terms whose first block index is in `lo..hi`: eight accumulator
+/// lanes over aligned slices (so that it vectorizes), reduced in a fixed order.
+#[inline(always)]
 fn sum_sq_diffs(s: &[f64], order: usize, lo: usize, hi: usize) -> f64 {
-    let mut acc = [0.0f64; 4];
-    if order == 2 {
-        for (k, b) in (lo..hi).enumerate() {
-            let d = s[b + 1] - s[b];
-            acc[k & 3] += d * d;
-        }
-    } else {
-        for (k, b) in (lo..hi).enumerate() {
-            let d = (s[b + 2] - s[b + 1]) - (s[b + 1] - s[b]);
-            acc[k & 3] += d * d;
+    const L: usize = 8;
+    let mut acc = [0.0f64; L];
+    if hi > lo {
+        if order == 2 {
+            let (a, b) = (&s[lo + 1..hi + 1], &s[lo..hi]);
+            let (mut ia, mut ib) = (a.chunks_exact(L), b.chunks_exact(L));
+            for (ca, cb) in (&mut ia).zip(&mut ib) {
+                for l in 0..L {
+                    let d = ca[l] - cb[l];
+                    acc[l] += d * d;
+                }
+            }
+            for (l, (va, vb)) in ia.remainder().iter().zip(ib.remainder()).enumerate() {
+                let d = va - vb;
+                acc[l] += d * d;
+            }
+        } else {
+            let (a, b, c) = (&s[lo + 2..hi + 2], &s[lo + 1..hi + 1], &s[lo..hi]);
+            let (mut ia, mut ib, mut ic) =
+                (a.chunks_exact(L), b.chunks_exact(L), c.chunks_exact(L));
+            for ((ca, cb), cc) in (&mut ia).zip(&mut ib).zip(&mut ic) {
+                for l in 0..L {
+                    let d = (ca[l] - cb[l]) - (cb[l] - cc[l]);
+                    acc[l] += d * d;
+                }
+            }
+            let rest = ia
+                .remainder()
+                .iter()
+                .zip(ib.remainder())
+                .zip(ic.remainder());
+            for (l, ((va, vb), vc)) in rest.enumerate() {
+                let d = (va - vb) - (vb - vc);
+                acc[l] += d * d;
+            }
         }
     }
-    (acc[0] + acc[1]) + (acc[2] + acc[3])
+    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]))
+}
+
+/// What one chunk contributes: the partial sums of every requested level up to `small_top`
+/// (`sums`, in the order of `levels`), and the level-`small_top` block sums of the blocks that
+/// start in it. `z` is the chunk with the reach of its last terms, `own` the length of the chunk
+/// itself, `r` the reference subtracted from the samples, `buf` scratch of at least
+/// `z.len() / 2` values.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn chunk_levels_body(
+    z: &[f64],
+    own: usize,
+    r: f64,
+    order: usize,
+    levels: &[u32],
+    small_top: u32,
+    buf: &mut [f64],
+) -> (Vec<f64>, Vec<f64>) {
+    let mut sums = vec![0.0f64; levels.len()];
+    if let Some(i) = levels.iter().position(|&k| k == 0) {
+        // m = 1: the samples themselves (their differences need no reference)
+        let n_terms = z.len().saturating_sub(order - 1).min(own);
+        sums[i] = sum_sq_diffs(z, order, 0, n_terms);
+    }
+    if small_top == 0 {
+        let top_own = own.min(z.len());
+        return (sums, z[..top_own].iter().map(|v| v - r).collect());
+    }
+    // level 1 from the samples, then each level in place over the one below
+    let mut len = z.len() / 2;
+    for (o, p) in buf[..len].iter_mut().zip(z.chunks_exact(2)) {
+        *o = (p[0] - r) + (p[1] - r);
+    }
+    for k in 1..=small_top {
+        if k > 1 {
+            len /= 2;
+            for j in 0..len {
+                buf[j] = buf[2 * j] + buf[2 * j + 1];
+            }
+        }
+        for (slot, &lk) in sums.iter_mut().zip(levels) {
+            if lk == k {
+                // terms whose first block starts in this chunk and whose last block is
+                // complete within the series
+                let first_blocks = own.div_ceil(1 << k);
+                let n_terms = len.saturating_sub(order - 1).min(first_blocks);
+                *slot = sum_sq_diffs(&buf[..len], order, 0, n_terms);
+            }
+        }
+    }
+    // level small_top sums of the blocks that start in this chunk
+    let top_own = (own >> small_top).min(len);
+    (sums, buf[..top_own].to_vec())
+}
+
+simd_dispatch! {
+    /// [`chunk_levels_body`] with AVX-512 or AVX2 where the CPU has them (the same values:
+    /// fixed lanes, no FMA contraction).
+    fn chunk_levels(
+        z: &[f64],
+        own: usize,
+        r: f64,
+        order: usize,
+        levels: &[u32],
+        small_top: u32,
+        buf: &mut [f64],
+    ) -> (Vec<f64>, Vec<f64>) => chunk_levels_body
 }
 
 /// AVAR (`order` = 2) or HVAR (`order` = 3) of rate samples `y` at every m of `ms`, all powers
@@ -65,7 +158,6 @@ pub(crate) fn nonoverlapping_vars(y: &[f64], ms: &[u64], order: usize) -> Option
     let reach = (order - 1) << small_top;
     let n_chunks = t.div_ceil(CHUNK);
     // per chunk: the partial sums of every requested small level, and its level-10 sums
-    let want0 = levels.iter().position(|&k| k == 0);
     let parts: Vec<(Vec<f64>, Vec<f64>)> = (0..n_chunks)
         .into_par_iter()
         .map_init(
@@ -74,42 +166,7 @@ pub(crate) fn nonoverlapping_vars(y: &[f64], ms: &[u64], order: usize) -> Option
                 let lo = c * CHUNK;
                 let hi = (lo + CHUNK + reach).min(t);
                 let own = (lo + CHUNK).min(t) - lo;
-                let z = &y[lo..hi];
-                let mut sums = vec![0.0f64; levels.len()];
-                if let Some(i) = want0 {
-                    // m = 1: the samples themselves (their differences need no reference)
-                    let n_terms = z.len().saturating_sub(order - 1).min(own);
-                    sums[i] = sum_sq_diffs(z, order, 0, n_terms);
-                }
-                if small_top == 0 {
-                    let top_own = own.min(z.len());
-                    return (sums, z[..top_own].iter().map(|v| v - r).collect());
-                }
-                // level 1 from the samples, then each level in place over the one below
-                let mut len = z.len() / 2;
-                for (o, p) in buf[..len].iter_mut().zip(z.chunks_exact(2)) {
-                    *o = (p[0] - r) + (p[1] - r);
-                }
-                for k in 1..=small_top {
-                    if k > 1 {
-                        len /= 2;
-                        for j in 0..len {
-                            buf[j] = buf[2 * j] + buf[2 * j + 1];
-                        }
-                    }
-                    for (slot, &lk) in sums.iter_mut().zip(&levels) {
-                        if lk == k {
-                            // terms whose first block starts in this chunk and whose last
-                            // block is complete within the series
-                            let first_blocks = own.div_ceil(1 << k);
-                            let n_terms = len.saturating_sub(order - 1).min(first_blocks);
-                            *slot = sum_sq_diffs(&buf[..len], order, 0, n_terms);
-                        }
-                    }
-                }
-                // level small_top sums of the blocks that start in this chunk
-                let top_own = (own >> small_top).min(len);
-                (sums, buf[..top_own].to_vec())
+                chunk_levels(&y[lo..hi], own, r, order, &levels, small_top, buf)
             },
         )
         .collect();
