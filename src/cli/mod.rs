@@ -139,8 +139,11 @@ pub struct InputArgs {
     /// by only 16 bytes per 128 samples); other types, several channels and --scale are decoded
     /// once, into memory when the copies fit in a quarter of the available memory, else into
     /// temporary files; gzip, standard input and pipes (which cannot seek) are decoded once
-    /// into temporary files (8 bytes per sample and channel of disk space, not memory). With a
-    /// CI the file stays mapped and 8 more bytes per sample are held. Text, logs and the other subcommands read the
+    /// into temporary files (8 bytes per sample and channel of disk space, not memory). The
+    /// chi-square CI (the default) streams too, reading the series three more times with 16
+    /// bytes per 64 samples and 16 MiB per thread; the Gaussian CI holds 8 more bytes per
+    /// sample. Series shorter than 4194304 samples are estimated in memory (8 bytes per
+    /// sample). Text, logs and the other subcommands read the
     /// whole input into memory (standard input, pipes and FIFOs first as bytes; regular files
     /// are memory-mapped).
     pub file: PathBuf,
