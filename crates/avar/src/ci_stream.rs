@@ -3,21 +3,24 @@
 //! The default interval ([`crate::ci`]) identifies the noise at each scale from the m-cluster
 //! means, which the in-memory path reads from the centred cumulative sum C (8 bytes per
 //! sample). Here C is never held whole: its checkpoints ([`kernel::checkpoints`], 16 bytes per
-//! 64 samples) are built in one pass, and the series is then read twice more in windows of
-//! [`WINDOW`] samples, each window rebuilding its stretch of C exactly as the in-memory path
-//! stores it ([`kernel::prefix_window`]):
+//! 64 samples) are built in one pass, and the series is then read two or three more times in
+//! windows of [`WINDOW`] samples, each window rebuilding its stretch of C exactly as the
+//! in-memory path stores it ([`kernel::prefix_window`]):
 //!
-//! * scales m < [`BIG_M`] (more than T/512 cluster means): the identification's blocks are
-//!   computed where they start, from the window (the least-squares line in the first pass, the
-//!   lag-1 sums of the residuals and of their first and second differences in the second);
+//! * scales m < [`BIG_M`] (more than T/128 cluster means): the identification's blocks are
+//!   computed where they start, from the window: the least-squares line in the first pass,
+//!   the lag-1 sums of the residuals in the second, and those of their first and second
+//!   differences in a third, only for the scales whose residuals are too correlated at level
+//!   0 (random-walk-like noise);
 //! * scales m ≥ [`BIG_M`]: the first pass copies C at the cluster boundaries (T/m values), and
 //!   the identification runs on that copy.
 //!
 //! Every block of every scale is computed by the same function on the same values of C as in
 //! memory and the parts are added in block order, so the intervals are bit-identical to the
 //! in-memory path's for any thread count. Memory: the checkpoints (250 MB at 10^9 samples),
-//! one window of C per thread (64 MiB plus the reach of the last blocks), the boundary copies
-//! (at most [`BOUNDS_BUDGET`] bytes at a time: scales beyond it take further passes).
+//! one window of C per thread (16 MiB plus the reach of the last blocks, reused across the
+//! passes), the boundary copies (at most [`BOUNDS_BUDGET`] bytes at a time: scales beyond it
+//! take further passes).
 
 use rayon::prelude::*;
 
@@ -28,7 +31,7 @@ use crate::ci::{
 use crate::error::AvarError;
 use crate::kernel;
 
-/// Samples per window of the two passes (a multiple of the prefix chunks).
+/// Samples per window of the passes (a multiple of the prefix chunks).
 const WINDOW: usize = 1 << 21;
 /// Scales with at least this cluster size keep a copy of C at their cluster boundaries.
 const BIG_M: usize = 128;
