@@ -514,6 +514,17 @@ fn decode_file(
     layout: &BinaryLayout,
     channels: &[usize],
 ) -> Result<Vec<MappedSamples>> {
+    decode_file_within(file, name, layout, channels, memory_budget())
+}
+
+/// [`decode_file`] keeping the decoded copies in memory when they take at most `budget` bytes.
+fn decode_file_within(
+    file: &Path,
+    name: &str,
+    layout: &BinaryLayout,
+    channels: &[usize],
+    budget: usize,
+) -> Result<Vec<MappedSamples>> {
     use rayon::prelude::*;
     use std::os::unix::fs::FileExt;
     let tmp_err = |e: std::io::Error| Error::File {
@@ -537,7 +548,7 @@ fn decode_file(
     let rows = body / row;
     // blocks of about 1 MiB of input, which stay in cache while every channel is taken out
     let per_block = ((1 << 20) / row).max(1);
-    if 8 * rows * channels.len() <= memory_budget() {
+    if 8 * rows * channels.len() <= budget {
         return decode_to_memory(&f, name, layout, channels, rows, per_block);
     }
     let mut files = Vec::with_capacity(channels.len());
@@ -558,28 +569,8 @@ fn decode_file(
                 f.read_exact_at(inb, (layout.header + r0 * row) as u64)
                     .map_err(|e| Error::io(name, e))?;
                 for (t, &c) in files.iter().zip(channels) {
-                    outb.clear();
-                    for r in 0..k {
-                        let at = r * row + c * kind.size();
-                        let v = read_value(kind, &inb[at..at + kind.size()]);
-                        let v = match layout.scale {
-                            Some(s) => v * s,
-                            None => v,
-                        };
-                        if !v.is_finite() {
-                            return Err(Error::Located {
-                                file: name.to_string(),
-                                line: r0 + r + 1,
-                                column: c + 1,
-                                message: format!(
-                                    "{v} in row {} channel {}: values must be finite",
-                                    r0 + r + 1,
-                                    c + 1
-                                ),
-                            });
-                        }
-                        outb.extend_from_slice(&v.to_le_bytes());
-                    }
+                    outb.resize(8 * k, 0);
+                    decode_block(inb, r0, name, layout, c, outb)?;
                     t.write_all_at(outb, 8 * r0 as u64).map_err(tmp_err)?;
                 }
                 Ok(())
@@ -765,6 +756,42 @@ mod tests {
             |c: usize| -> Vec<f64> { t.columns[c].iter().map(|v| v * (1.0 / 131.0)).collect() };
         assert_eq!(s[0].samples(), &scaled(2)[..]);
         assert_eq!(s[1].samples(), &scaled(0)[..]);
+    }
+
+    /// The decoded copies in temporary files (a budget of 0 bytes) equal those in memory, and
+    /// a non-finite value is reported by row and channel there too.
+    #[test]
+    fn temporary_files_match_memory() {
+        let dir = tempfile::tempdir().unwrap();
+        // more rows than one decoding block (1 MiB of input), not a whole number of blocks
+        let rows = 70_001;
+        let vals: Vec<f32> = (0..3 * rows)
+            .map(|i| ((i * 7919) % 2001) as f32 - 1000.5)
+            .collect();
+        let bytes: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let p = write(dir.path(), "x.f32", &bytes);
+        let layout = BinaryLayout {
+            scale: Some(0.25),
+            ..BinaryLayout::new(BinaryType::F32, 3)
+        };
+        let mem = decode_file_within(&p, "x.f32", &layout, &[2, 0], usize::MAX).unwrap();
+        let tmp = decode_file_within(&p, "x.f32", &layout, &[2, 0], 0).unwrap();
+        assert!(matches!(mem[0].backing, Backing::Anon(_)));
+        assert!(matches!(tmp[0].backing, Backing::File(..)));
+        for (a, b) in mem.iter().zip(&tmp) {
+            assert_eq!(a.samples(), b.samples());
+        }
+        let want: Vec<f64> = (0..rows)
+            .map(|r| f64::from(vals[3 * r + 2]) * 0.25)
+            .collect();
+        assert_eq!(tmp[0].samples(), &want[..]);
+        let mut bad = bytes.clone();
+        bad[(3 * 50_000 + 1) * 4..(3 * 50_000 + 2) * 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        let p = write(dir.path(), "bad.f32", &bad);
+        let e = decode_file_within(&p, "bad.f32", &layout, &[1], 0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("row 50001 channel 2"), "{e}");
     }
 
     #[test]
