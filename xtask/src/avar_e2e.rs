@@ -23,6 +23,8 @@ use std::time::Instant;
 
 use avar::{AvarConfig, CiMethod, allan_variance};
 
+use crate::avar_speed::one_pass;
+
 /// The same white series as the speed report's `data` (seed `seed`), generated in blocks.
 fn gen_block(state: &mut u64, out: &mut [f64]) {
     let mut s = *state;
@@ -71,17 +73,6 @@ fn series(n: usize, c: usize) -> Vec<f64> {
     let mut st = seed(c);
     gen_block(&mut st, &mut x);
     x
-}
-
-fn one_pass(x: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 16];
-    let mut it = x.chunks_exact(16);
-    for c in &mut it {
-        for l in 0..16 {
-            acc[l] += c[l];
-        }
-    }
-    acc.iter().sum::<f64>() + it.remainder().iter().sum::<f64>()
 }
 
 fn best<T>(reps: usize, mut f: impl FnMut() -> Result<T, String>) -> Result<(f64, T), String> {

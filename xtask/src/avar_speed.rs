@@ -69,7 +69,8 @@ fn vm_hwm_mb() -> f64 {
         .unwrap_or(f64::NAN)
 }
 
-fn one_pass(x: &[f64]) -> f64 {
+/// One vectorised summing pass over `x` (16 lanes): the memory-bandwidth baseline.
+pub(crate) fn one_pass(x: &[f64]) -> f64 {
     let mut acc = [0.0f64; 16];
     let mut it = x.chunks_exact(16);
     for c in &mut it {

@@ -557,7 +557,7 @@ pub(crate) fn identify_cluster_means(y: &ClusterMeans<'_>, n: usize) -> Option<N
 }
 
 /// [`identify_cluster_means`] at cluster size m from the whole cumulative sum.
-pub(crate) fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
+pub(crate) fn identify_from_cumulative(cum: &Cumulative<'_>, m: usize) -> Option<NoiseId> {
     let c: &[f64] = &cum.c;
     let n = (c.len() - 1) / m;
     let y = ClusterMeans {
@@ -572,7 +572,7 @@ pub(crate) fn identify_noise_streaming(cum: &Cumulative<'_>, m: usize) -> Option
 fn chi_square(cum: &Cumulative<'_>, config: &AvarConfig, points: &mut [AvarPoint]) {
     let ids: Vec<Option<NoiseId>> = points
         .par_iter()
-        .map(|p| identify_noise_streaming(cum, p.m as usize))
+        .map(|p| identify_from_cumulative(cum, p.m as usize))
         .collect();
     apply_chi_square(&ids, cum.t(), config, points);
 }
@@ -702,7 +702,7 @@ mod tests {
                     .map(|ch| ch.iter().sum::<f64>() / m as f64)
                     .collect();
                 let a = identify_noise(&means).unwrap();
-                let b = identify_noise_streaming(&cum, m).unwrap();
+                let b = identify_from_cumulative(&cum, m).unwrap();
                 assert_eq!((a.alpha_rg, a.d), (b.alpha_rg, b.d), "m={m}");
                 assert!(
                     (a.rho - b.rho).abs() < 1e-9,
@@ -711,7 +711,7 @@ mod tests {
                     b.rho
                 );
             }
-            assert!(identify_noise_streaming(&cum, 100_000 / 29).is_none());
+            assert!(identify_from_cumulative(&cum, 100_000 / 29).is_none());
         }
     }
 }

@@ -332,7 +332,7 @@ mod tests {
             t: x.len(),
         };
         ms.iter()
-            .map(|&m| crate::ci::identify_noise_streaming(&cum, m as usize))
+            .map(|&m| crate::ci::identify_from_cumulative(&cum, m as usize))
             .collect()
     }
 

@@ -243,18 +243,7 @@ mod tests {
     }
 
     fn series(n: usize) -> Vec<f64> {
-        let mut s = 0x2545_F491_4F6C_DD1Du64;
-        let mut walk = 0.0;
-        (0..n)
-            .map(|_| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-                walk += 1e-3 * u;
-                2.5 + u + walk
-            })
-            .collect()
+        crate::kernel::tests::series(n, 2.5)
     }
 
     /// The streamed source path gives exactly the in-memory result (both thread counts), and
