@@ -667,23 +667,7 @@ fn mdev_far_scales_match_an_exact_integer_reference() {
     // exact: a reference in O(T) for scales too long for the O(T·m) literal one. The scales
     // 2^14·{1, 2, 3} take the far walk (one, two, three residue classes).
     let t = 300_000usize;
-    let mut state = 0x2545_F491_4F6C_DD1Du64;
-    let y: Vec<f64> = (0..t)
-        .map(|_| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % 17) as f64 - 8.0
-        })
-        .collect();
-    let mut x = vec![0i64; t + 1];
-    for k in 0..t {
-        x[k + 1] = x[k] + y[k] as i64;
-    }
-    let mut sx = vec![0i64; t + 2];
-    for k in 0..=t {
-        sx[k + 1] = sx[k] + x[k];
-    }
+    let (y, _, sx) = integer_series(t);
     let ms = vec![16_384u64, 32_768, 49_152, 1000];
     let s = stability(
         &y,
@@ -882,23 +866,7 @@ fn streamed_ohdev_mdev_tdev_long_series() {
     // running sum S are integers below 2^53): h_k = x_{k+3m} − 3x_{k+2m} + 3x_{k+m} − x_k and
     // w_j = S_{j+3m} − 3S_{j+2m} + 3S_{j+m} − S_j, squared and summed in i128.
     let t = 3 * (1usize << 20) + 12_345;
-    let mut state = 0x2545_F491_4F6C_DD1Du64;
-    let y: Vec<f64> = (0..t)
-        .map(|_| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % 17) as f64 - 8.0
-        })
-        .collect();
-    let mut x = vec![0i64; t + 1];
-    for k in 0..t {
-        x[k + 1] = x[k] + y[k] as i64;
-    }
-    let mut sx = vec![0i64; t + 2];
-    for k in 0..=t {
-        sx[k + 1] = sx[k] + x[k];
-    }
+    let (y, x, sx) = integer_series(t);
     let third = |v: &[i64], i: usize, m: usize| {
         (v[i + 3 * m] - 3 * v[i + 2 * m] + 3 * v[i + m] - v[i]) as i128
     };
@@ -1006,4 +974,27 @@ fn streamed_totdev_long_series() {
     for (p, q) in s.points.iter().zip(&run(2, &shifted).points) {
         assert!(rel(q.var, p.var) < 1e-9, "offset m={}", p.m);
     }
+}
+
+/// `t` small-integer rate samples y (−8..=8, xorshift), their phase x (t + 1 integers) and its
+/// running sum S (t + 2 integers): exact in i64 for the references of the streamed tests.
+fn integer_series(t: usize) -> (Vec<f64>, Vec<i64>, Vec<i64>) {
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let y: Vec<f64> = (0..t)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % 17) as f64 - 8.0
+        })
+        .collect();
+    let mut x = vec![0i64; t + 1];
+    for k in 0..t {
+        x[k + 1] = x[k] + y[k] as i64;
+    }
+    let mut sx = vec![0i64; t + 2];
+    for k in 0..=t {
+        sx[k + 1] = sx[k] + x[k];
+    }
+    (y, x, sx)
 }
