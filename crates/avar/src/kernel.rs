@@ -1171,6 +1171,37 @@ fn overlapping_sums_stream_split(
     simd: Simd,
     io: &Io<'_>,
 ) -> Result<(Vec<f64>, f64), AvarError> {
+    overlapping_sums_stream_parts(x, ms, far_m, job_chunks, simd, io).map(|(s, mean, _)| (s, mean))
+}
+
+/// [`overlapping_sums_stream`] that also hands back the checkpoints of the far walk (the
+/// global frame, pivot-centred: C_p = Σ_{i<p} (x_i − pivot)), when there were far scales; `None`
+/// otherwise (the near walk keeps none of its own). TOTVAR's reflected ends read the phase
+/// from them instead of summing the series once more.
+pub(crate) fn overlapping_sums_stream_checkpoints(
+    x: &[f64],
+    ms: &[u64],
+) -> Result<(Vec<f64>, Option<Checkpoints>), AvarError> {
+    let (sums, _, ck) = overlapping_sums_stream_parts(
+        x,
+        ms,
+        far_m(x.len()),
+        job_chunks(x.len()),
+        Simd::detect(),
+        &Io::NONE,
+    )?;
+    Ok((sums, ck.far.is_some().then_some(ck)))
+}
+
+/// [`overlapping_sums_stream_split`], with the global checkpoints of the far walk.
+fn overlapping_sums_stream_parts(
+    x: &[f64],
+    ms: &[u64],
+    far_m: usize,
+    job_chunks: usize,
+    simd: Simd,
+    io: &Io<'_>,
+) -> Result<(Vec<f64>, f64, Checkpoints), AvarError> {
     let release = io.release;
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
@@ -1197,7 +1228,7 @@ fn overlapping_sums_stream_split(
     }
     stream_group::<SEG_FAR>(x, &ck, ms, &far, far_m, simd, io, &mut out);
     release(0, x.len());
-    Ok((out, pivot + total / x.len() as f64))
+    Ok((out, pivot + total / x.len() as f64, ck))
 }
 
 /// Target near chunks per job of the near walk ([`stream_near`], [`job_chunks`]): 480 chunks of
