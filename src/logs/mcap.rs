@@ -133,13 +133,10 @@ fn check_records(
         Ok(out)
     };
     let body = &map[8..];
-    let mut chunks = std::collections::BTreeSet::new();
-    let mut limit = 1usize << 16;
-    for (op, start, len) in walk(body)? {
-        limit = limit.max(len);
-        if op != 0x06 {
-            continue;
-        }
+    // each chunk's checks, in parallel: the records of an uncompressed chunk are walked one by
+    // one, and that walk is the first read of most of the file's pages (mapping them is most of
+    // its cost: 0.56 s for a 4 GB file on one thread)
+    let check_chunk = |start: usize, len: usize| -> std::result::Result<usize, String> {
         let c = &body[start..start + len];
         let uncompressed = u64_at(c, 16).ok_or("a chunk header is cut short")?;
         let clen = c
@@ -168,8 +165,27 @@ fn check_records(
             }
             walk(records)?;
         }
+        Ok(uncompressed as usize)
+    };
+    let top = walk(body)?;
+    let mut limit = top.iter().fold(1usize << 16, |l, &(_, _, len)| l.max(len));
+    let chunk_recs: Vec<(usize, usize)> = top
+        .iter()
+        .filter(|r| r.0 == 0x06)
+        .map(|&(_, start, len)| (start, len))
+        .collect();
+    // the first error in file order, whatever the threads
+    let sizes: Vec<std::result::Result<usize, String>> = {
+        use rayon::prelude::*;
+        chunk_recs
+            .par_iter()
+            .map(|&(start, len)| check_chunk(start, len))
+            .collect()
+    };
+    let mut chunks = std::collections::BTreeSet::new();
+    for (&(start, _), size) in chunk_recs.iter().zip(sizes) {
+        limit = limit.max(size?);
         chunks.insert((8 + start - 9) as u64);
-        limit = limit.max(uncompressed as usize);
     }
     Ok((chunks, limit))
 }
