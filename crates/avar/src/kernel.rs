@@ -495,10 +495,10 @@ const FAR_M_MIN: usize = 1 << 17;
 /// within [`FAR_M_MIN`] … [`FAR_M`]. The far walk's lane ring then holds about T/FAR_M chunk
 /// copies of 16 KiB (up to 1 MiB, the L2 cache of this machine) until T reaches 64·FAR_M,
 /// while the near scales' lags (2m, up to FAR_M samples back) stay nearer in the cache
-/// hierarchy and the near jobs' warm-up (FAR_M samples each) stays short. Measured at 10^7 samples, octave τ: OADEV 17.7 ms with 2^20, 16.2 with 2^19, 15.8
-/// with 2^18 (this rule), 15.5 with 2^17; at 10^8, 181 ms with 2^20 (this rule), 175 with
-/// 2^19, 177 with 2^18, 185 with 2^17. A function of T only, so that results do not depend
-/// on the thread count.
+/// hierarchy and the near jobs' warm-up (FAR_M samples each) stays short. Measured at 10^7
+/// samples, octave τ: OADEV 17.7 ms with 2^20, 16.2 with 2^19, 15.8 with 2^18 (this rule),
+/// 15.5 with 2^17; at 10^8, 181 ms with 2^20 (this rule), 175 with 2^19, 177 with 2^18, 185
+/// with 2^17. A function of T only, so that results do not depend on the thread count.
 pub(crate) fn far_m(t: usize) -> usize {
     (t / 64).next_power_of_two().clamp(FAR_M_MIN, FAR_M)
 }

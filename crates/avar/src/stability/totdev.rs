@@ -310,6 +310,7 @@ pub(crate) fn totvar_stream(y: &[f64], ms: &[u64]) -> Result<Vec<f64>, AvarError
     Ok(out)
 }
 
+/// Segments whose recurrences [`edge_sums`] interleaves (see there for why four).
 const LANES_EDGE: usize = 4;
 
 /// One segment of reflected TOTVAR terms: d at its first term, and where the three samples of
