@@ -1,6 +1,7 @@
 //! Times one statistic of the stability family on a white-noise rate series (profiling aid):
 //! `cargo run -p imunoise-avar --release --example family_prof -- [T] [reps] [statistic] [scales]`,
-//! scales `octave` (default) or a comma list of cluster sizes m.
+//! scales `octave` (default) or a comma list of cluster sizes m; `CI=chi2` adds the chi-square
+//! interval.
 use avar::stability::{Statistic, stability};
 use avar::{AvarConfig, CiMethod, Scales};
 use std::time::Instant;
@@ -32,7 +33,12 @@ fn main() {
         .collect();
     let cfg = AvarConfig {
         scales,
-        ci: CiMethod::None,
+        // CI=chi2 in the environment: the chi-square interval (default: none)
+        ci: if std::env::var("CI").as_deref() == Ok("chi2") {
+            CiMethod::ChiSquare
+        } else {
+            CiMethod::None
+        },
         ..AvarConfig::default()
     };
     let mut best = f64::INFINITY;
@@ -41,14 +47,24 @@ fn main() {
         let t = Instant::now();
         let r = stability(&x, 1.0, st, &cfg).expect("estimate");
         best = best.min(t.elapsed().as_secs_f64());
-        // a digest of the deviations' bits, to compare builds bit for bit
-        bits = r
-            .points
-            .iter()
-            .fold(0, |h, p| h.rotate_left(7) ^ p.dev.to_bits());
+        // a digest of the deviations' bits (and intervals, α), to compare builds bit for bit
+        bits = r.points.iter().fold(0, |h, p| {
+            let ci = p.dev_lo.unwrap_or(0.0).to_bits() ^ p.dev_hi.unwrap_or(0.0).to_bits();
+            h.rotate_left(7) ^ p.dev.to_bits() ^ ci ^ p.alpha.unwrap_or(9) as u64
+        });
     }
     println!(
         "{name} T={n:.0e}: best of {reps} {:.2} ms (digest {bits:016x})",
         1e3 * best
     );
+    if std::env::var_os("ALPHAS").is_some() {
+        let r = stability(&x, 1.0, st, &cfg).expect("estimate");
+        let a: Vec<i32> = r.points.iter().map(|p| p.alpha.unwrap_or(9)).collect();
+        let e: Vec<String> = r
+            .points
+            .iter()
+            .map(|p| format!("{:.6e}", p.edf.unwrap_or(0.0)))
+            .collect();
+        println!("alphas {a:?}\nedf {}", e.join(" "));
+    }
 }

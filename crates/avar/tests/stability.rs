@@ -936,6 +936,38 @@ fn streamed_ohdev_mdev_tdev_long_series() {
 }
 
 #[test]
+fn the_chi_square_interval_does_not_change_the_values() {
+    // rate data: the values come from the same path with and without the interval (the
+    // streamed kernels for MDEV, TDEV, OHDEV and long TOTDEV), bit for bit, and the interval
+    // brackets them
+    for (t, stats) in [
+        (20_000, &Statistic::ALL[..]),
+        ((1usize << 22) + 99, &[Statistic::Totdev][..]),
+    ] {
+        let y = mixed(t, 5);
+        for &st in stats {
+            let none = stability(&y, 10.0, st, &no_ci(Scales::Octave, InputKind::Rate)).unwrap();
+            let chi = AvarConfig {
+                ci: CiMethod::ChiSquare,
+                ..no_ci(Scales::Octave, InputKind::Rate)
+            };
+            let with = stability(&y, 10.0, st, &chi).unwrap();
+            assert_eq!(none.points.len(), with.points.len(), "{st}");
+            for (a, b) in none.points.iter().zip(&with.points) {
+                assert_eq!(a.var.to_bits(), b.var.to_bits(), "{st} T={t} m={}", a.m);
+                let (lo, hi) = (b.var_lo.unwrap(), b.var_hi.unwrap());
+                assert!(
+                    lo < b.var && b.var < hi,
+                    "{st} m={}: {lo} {} {hi}",
+                    a.m,
+                    b.var
+                );
+            }
+        }
+    }
+}
+
+#[test]
 fn streamed_totdev_long_series() {
     // rate data of at least 2^22 samples without an interval: TOTDEV from the AV's streamed
     // kernel (interior terms) and recurrences over the reflected ends restarted every 4096

@@ -35,8 +35,9 @@
 //! operations in the same order (acc ← fma(v, v, acc)).
 //!
 //! Without AVX-512 every segment runs the scalar loop of [`seg_run`] (the same values, slower).
-//! Phase (angle) input and chi-square intervals keep the buffered path of the modules: the
-//! phase samples are not rate samples, and the noise identification reads the phase.
+//! Phase (angle) input keeps the buffered path of the modules (the phase samples are not rate
+//! samples). With a chi-square interval the values still come from here; only the noise
+//! identification reads the cumulative sum.
 
 use rayon::prelude::*;
 
