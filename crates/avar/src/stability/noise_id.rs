@@ -34,18 +34,48 @@ use crate::kernel::Neumaier;
 /// Stable32 switches from the lag-1 ACF to the B1 ratio below this many analysis points.
 pub const MIN_ACF_POINTS: usize = 30;
 
+/// Terms per block of [`acf1`]'s sums (blocks run in parallel, their sums added in order).
+const ACF_BLOCK: usize = 1 << 15;
+
+/// Σ f(i) for i in [lo, hi), in four lanes added as (l0 + l1) + (l2 + l3).
+#[inline]
+fn lane_sum(lo: usize, hi: usize, f: impl Fn(usize) -> f64) -> f64 {
+    let mut a = [0.0f64; 4];
+    let mut i = lo;
+    while i + 4 <= hi {
+        for (l, al) in a.iter_mut().enumerate() {
+            *al += f(i + l);
+        }
+        i += 4;
+    }
+    for (l, j) in (i..hi).enumerate() {
+        a[l] += f(j);
+    }
+    (a[0] + a[1]) + (a[2] + a[3])
+}
+
+/// Σ f(i) for i < n: blocks of [`ACF_BLOCK`] terms in parallel (lane sums), added in block
+/// order, so the sum does not depend on the thread count.
+fn block_sum(n: usize, f: impl Fn(usize) -> f64 + Sync) -> f64 {
+    let parts: Vec<f64> = (0..n.div_ceil(ACF_BLOCK))
+        .into_par_iter()
+        .with_min_len(4)
+        .map(|b| lane_sum(b * ACF_BLOCK, ((b + 1) * ACF_BLOCK).min(n), &f))
+        .collect();
+    parts.iter().sum()
+}
+
 /// Lag-1 autocorrelation as Stable32 computes it: the usual (biased) estimator times (n − 1)/n.
+/// The sums run in blocks (in parallel) and lanes; one sequential read of a long series per
+/// sum was the identification's critical path (OADEV with the interval at 10^8 samples, octave
+/// τ: 1126 → 997 ms; at 10^7, 128 → 120 ms). The identified α of every Stable32 table is
+/// unchanged.
 fn acf1(z: &[f64]) -> f64 {
-    let n = z.len() as f64;
-    let mu = z.iter().sum::<f64>() / n;
-    let mut num = 0.0;
-    let mut den = 0.0;
-    for w in z.windows(2) {
-        num += (w[0] - mu) * (w[1] - mu);
-    }
-    for v in z {
-        den += (v - mu) * (v - mu);
-    }
+    let len = z.len();
+    let n = len as f64;
+    let mu = block_sum(len, |i| z[i]) / n;
+    let num = block_sum(len.saturating_sub(1), |i| (z[i] - mu) * (z[i + 1] - mu));
+    let den = block_sum(len, |i| (z[i] - mu) * (z[i] - mu));
     // Stable32 scales the estimate by (n − 1)/n; without it 2 of the OCXO all-τ rows with
     // 30+ analysis points (AF = 113, 463) come out one noise type off
     num / den * (n - 1.0) / n
