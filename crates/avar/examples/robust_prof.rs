@@ -1,0 +1,50 @@
+//! Times the robust Allan variance of a white-noise + random-walk rate series (profiling aid):
+//! `cargo run -p imunoise-avar --release --example robust_prof -- [T] [reps] [channels]`, the
+//! channels estimated in parallel as `imunoise analyze` does.
+use avar::robust::robust_allan_variance_from;
+use avar::{AvarConfig, allan_variance};
+use rayon::prelude::*;
+use std::time::Instant;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let n = args
+        .get(1)
+        .and_then(|s| s.parse::<f64>().ok())
+        .unwrap_or(1.08e7) as usize;
+    let reps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3);
+    let channels: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(6);
+    let xs: Vec<Vec<f64>> = (0..channels as u64)
+        .map(|c| {
+            let mut s = 0x9E37_79B9_7F4A_7C15u64 ^ (c + 1);
+            let mut rw = 0.0;
+            (0..n)
+                .map(|_| {
+                    s ^= s << 13;
+                    s ^= s >> 7;
+                    s ^= s << 17;
+                    let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                    rw += u * 1e-4;
+                    u + rw
+                })
+                .collect()
+        })
+        .collect();
+    let cfg = AvarConfig::default();
+    let classical: Vec<_> = xs
+        .iter()
+        .map(|x| allan_variance(x, 1000.0, &cfg).expect("AV"))
+        .collect();
+    let mut best = f64::INFINITY;
+    for _ in 0..reps {
+        let t = Instant::now();
+        let r: Vec<_> = xs
+            .par_iter()
+            .zip(&classical)
+            .map(|(x, c)| robust_allan_variance_from(x, c.clone(), &cfg, 0.6).expect("robust"))
+            .collect();
+        best = best.min(t.elapsed().as_secs_f64());
+        std::hint::black_box(r);
+    }
+    println!("robust AV, {channels} × {n:.2e}: best of {reps} {:.1} ms", 1e3 * best);
+}
