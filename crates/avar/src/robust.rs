@@ -812,12 +812,12 @@ fn spike_scan(data: &[f64], threshold: f64) -> Result<SpikeScan<'_>, AvarError> 
 
 /// Prefix sums of `data − mean`, with c[0] = 0 (T + 1 values).
 fn centred_prefix_sums(data: &[f64], mean: f64) -> Vec<f64> {
-    let mut c = Vec::with_capacity(data.len() + 1);
-    c.push(0.0);
+    // written in place into zeroed memory (fresh pages, no per-element capacity check)
+    let mut c = vec![0.0f64; data.len() + 1];
     let mut acc = 0.0;
-    for &x in data {
+    for (o, &x) in c[1..].iter_mut().zip(data) {
         acc += x - mean;
-        c.push(acc);
+        *o = acc;
     }
     c
 }
