@@ -46,5 +46,8 @@ fn main() {
         best = best.min(t.elapsed().as_secs_f64());
         std::hint::black_box(r);
     }
-    println!("robust AV, {channels} × {n:.2e}: best of {reps} {:.1} ms", 1e3 * best);
+    println!(
+        "robust AV, {channels} × {n:.2e}: best of {reps} {:.1} ms",
+        1e3 * best
+    );
 }
