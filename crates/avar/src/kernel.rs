@@ -1144,6 +1144,7 @@ pub(crate) fn overlapping_sums_stream_io(
 ) -> Result<(Vec<f64>, f64), AvarError> {
     let job_chunks = job_chunks(x.len());
     overlapping_sums_stream_split(x, ms, far_m(x.len()), job_chunks, Simd::detect(), io)
+        .map(|(sums, mean, _)| (sums, mean))
 }
 
 /// Near chunks per job of the near walk for T samples: jobs of equal length, about
@@ -1159,21 +1160,6 @@ fn job_chunks(t: usize) -> usize {
 /// Fewest jobs of the near walk (see [`job_chunks`]).
 const MIN_JOBS: usize = 8;
 
-/// [`overlapping_sums_stream`] with the near/far threshold and the job length as parameters:
-/// scales with 2m > `far_m` take the far grid and the residue-class walk of step `far_m`; the
-/// near walk runs in jobs of `job_chunks` near chunks with a warm-up of `far_m` samples (tests
-/// use small values to cover those paths on short series), and the vector kernel `simd`.
-fn overlapping_sums_stream_split(
-    x: &[f64],
-    ms: &[u64],
-    far_m: usize,
-    job_chunks: usize,
-    simd: Simd,
-    io: &Io<'_>,
-) -> Result<(Vec<f64>, f64), AvarError> {
-    overlapping_sums_stream_parts(x, ms, far_m, job_chunks, simd, io).map(|(s, mean, _)| (s, mean))
-}
-
 /// [`overlapping_sums_stream`] that also hands back the checkpoints of the far walk (the
 /// global frame, pivot-centred: C_p = Σ_{i<p} (x_i − pivot)), when there were far scales; `None`
 /// otherwise (the near walk keeps none of its own). TOTVAR's reflected ends read the phase
@@ -1182,7 +1168,7 @@ pub(crate) fn overlapping_sums_stream_checkpoints(
     x: &[f64],
     ms: &[u64],
 ) -> Result<(Vec<f64>, Option<Checkpoints>), AvarError> {
-    let (sums, _, ck) = overlapping_sums_stream_parts(
+    let (sums, _, ck) = overlapping_sums_stream_split(
         x,
         ms,
         far_m(x.len()),
@@ -1193,8 +1179,13 @@ pub(crate) fn overlapping_sums_stream_checkpoints(
     Ok((sums, ck.far.is_some().then_some(ck)))
 }
 
-/// [`overlapping_sums_stream_split`], with the global checkpoints of the far walk.
-fn overlapping_sums_stream_parts(
+/// [`overlapping_sums_stream`] with the near/far threshold and the job length as parameters:
+/// scales with 2m > `far_m` take the far grid and the residue-class walk of step `far_m`; the
+/// near walk runs in jobs of `job_chunks` near chunks with a warm-up of `far_m` samples (tests
+/// use small values to cover those paths on short series), and the vector kernel `simd`.
+/// Returns the sums, the mean and the far walk's global checkpoints (see
+/// [`overlapping_sums_stream_checkpoints`]).
+fn overlapping_sums_stream_split(
     x: &[f64],
     ms: &[u64],
     far_m: usize,
@@ -1972,7 +1963,7 @@ pub(crate) mod tests {
         let n = 3 * SCHUNK + 12_345;
         let x = series(n, 0.0);
         let ms: Vec<u64> = (1..=300).map(|k| 7 * k).collect();
-        let (sums, _) =
+        let (sums, ..) =
             overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect(), &Io::NONE).unwrap();
         let mut c = Vec::new();
         centred_prefix_into(&x, &mut c).unwrap();
@@ -2014,7 +2005,7 @@ pub(crate) mod tests {
                     &Io::NONE,
                 ) {
                     Err(AvarError::NonFinite { index: i, .. }) => assert_eq!(i, index),
-                    other => panic!("index {index}: {other:?}"),
+                    other => panic!("index {index}: {:?}", other.map(|r| r.0)),
                 }
             }
         }

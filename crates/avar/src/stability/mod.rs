@@ -361,11 +361,7 @@ fn stability_unscaled(
     {
         let t = data.len();
         let mut points = new_points(statistic, &ms, vars, t, rate_hz);
-        if config.ci == CiMethod::ChiSquare {
-            let mut scratch = Vec::new();
-            let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;
-            apply_chi_square(&cum, statistic, config.input, config.alpha, &mut points);
-        }
+        chi_square_from_data(data, rate_hz, statistic, config, &mut points)?;
         return Ok(curve(statistic, rate_hz, t, config, points));
     }
     if matches!(statistic, Statistic::Adev | Statistic::Oadev) {
@@ -416,11 +412,7 @@ fn stability_unscaled(
                 })
                 .collect(),
         };
-        if config.ci == CiMethod::ChiSquare {
-            let mut scratch = Vec::new();
-            let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;
-            apply_chi_square(&cum, statistic, config.input, config.alpha, &mut out.points);
-        }
+        chi_square_from_data(data, rate_hz, statistic, config, &mut out.points)?;
         return Ok(out);
     }
     if config.ci == CiMethod::Gaussian {
@@ -451,11 +443,7 @@ fn stability_unscaled(
             _ => tdev::tvar_from_mvar(stream::variances(data, &ms, Diff::Modified)?, rate_hz, &ms),
         };
         let mut points = new_points(statistic, &ms, vars, t, rate_hz);
-        if config.ci == CiMethod::ChiSquare {
-            let mut scratch = Vec::new();
-            let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;
-            apply_chi_square(&cum, statistic, config.input, config.alpha, &mut points);
-        }
+        chi_square_from_data(data, rate_hz, statistic, config, &mut points)?;
         return Ok(curve(statistic, rate_hz, t, config, points));
     }
     let mut scratch = Vec::new();
@@ -587,6 +575,24 @@ pub(crate) fn check_m(statistic: Statistic, m: u64, t: usize) -> Result<(), Avar
             t,
             max,
         });
+    }
+    Ok(())
+}
+
+/// [`apply_chi_square`] for points whose values came without the cumulative sum (streamed,
+/// the pyramid, the AV): when `config` asks for the chi-square interval, the cumulative sum is
+/// built for the noise identification only.
+fn chi_square_from_data(
+    data: &[f64],
+    rate_hz: f64,
+    statistic: Statistic,
+    config: &AvarConfig,
+    points: &mut [StabilityPoint],
+) -> Result<(), AvarError> {
+    if config.ci == CiMethod::ChiSquare {
+        let mut scratch = Vec::new();
+        let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;
+        apply_chi_square(&cum, statistic, config.input, config.alpha, points);
     }
     Ok(())
 }
