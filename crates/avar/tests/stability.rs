@@ -552,6 +552,20 @@ const FAMILY: [Statistic; 5] = [
     Statistic::Totdev,
 ];
 
+/// The same points with the same values, bit for bit (`what` names the second curve).
+fn assert_same_values(a: &Stability, b: &Stability, what: &str) {
+    assert_eq!(a.points.len(), b.points.len(), "{} ({what})", a.statistic);
+    for (p, q) in a.points.iter().zip(&b.points) {
+        assert_eq!(
+            p.var.to_bits(),
+            q.var.to_bits(),
+            "{} m={} ({what})",
+            a.statistic,
+            p.m
+        );
+    }
+}
+
 fn no_ci(scales: Scales, input: InputKind) -> AvarConfig {
     AvarConfig {
         scales,
@@ -708,9 +722,7 @@ fn mdev_far_scales_match_an_exact_integer_reference() {
             )
             .unwrap()
         });
-    for (p, q) in s.points.iter().zip(&one.points) {
-        assert_eq!(p.var.to_bits(), q.var.to_bits(), "m={}", p.m);
-    }
+    assert_same_values(&s, &one, "1 thread");
 }
 
 #[test]
@@ -913,15 +925,7 @@ fn streamed_ohdev_mdev_tdev_long_series() {
     for threads in [1, 3] {
         let other = run(threads, &y);
         for (a, b) in [&oh, &md, &td].into_iter().zip(&other) {
-            for (p, q) in a.points.iter().zip(&b.points) {
-                assert_eq!(
-                    p.var.to_bits(),
-                    q.var.to_bits(),
-                    "{} m={}",
-                    a.statistic,
-                    p.m
-                );
-            }
+            assert_same_values(a, b, &format!("{threads} threads"));
         }
     }
     // offset-proof: + 10^4 standard deviations (σ² = 24 for these samples) changes the values
@@ -1002,14 +1006,7 @@ fn streamed_totdev_case(y: &[f64], ms: Vec<u64>) {
         assert_eq!(p.n_terms, t as u64 - 1);
     }
     for threads in [1, 3] {
-        for (p, q) in s.points.iter().zip(&run(threads, y).points) {
-            assert_eq!(
-                p.var.to_bits(),
-                q.var.to_bits(),
-                "{threads} threads m={}",
-                p.m
-            );
-        }
+        assert_same_values(&s, &run(threads, y), &format!("{threads} threads"));
     }
     let mean = y.iter().sum::<f64>() / t as f64;
     let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / t as f64).sqrt();
