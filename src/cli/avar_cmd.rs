@@ -32,8 +32,8 @@ For mdev/tdev/hdev/ohdev/totdev the chi-square interval follows Stable32: noise 
 lag-1 autocorrelation (B1 ratio and R(n) below 30 points), Greenhall's EDF (TOTDEV: SP 1065);
 --alpha 0.317 gives Stable32's 0.683 confidence factor. --ci gaussian is for the AV only.
 Memory: their values are streamed from rate samples (mdev/tdev/ohdev, and totdev from 4194304
-samples on), but their chi-square interval reads a cumulative sum of the series (8 bytes per
-sample); --ci none skips it.
+samples on); their chi-square interval sums the samples in eights once (1 byte per sample)
+for its noise identification; --ci none skips it.
 
 JSON shape: {\"channels\":[{\"name\",\"rate_hz\",\"n\",\"estimator\",\"points\":[{\"m\",\"tau\",
 \"avar\",\"adev\",\"avar_lo\",\"avar_hi\",\"edf\",\"n_terms\"}]}]} (CI fields null with --ci none).

@@ -57,7 +57,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{AvarConfig, CiMethod, Estimator, InputKind, Scales};
 use crate::error::AvarError;
 use crate::haar::chi2_interval;
-use crate::{Cumulative, MIN_SAMPLES, check_len, cumulative, validate_rate_alpha};
+use crate::{MIN_SAMPLES, check_len, cumulative, validate_rate_alpha};
 use stream::Diff;
 
 /// A member of the frequency-stability family.
@@ -460,7 +460,8 @@ fn stability_unscaled(
     };
     let mut points = new_points(statistic, &ms, vars, t, rate_hz);
     if config.ci == CiMethod::ChiSquare {
-        apply_chi_square(&cum, statistic, config.input, config.alpha, &mut points);
+        let ids = noise_id::IdData::Cum(&cum);
+        apply_chi_square(&ids, statistic, config.input, config.alpha, &mut points);
     }
     Ok(curve(statistic, rate_hz, t, config, points))
 }
@@ -580,8 +581,9 @@ pub(crate) fn check_m(statistic: Statistic, m: u64, t: usize) -> Result<(), Avar
 }
 
 /// [`apply_chi_square`] for points whose values came without the cumulative sum (streamed,
-/// the pyramid, the AV): when `config` asks for the chi-square interval, the cumulative sum is
-/// built for the noise identification only.
+/// the pyramid, the AV): when `config` asks for the chi-square interval, rate samples are read
+/// as they are (with their 8-sums, 1 byte per sample; see [`noise_id::IdData::rate`]) and
+/// angle samples are the phase itself (the cumulative representation, no copy).
 fn chi_square_from_data(
     data: &[f64],
     rate_hz: f64,
@@ -590,9 +592,16 @@ fn chi_square_from_data(
     points: &mut [StabilityPoint],
 ) -> Result<(), AvarError> {
     if config.ci == CiMethod::ChiSquare {
-        let mut scratch = Vec::new();
-        let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;
-        apply_chi_square(&cum, statistic, config.input, config.alpha, points);
+        if config.input == InputKind::Rate {
+            // the m-sums straight from the samples: no cumulative sum (8 bytes per sample)
+            let ids = noise_id::IdData::rate(data);
+            apply_chi_square(&ids, statistic, config.input, config.alpha, points);
+        } else {
+            let mut scratch = Vec::new();
+            let cum = cumulative(data, rate_hz, config.input, &mut scratch)?;
+            let ids = noise_id::IdData::Cum(&cum);
+            apply_chi_square(&ids, statistic, config.input, config.alpha, points);
+        }
     }
     Ok(())
 }
@@ -600,16 +609,17 @@ fn chi_square_from_data(
 /// Fills the chi-square intervals: Stable32's noise identification at each m, the statistic's
 /// EDF, and bounds at level 1 − alpha.
 pub(crate) fn apply_chi_square(
-    cum: &Cumulative<'_>,
+    data: &noise_id::IdData<'_>,
     statistic: Statistic,
     input: InputKind,
     alpha: f64,
     points: &mut [StabilityPoint],
 ) {
-    let alphas = noise_id::identify_all(cum, statistic, input, points);
+    let alphas = noise_id::identify_all(data, statistic, input, points);
+    let t = data.t();
     for (p, a) in points.iter_mut().zip(alphas) {
         p.alpha = Some(a);
-        let e = edf::edf(statistic, a, p.m, cum.t() as u64 + 1);
+        let e = edf::edf(statistic, a, p.m, t as u64 + 1);
         if e.is_finite() && e > 0.0 {
             p.edf = Some(e);
             let (lo, hi) = chi2_interval(p.var, e, alpha);

@@ -204,16 +204,95 @@ fn carried_over(statistic: Statistic, t: usize, m: u64) -> bool {
     (t as u64 / m) < 2 * statistic.octave_stop_ratio()
 }
 
+/// What the identification reads the m-sums of the rate samples from.
+pub(crate) enum IdData<'a> {
+    /// The cumulative representation (T + 1 entries): m-sums are differences of it; the phase
+    /// itself for angle input.
+    Cum(&'a Cumulative<'a>),
+    /// The rate samples themselves, without their cumulative sum: an m-sum is the sum of its
+    /// m samples less `pivot` each, or for m a multiple of 8 the sum of m/8 entries of
+    /// `sums8`, the 8-sums (T/8 values: 1 byte per sample instead of the cumulative sum's 8).
+    /// The values differ from the differences of a cumulative sum by rounding only, and α, a
+    /// rounded function of them, agrees on every test series. Build it with [`IdData::rate`].
+    Rate {
+        x: &'a [f64],
+        pivot: f64,
+        sums8: Vec<f64>,
+    },
+}
+
+/// Σ (v − pivot) over `s` in four lanes added as (l0 + l1) + (l2 + l3) (the short lengths
+/// written out, with the same operations).
+#[inline(always)]
+fn centred_sum(s: &[f64], pivot: f64) -> f64 {
+    match *s {
+        [a] => return a - pivot,
+        [a, b] => return (a - pivot) + (b - pivot),
+        [a, b, c, d] => return ((a - pivot) + (b - pivot)) + ((c - pivot) + (d - pivot)),
+        _ => {}
+    }
+    let mut a = [0.0f64; 4];
+    let mut it = s.chunks_exact(4);
+    for v in &mut it {
+        for l in 0..4 {
+            a[l] += v[l] - pivot;
+        }
+    }
+    for (l, v) in it.remainder().iter().enumerate() {
+        a[l] += v - pivot;
+    }
+    (a[0] + a[1]) + (a[2] + a[3])
+}
+
+impl<'a> IdData<'a> {
+    /// The view of rate samples `x`: centred on [`crate::kernel::pivot_of`], with their 8-sums
+    /// (one parallel pass).
+    pub(crate) fn rate(x: &'a [f64]) -> IdData<'a> {
+        let pivot = crate::kernel::pivot_of(x);
+        let mut sums8 = vec![0.0f64; x.len() / 8];
+        sums8
+            .par_chunks_mut(1 << 12)
+            .enumerate()
+            .for_each(|(b, out)| {
+                let x = &x[(b << 12) * 8..];
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = centred_sum(&x[8 * i..8 * i + 8], pivot);
+                }
+            });
+        IdData::Rate { x, pivot, sums8 }
+    }
+
+    /// Number of rate samples T.
+    pub(crate) fn t(&self) -> usize {
+        match self {
+            IdData::Cum(c) => c.c.len() - 1,
+            IdData::Rate { x, .. } => x.len(),
+        }
+    }
+
+    /// The i-th m-sum of the (centred) rate samples: Σ_{j<m} x_{im+j}.
+    #[inline]
+    fn msum(&self, m: usize, i: usize) -> f64 {
+        match self {
+            IdData::Cum(c) => c.c[(i + 1) * m] - c.c[i * m],
+            IdData::Rate { sums8, .. } if m.is_multiple_of(8) => {
+                centred_sum(&sums8[i * (m / 8)..(i + 1) * (m / 8)], 0.0)
+            }
+            IdData::Rate { x, pivot, .. } => centred_sum(&x[i * m..(i + 1) * m], *pivot),
+        }
+    }
+}
+
 /// The identified α at every point of a curve (parallel over points, then the long-τ tail
 /// takes the α of the point before it, in the order of `points`).
 pub(crate) fn identify_all(
-    cum: &Cumulative<'_>,
+    data: &IdData<'_>,
     statistic: Statistic,
     input: InputKind,
     points: &[StabilityPoint],
 ) -> Vec<i32> {
     let phase_input = input == InputKind::Angle;
-    let t = cum.c.len() - 1;
+    let t = data.t();
     // one buffer per worker for the decimated series, differenced in place (a fresh one per
     // point, and a copy per differencing, was mostly page faults: ADEV with the interval at
     // 10^7 samples, octave τ, 124–137 → 92 ms)
@@ -222,7 +301,7 @@ pub(crate) fn identify_all(
         .enumerate()
         .map_init(Vec::new, |z, (i, p)| {
             (i == 0 || !carried_over(statistic, t, p.m))
-                .then(|| identify_one(cum, statistic, p.m as usize, p.n_terms, phase_input, z))
+                .then(|| identify_one(data, statistic, p.m as usize, p.n_terms, phase_input, z))
         })
         .collect();
     let mut out = Vec::with_capacity(points.len());
@@ -235,54 +314,90 @@ pub(crate) fn identify_all(
 
 /// The α at cluster size m, with `z` as the buffer of the decimated series.
 fn identify_one(
-    cum: &Cumulative<'_>,
+    data: &IdData<'_>,
     statistic: Statistic,
     m: usize,
     n_terms: u64,
     phase_input: bool,
     z: &mut Vec<f64>,
 ) -> i32 {
-    let c: &[f64] = &cum.c;
-    let t = c.len() - 1;
+    let t = data.t();
     let k = t / m;
     let dmax = statistic.diff_order();
     z.clear();
     let acf = if phase_input {
+        let IdData::Cum(cum) = data else {
+            unreachable!("phase input is read as its cumulative representation")
+        };
         // phase decimated by m: x_0, x_m, …
-        z.extend(c.iter().step_by(m));
+        z.extend(cum.c.iter().step_by(m));
         (z.len() >= MIN_ACF_POINTS)
             .then(|| acf_exponent_in(z, dmax).map(|p| p + 2))
             .flatten()
-    } else if m < 8 {
-        // m-sums read from the cumulative sum itself: for small m a copy (T/m values) would
-        // cost a series-sized buffer per thread and a write, and most series are decided
-        // before any differencing (MDEV with the interval at 10^8 samples: 1191 → 834 ms,
-        // peak memory 2.87 → 1.78 GB; at 10^7, 120 → 87 ms)
-        (k >= MIN_ACF_POINTS)
-            .then(|| acf_exponent_of(k, |i| c[(i + 1) * m] - c[i * m], z, dmax))
-            .flatten()
+    } else if k < MIN_ACF_POINTS {
+        None
     } else {
-        // a copy: the three sums would each read c at a stride of m
-        z.extend((0..k).map(|i| c[(i + 1) * m] - c[i * m]));
-        (z.len() >= MIN_ACF_POINTS)
-            .then(|| acf_exponent_in(z, dmax))
-            .flatten()
+        match data {
+            IdData::Cum(cum) => {
+                let c = &cum.c;
+                // two reads, but at a stride of m
+                acf_of_msums(k, m, |i| c[(i + 1) * m] - c[i * m], z, dmax)
+            }
+            IdData::Rate { sums8, .. } if m.is_multiple_of(8) => {
+                let q = m / 8;
+                acf_of_msums(
+                    k,
+                    q,
+                    |i| centred_sum(&sums8[i * q..(i + 1) * q], 0.0),
+                    z,
+                    dmax,
+                )
+            }
+            IdData::Rate { x, pivot, .. } => acf_of_msums(
+                k,
+                m,
+                |i| centred_sum(&x[i * m..(i + 1) * m], *pivot),
+                z,
+                dmax,
+            ),
+        }
     };
     let alpha = match acf {
         Some(a) => a,
-        None => b1_alpha(c, m, n_terms),
+        None => b1_alpha(data, m, n_terms),
     };
     alpha.clamp(-2, 2)
 }
 
-/// B1 (and R(n)) identification at cluster size m from the cumulative sums.
-fn b1_alpha(c: &[f64], m: usize, n_terms: u64) -> i32 {
-    let t = c.len() - 1;
+/// The lag-1 ACF exponent of the k m-sums z(i) (rate input), each made of `reads` values of
+/// the source. With fewer than 8 reads they are read where they are until the series has to
+/// be differenced: a copy (k values) would cost a series-sized buffer per thread and a write,
+/// and most series are decided before any differencing (MDEV with the interval at 10^8
+/// samples: 1191 → 834 ms, peak memory 2.87 → 1.78 GB; at 10^7, 120 → 87 ms). More: a copy
+/// (the three sums would each read the source at a stride).
+fn acf_of_msums(
+    k: usize,
+    reads: usize,
+    z_of: impl Fn(usize) -> f64 + Sync,
+    z: &mut Vec<f64>,
+    dmax: u32,
+) -> Option<i32> {
+    if reads < 8 {
+        acf_exponent_of(k, z_of, z, dmax)
+    } else {
+        z.extend((0..k).map(z_of));
+        acf_exponent_in(z, dmax)
+    }
+}
+
+/// B1 (and R(n)) identification at cluster size m.
+fn b1_alpha(data: &IdData<'_>, m: usize, n_terms: u64) -> i32 {
+    let t = data.t();
     let k = t / m;
     if k < 2 {
         return 0;
     }
-    let y: Vec<f64> = (0..k).map(|i| c[(i + 1) * m] - c[i * m]).collect();
+    let y: Vec<f64> = (0..k).map(|i| data.msum(m, i)).collect();
     let mean = y.iter().sum::<f64>() / k as f64;
     let svar = y.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (k - 1) as f64;
     let avar = y.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2 * (k - 1)) as f64;
@@ -301,27 +416,79 @@ fn b1_alpha(c: &[f64], m: usize, n_terms: u64) -> i32 {
         // R(n) = MVAR/AVAR (overlapping AV), both from the same cumulative sums, for every
         // statistic (as Stable32's tables show: with R(n) for MVAR/TVAR only, the OADEV, ADEV,
         // HDEV and OHDEV rows of PHASE.DAT's white/flicker PM region come out α = 2, not 1)
-        let mut mv = Neumaier::default();
-        let mut av = Neumaier::default();
-        let d = |i: usize| (c[i + 2 * m] - c[i + m]) - (c[i + m] - c[i]);
-        let mut w: f64 = (0..m).map(d).sum();
         let n_mod = t + 2 - 3 * m;
-        for j in 0..n_mod {
-            mv.add(w * w);
-            if j + 1 < n_mod {
-                w += d(j + m) - d(j);
-            }
-        }
-        for i in 0..=t - 2 * m {
-            let v = d(i);
-            av.add(v * v);
-        }
-        let mvar = mv.value() / (m * m) as f64 / n_mod as f64;
-        let oavar = av.value() / (t + 1 - 2 * m) as f64;
+        let (mv, av) = match data {
+            IdData::Cum(cum) => rn_sums_cum(&cum.c, m),
+            IdData::Rate { x, pivot, .. } => rn_sums_rate(x, *pivot, m),
+        };
+        let mvar = mv / (m * m) as f64 / n_mod as f64;
+        let oavar = av / (t + 1 - 2 * m) as f64;
         return rn_alpha(mvar / oavar, m as u64);
     }
     // μ = −α − 1 for α ≤ 0 (μ = 2 would be α = −3, clamped)
     -mu - 1
+}
+
+/// The sums of R(n) at cluster size m (3m ≤ T + 1) from the cumulative sums c: Σ w_j² over the
+/// T + 2 − 3m sums w_j of m consecutive second differences d(i) = c[i+2m] − 2c[i+m] + c[i],
+/// and Σ d(i)² over the T + 1 − 2m of them.
+fn rn_sums_cum(c: &[f64], m: usize) -> (f64, f64) {
+    let t = c.len() - 1;
+    let mut mv = Neumaier::default();
+    let mut av = Neumaier::default();
+    let d = |i: usize| (c[i + 2 * m] - c[i + m]) - (c[i + m] - c[i]);
+    let mut w: f64 = (0..m).map(d).sum();
+    let n_mod = t + 2 - 3 * m;
+    for j in 0..n_mod {
+        mv.add(w * w);
+        if j + 1 < n_mod {
+            w += d(j + m) - d(j);
+        }
+    }
+    for i in 0..=t - 2 * m {
+        let v = d(i);
+        av.add(v * v);
+    }
+    (mv.value(), av.value())
+}
+
+/// [`rn_sums_cum`] from the rate samples x (centred by `pivot`), without their cumulative sum:
+/// d(0) summed directly, then d(i + 1) = d(i) + (x_{i+2m} − x_{i+m}) − (x_{i+m} − x_i), in two
+/// streams (at j and j + m) for the sums w_j. (Only the long-τ B1 region, k < 30 clusters,
+/// asks for it.)
+fn rn_sums_rate(x: &[f64], pivot: f64, m: usize) -> (f64, f64) {
+    let t = x.len();
+    let y = |i: usize| (x[i + 2 * m] - x[i + m]) - (x[i + m] - x[i]);
+    let d0 = x[m..2 * m].iter().map(|v| v - pivot).sum::<f64>()
+        - x[..m].iter().map(|v| v - pivot).sum::<f64>();
+    let mut av = Neumaier::default();
+    let (mut d, mut w, mut d_m) = (d0, 0.0f64, None);
+    for i in 0..=t - 2 * m {
+        if i < m {
+            w += d;
+        }
+        if i == m {
+            d_m = Some(d);
+        }
+        av.add(d * d);
+        if i < t - 2 * m {
+            d += y(i);
+        }
+    }
+    let mut mv = Neumaier::default();
+    let n_mod = t + 2 - 3 * m;
+    let (mut da, mut db) = (d0, d_m.unwrap_or(f64::NAN));
+    for j in 0..n_mod {
+        mv.add(w * w);
+        if j + 1 < n_mod {
+            w += db - da;
+            if j + 2 < n_mod {
+                da += y(j);
+                db += y(j + m);
+            }
+        }
+    }
+    (mv.value(), av.value())
 }
 
 #[cfg(test)]
@@ -368,5 +535,102 @@ mod tests {
             assert_eq!(acf_exponent(z, 3), Some(-2 * k as i32), "series {k}");
         }
         assert_eq!(acf_exponent_of(2, |i| i as f64, &mut buf, 2), None);
+    }
+
+    /// The test series plus white PM read as rate (differenced white noise: the R(n) branch),
+    /// each with an offset of 10^3 (the samples' pivot centres them).
+    fn rate_series() -> Vec<Vec<f64>> {
+        let [white, walk, walk2] = series();
+        let wpm: Vec<f64> = white.windows(2).map(|w| w[1] - w[0]).collect();
+        [white, walk, walk2, wpm]
+            .into_iter()
+            .map(|z| z.iter().map(|v| v + 1e3).collect())
+            .collect()
+    }
+
+    #[test]
+    fn r_n_sums_from_the_samples_equal_those_of_the_cumulative_sum() {
+        for (k, x) in rate_series().iter().enumerate() {
+            let mut c = Vec::new();
+            crate::kernel::centred_prefix_into(x, &mut c).unwrap();
+            let t = x.len();
+            // down to the last m with 3m ≤ T + 1 (a single sum w_0)
+            for m in [1, 2, 7, 64, t / 5, (t + 1) / 3] {
+                let (mv_c, av_c) = rn_sums_cum(&c, m);
+                let (mv_x, av_x) = rn_sums_rate(x, crate::kernel::pivot_of(x), m);
+                // two roundings of the same sums (recurrences over ≤ 5000 steps of O(1)
+                // values against sums of O(m) values): far below the R(n) boundaries
+                for (a, b) in [(mv_c, mv_x), (av_c, av_x)] {
+                    assert!(
+                        (a - b).abs() <= 1e-9 * a.abs(),
+                        "series {k}, m {m}: {a} vs {b}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn identification_from_the_samples_equals_that_of_the_cumulative_sum() {
+        // every point of every statistic (octave τ and the tail past T/30, where B1 and R(n)
+        // decide): the α of the m-sums summed from the samples equals that of the differences
+        // of the cumulative sum
+        for (k, x) in rate_series().iter().enumerate() {
+            let mut c = Vec::new();
+            let mean = crate::kernel::centred_prefix_into(x, &mut c).unwrap();
+            let t = x.len();
+            let cum = Cumulative {
+                c: std::borrow::Cow::Borrowed(&c[..]),
+                factor: 1.0,
+                mean,
+                t,
+            };
+            let samples = IdData::rate(x);
+            for st in Statistic::ALL {
+                let ms: Vec<u64> = (0..)
+                    .map(|j| 1u64 << j)
+                    .take_while(|&m| m as usize * 3 <= t + 1)
+                    .chain([(t as u64 + 1) / 3, t as u64 / 40])
+                    .chain((t as u64 / 29..=t as u64 / 8).step_by(7))
+                    .collect::<std::collections::BTreeSet<u64>>()
+                    .into_iter()
+                    .collect();
+                let points: Vec<StabilityPoint> = ms
+                    .iter()
+                    .map(|&m| StabilityPoint {
+                        m,
+                        tau: m as f64,
+                        var: 1.0,
+                        dev: 1.0,
+                        var_lo: None,
+                        var_hi: None,
+                        dev_lo: None,
+                        dev_hi: None,
+                        edf: None,
+                        n_terms: st.n_terms(t, m),
+                        alpha: None,
+                    })
+                    .collect();
+                let a = identify_all(&IdData::Cum(&cum), st, InputKind::Rate, &points);
+                let b = identify_all(&samples, st, InputKind::Rate, &points);
+                assert_eq!(a, b, "series {k}, {st}");
+            }
+        }
+        // and the white PM series does reach the R(n) branch (B1 says μ = −2) in that tail
+        let wpm = &rate_series()[3];
+        let t = wpm.len();
+        let reached = (t / 29..=t / 8).step_by(7).any(|m| {
+            let data = IdData::rate(wpm);
+            let y: Vec<f64> = (0..t / m).map(|i| data.msum(m, i)).collect();
+            let k = y.len() as f64;
+            let mean = y.iter().sum::<f64>() / k;
+            let svar = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (k - 1.0);
+            let avar = y.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (k - 1.0));
+            b1_mu(svar / avar, Statistic::Oadev.n_terms(t, m as u64) as usize) == -2
+        });
+        assert!(
+            reached,
+            "no white-PM point in the B1 region came out μ = −2"
+        );
     }
 }
