@@ -432,7 +432,6 @@ fn decode_stream(
     };
     let row = layout.row_bytes();
     let size = layout.kind.size();
-    let scale = layout.scale.unwrap_or(1.0);
     let mut files = Vec::with_capacity(channels.len());
     for _ in channels {
         files.push(tempfile::tempfile().map_err(tmp_err)?);
@@ -461,25 +460,8 @@ fn decode_stream(
         total += got;
         let whole = got / row;
         for (o, &c) in outs.iter_mut().zip(channels) {
-            o.clear();
-            for r in 0..whole {
-                let at = r * row + c * size;
-                let v = read_value(layout.kind, &buf[at..at + size]);
-                let v = if layout.scale.is_some() { v * scale } else { v };
-                if !v.is_finite() {
-                    return Err(Error::Located {
-                        file: name.to_string(),
-                        line: rows + r + 1,
-                        column: c + 1,
-                        message: format!(
-                            "{v} in row {} channel {}: values must be finite",
-                            rows + r + 1,
-                            c + 1
-                        ),
-                    });
-                }
-                o.extend_from_slice(&v.to_le_bytes());
-            }
+            o.resize(8 * whole, 0);
+            decode_block(&buf[..whole * row], rows, name, layout, c, o)?;
         }
         for (f, o) in files.iter_mut().zip(&outs) {
             f.write_all(o).map_err(tmp_err)?;
@@ -599,7 +581,9 @@ fn memory_budget() -> usize {
         .map_or(0, |kib| kib * 1024 / 4)
 }
 
-/// One block of rows of `inb` (starting at row `r0`): channel `c` decoded into `out`.
+/// One block of rows of `inb` (starting at row `r0`): channel `c` decoded into `out` (the
+/// little-endian values converted to f64 as [`crate::io::parse_binary`] converts them, then
+/// times the scale); errors on the first non-finite value, named by row and channel.
 fn decode_block(
     inb: &[u8],
     r0: usize,
@@ -608,29 +592,67 @@ fn decode_block(
     c: usize,
     out: &mut [u8],
 ) -> Result<()> {
-    let (row, size) = (layout.row_bytes(), layout.kind.size());
-    for (r, o) in out.chunks_exact_mut(8).enumerate() {
-        let at = r * row + c * size;
-        let v = read_value(layout.kind, &inb[at..at + size]);
-        let v = match layout.scale {
-            Some(s) => v * s,
-            None => v,
-        };
-        if !v.is_finite() {
-            return Err(Error::Located {
-                file: name.to_string(),
-                line: r0 + r + 1,
-                column: c + 1,
-                message: format!(
-                    "{v} in row {} channel {}: values must be finite",
-                    r0 + r + 1,
-                    c + 1
-                ),
-            });
-        }
-        o.copy_from_slice(&v.to_le_bytes());
+    // one loop per element type (the conversion inlined), without an early exit: the
+    // finiteness of the block is checked once, and only a block that holds a non-finite
+    // value is searched for the first one (6 channels × 10^8 rows of f64: the decoding
+    // pass took 16 % of `avar`'s cycles with a conversion and a test per value)
+    let finite = match layout.kind {
+        BinaryType::F64 => decode_typed(inb, layout, c, out, f64::from_le_bytes),
+        BinaryType::F32 => decode_typed(inb, layout, c, out, |b| f32::from_le_bytes(b) as f64),
+        BinaryType::I16 => decode_typed(inb, layout, c, out, |b| i16::from_le_bytes(b) as f64),
+        BinaryType::I32 => decode_typed(inb, layout, c, out, |b| i32::from_le_bytes(b) as f64),
+    };
+    if finite {
+        return Ok(());
     }
-    Ok(())
+    let (r, v) = out
+        .chunks_exact(8)
+        .map(|o| f64::from_le_bytes(o.try_into().expect("8 bytes")))
+        .enumerate()
+        .find(|(_, v)| !v.is_finite())
+        .expect("a non-finite value");
+    Err(Error::Located {
+        file: name.to_string(),
+        line: r0 + r + 1,
+        column: c + 1,
+        message: format!(
+            "{v} in row {} channel {}: values must be finite",
+            r0 + r + 1,
+            c + 1
+        ),
+    })
+}
+
+/// [`decode_block`] for values of S bytes converted by `conv`: writes every value (times the
+/// scale) and returns whether all of them are finite.
+#[inline(always)]
+fn decode_typed<const S: usize>(
+    inb: &[u8],
+    layout: &BinaryLayout,
+    c: usize,
+    out: &mut [u8],
+    conv: impl Fn([u8; S]) -> f64,
+) -> bool {
+    let row = layout.row_bytes();
+    let mut finite = true;
+    let rows = inb.chunks(row).map(|r| &r[c * S..c * S + S]);
+    match layout.scale {
+        None => {
+            for (o, b) in out.chunks_exact_mut(8).zip(rows) {
+                let v = conv(b.try_into().expect("S bytes"));
+                finite &= v.is_finite();
+                o.copy_from_slice(&v.to_le_bytes());
+            }
+        }
+        Some(s) => {
+            for (o, b) in out.chunks_exact_mut(8).zip(rows) {
+                let v = conv(b.try_into().expect("S bytes")) * s;
+                finite &= v.is_finite();
+                o.copy_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    finite
 }
 
 /// [`decode_file`] into anonymous memory (when it fits in [`memory_budget`]).
@@ -703,17 +725,6 @@ fn read_full(r: &mut dyn Read, buf: &mut [u8]) -> std::io::Result<usize> {
         }
     }
     Ok(n)
-}
-
-/// One little-endian value of type `kind` from exactly `kind.size()` bytes (as
-/// [`crate::io::parse_binary`] converts it).
-fn read_value(kind: BinaryType, b: &[u8]) -> f64 {
-    match kind {
-        BinaryType::F64 => f64::from_le_bytes(b.try_into().expect("8 bytes")),
-        BinaryType::F32 => f32::from_le_bytes(b.try_into().expect("4 bytes")) as f64,
-        BinaryType::I16 => i16::from_le_bytes(b.try_into().expect("2 bytes")) as f64,
-        BinaryType::I32 => i32::from_le_bytes(b.try_into().expect("4 bytes")) as f64,
-    }
 }
 
 #[cfg(test)]
@@ -825,6 +836,28 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("row 2 channel 1"), "{e}");
+        // and through the sequential decoder (gzip): an infinity after the scale, in a later
+        // read block, named by row and channel
+        use flate2::write::GzEncoder;
+        let rows = 300_000; // more than one block of the sequential reader (4 MiB)
+        let raw: Vec<u8> = (0..rows)
+            .flat_map(|r| {
+                let bad = r == 250_000;
+                [1.0f64, if bad { f64::MAX } else { 2.0 }, 3.0]
+            })
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let mut gz = GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        gz.write_all(&raw).unwrap();
+        let p = write(dir.path(), "w.f64.gz", &gz.finish().unwrap());
+        let layout = BinaryLayout {
+            scale: Some(10.0),
+            ..BinaryLayout::new(BinaryType::F64, 3)
+        };
+        let e = decode_binary(&p, "w.f64.gz", &layout, &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("inf in row 250001 channel 2"), "{e}");
     }
 
     #[test]
