@@ -313,6 +313,12 @@ pub struct Stability {
 /// Errors: as [`crate::allan_variance`], plus a scale beyond [`Statistic::max_m`] and a Gaussian
 /// CI for a statistic other than ADEV/OADEV.
 ///
+/// Memory (rate input): the values of MDEV, TDEV and OHDEV, of OADEV and TOTDEV from 2^22
+/// samples on, and of ADEV and HDEV at power-of-two scales are computed without a series-sized
+/// buffer; the chi-square interval then adds the 8-sums of the samples (1 byte per sample) for
+/// its noise identification. Angle input, shorter OADEV/TOTDEV series and ADEV/HDEV at other
+/// scales build the cumulative sum (8 bytes per sample).
+///
 /// ```
 /// use avar::stability::{stability, Statistic};
 /// use avar::{AvarConfig, CiMethod, Scales};
