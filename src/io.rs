@@ -127,6 +127,79 @@ pub struct ReadOptions {
     pub names: Option<Vec<String>>,
 }
 
+/// One channel's samples: owned, or held by a [`crate::source::MappedSamples`] (a raw f64 file
+/// used in place, or the copy its decoder made), read through `&[f64]` either way.
+///
+/// ```
+/// use imunoise::io::Column;
+/// let mut c = Column::from(vec![1.0, 2.0]);
+/// assert_eq!(&c[..], &[1.0, 2.0]);
+/// c.to_mut().push(3.0);
+/// assert_eq!(c, vec![1.0, 2.0, 3.0]);
+/// ```
+#[derive(Clone)]
+pub enum Column {
+    /// Samples in a vector.
+    Owned(Vec<f64>),
+    /// Samples in a map (shared: a clone does not copy them).
+    Mapped(std::sync::Arc<crate::source::MappedSamples>),
+}
+
+impl Column {
+    /// The samples as a vector to change, copying mapped ones first.
+    pub fn to_mut(&mut self) -> &mut Vec<f64> {
+        if let Column::Mapped(m) = self {
+            *self = Column::Owned(avar::SampleSource::samples(&**m).to_vec());
+        }
+        match self {
+            Column::Owned(v) => v,
+            Column::Mapped(_) => unreachable!("made owned above"),
+        }
+    }
+
+    /// The samples as a vector (a copy of mapped ones).
+    pub fn into_vec(self) -> Vec<f64> {
+        match self {
+            Column::Owned(v) => v,
+            Column::Mapped(m) => avar::SampleSource::samples(&*m).to_vec(),
+        }
+    }
+}
+
+impl std::ops::Deref for Column {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        match self {
+            Column::Owned(v) => v,
+            Column::Mapped(m) => avar::SampleSource::samples(&**m),
+        }
+    }
+}
+
+impl From<Vec<f64>> for Column {
+    fn from(v: Vec<f64>) -> Self {
+        Column::Owned(v)
+    }
+}
+
+impl std::fmt::Debug for Column {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
+    }
+}
+
+impl PartialEq for Column {
+    fn eq(&self, other: &Column) -> bool {
+        **self == **other
+    }
+}
+
+impl PartialEq<Vec<f64>> for Column {
+    fn eq(&self, other: &Vec<f64>) -> bool {
+        **self == other[..]
+    }
+}
+
 /// A table of channels read from a file: one column of samples per channel.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
@@ -134,8 +207,8 @@ pub struct Table {
     pub file: String,
     /// Channel names (header names, or `col1`, … / `ch1`, …).
     pub names: Vec<String>,
-    /// The samples, one vector per channel, all of the same length.
-    pub columns: Vec<Vec<f64>>,
+    /// The samples, one column per channel, all of the same length.
+    pub columns: Vec<Column>,
     /// The sampling rate (Hz) when known: from `--rate`, or from the time stamps of a log
     /// (see [`crate::logs::timing`]). `None` for text and binary read without `--rate`.
     pub rate_hz: Option<f64>,
@@ -148,7 +221,7 @@ pub struct Table {
 impl Table {
     /// Samples per channel.
     pub fn n_rows(&self) -> usize {
-        self.columns.first().map_or(0, Vec::len)
+        self.columns.first().map_or(0, |c| c.len())
     }
 
     /// The sampling rate (Hz), or a usage error saying that `--rate` is needed.
@@ -325,12 +398,12 @@ pub fn read_bytes(bytes: &[u8], file: &str, opts: &ReadOptions) -> Result<Table>
     {
         let idx = resolve_columns(spec, &table.names)?;
         table.names = idx.iter().map(|&i| table.names[i].clone()).collect();
-        let mut cols: Vec<Option<Vec<f64>>> = table.columns.into_iter().map(Some).collect();
+        let mut cols: Vec<Option<Column>> = table.columns.into_iter().map(Some).collect();
         table.columns = idx
             .iter()
-            .map(|&i| cols[i].take().unwrap_or_default())
+            .map(|&i| cols[i].take().unwrap_or_else(|| Vec::new().into()))
             .collect();
-        if table.columns.iter().any(Vec::is_empty) && table.n_rows() > 0 {
+        if table.columns.iter().any(|c| c.is_empty()) && table.n_rows() > 0 {
             return Err(Error::Usage(
                 "--columns names the same column twice".to_string(),
             ));
@@ -343,7 +416,7 @@ pub fn read_bytes(bytes: &[u8], file: &str, opts: &ReadOptions) -> Result<Table>
             )));
         }
         for (k, c) in table.columns.iter_mut().enumerate() {
-            c.iter_mut().for_each(|v| *v *= scale);
+            c.to_mut().iter_mut().for_each(|v| *v *= scale);
             // a scale that takes a value beyond f64 is named, not turned into inf/0 silently
             if let Some(row) = c.iter().position(|v| !v.is_finite()) {
                 return Err(Error::Usage(format!(
@@ -460,7 +533,7 @@ pub fn parse_binary(bytes: &[u8], file: &str, kind: BinaryType, channels: usize)
     Ok(Table {
         file: file.to_string(),
         names: (1..=channels).map(|c| format!("ch{c}")).collect(),
-        columns,
+        columns: columns.into_iter().map(Column::from).collect(),
         rate_hz: None,
         timing: None,
         topic: None,
@@ -872,7 +945,7 @@ pub fn parse_text(bytes: &[u8], file: &str, select: Option<&[ColumnSpec]>) -> Re
     }
     let columns = order
         .iter()
-        .map(|&i| by_index[i].take().expect("each column once"))
+        .map(|&i| Column::from(by_index[i].take().expect("each column once")))
         .collect();
     Ok(Table {
         file: file.to_string(),

@@ -333,7 +333,7 @@ fn whole_rows(name: &str, len: usize, channels: usize, size: usize) -> Error {
 /// Whether `file` holds gzip data: it starts with the gzip magic bytes and its first byte
 /// decompresses (raw samples can begin with the magic bytes by chance: f64 1.19e117 does;
 /// they are then read raw, as by [`crate::io::read_bytes`]).
-fn is_gzip(file: &Path) -> bool {
+pub(crate) fn is_gzip(file: &Path) -> bool {
     let mut head = [0u8; 2];
     let magic = std::fs::File::open(file)
         .and_then(|mut f| f.read_exact(&mut head))
@@ -348,7 +348,7 @@ fn is_gzip(file: &Path) -> bool {
 }
 
 /// Whether `file` is a regular file (not standard input `-`, a pipe or a FIFO).
-fn is_regular(file: &Path) -> bool {
+pub(crate) fn is_regular(file: &Path) -> bool {
     file.as_os_str() != "-" && std::fs::metadata(file).is_ok_and(|m| m.is_file())
 }
 

@@ -205,7 +205,7 @@ fn selection_survives_a_full_model_that_cannot_be_fitted() {
     let table = imunoise::io::Table {
         file: "<simulated>".into(),
         names: vec!["ch3".into()],
-        columns: vec![cols[2].clone()],
+        columns: vec![cols[2].clone().into()],
         rate_hz: Some(200.0),
         timing: None,
         topic: None,

@@ -499,7 +499,7 @@ fn raw_binary_that_starts_like_gzip_is_read_raw() {
         ..Default::default()
     };
     let t = read_bytes(&bytes, "rt.f64", &opts).unwrap();
-    assert_eq!(t.columns[0], vals);
+    assert_eq!(t.columns[0][..], vals);
     // named .gz, it must be gzip
     assert!(read_bytes(&bytes, "rt.f64.gz", &opts).is_err());
 }

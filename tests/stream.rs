@@ -1,10 +1,12 @@
 //! Issue 13: the streamed Allan variance from files gives exactly the in-memory results, for
 //! every kind of source (raw f64 mapped in place; other types, interleaved channels, a scale,
-//! gzip, standard input decoded once) and for any thread count.
+//! gzip, standard input decoded once) and for any thread count; and `fit` and `analyze`, which
+//! read raw binary files through the same sources, give exactly what the in-memory reader's
+//! tables give.
 
 use avar::{AvarConfig, CiMethod};
 use imunoise::Ui;
-use imunoise::io::BinaryType;
+use imunoise::io::{self, BinaryType, Column, ReadOptions, Table};
 use imunoise::pipeline::estimate::{avar_streamed, compute};
 use imunoise::pipeline::read::Input;
 use std::io::Write;
@@ -58,11 +60,43 @@ fn no_ci() -> AvarConfig {
     }
 }
 
-/// The streamed path against the in-memory one (reading the whole file into a table), with
-/// one and with two threads.
+/// The table of the in-memory reader ([`io::read_table`], which parses the whole file), with the
+/// scale, names and rate applied as the command applies them: the reference of every source.
+fn in_memory(input: &Input) -> Table {
+    let opts = ReadOptions {
+        binary: input.binary,
+        channels: input.channels,
+        scale: None,
+        columns: input
+            .columns
+            .as_deref()
+            .map(|c| io::parse_columns(c).unwrap()),
+        names: None,
+    };
+    let mut t = io::read_table(&input.file, &opts).unwrap();
+    if let Some(s) = input.scale {
+        for c in &mut t.columns {
+            c.to_mut().iter_mut().for_each(|v| *v *= s);
+        }
+    }
+    if let Some(n) = &input.names {
+        t.names = n.split(',').map(|v| v.trim().to_string()).collect();
+    }
+    t.rate_hz = input.rate;
+    t
+}
+
+/// The streamed path against the in-memory one (the reference table), with one and with two
+/// threads; and the table `Input::read` gives (through the sources) equals the reference.
 fn check(input: &Input, config: &AvarConfig) {
     let quiet = Ui::quiet();
-    let table = input.read(&quiet).unwrap();
+    let table = in_memory(input);
+    assert_eq!(
+        input.read(&quiet).unwrap(),
+        table,
+        "{}",
+        input.file.display()
+    );
     let mem = compute(&table, table.rate().unwrap(), config, &quiet).unwrap();
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -135,6 +169,65 @@ fn every_binary_source_matches_the_in_memory_path() {
     );
     // the chi-square CI (the in-memory estimator on the mapped samples)
     check(&one, &AvarConfig::default());
+}
+
+/// `fit` and `analyze` on raw binary files read through the sources (one f64 channel mapped in
+/// place, interleaved i16 counts with a scale and a column selection decoded in one pass): the
+/// same tables, fits and results.json as from the in-memory reader's tables.
+#[test]
+fn fit_and_analyze_read_binary_files_through_the_sources() {
+    use imunoise::pipeline::{analyze, fit};
+    let dir = tempfile::tempdir().unwrap();
+    let cols = channels(1 << 15, 3);
+    let quiet = Ui::quiet();
+    let write = |name: &str, bytes: &[u8]| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    };
+    let one = write("one.f64", &raw(&cols[..1], BinaryType::F64));
+    let counts = write("counts.i16", &raw(&cols, BinaryType::I16));
+    let inputs = [
+        Input {
+            binary: Some(BinaryType::F64),
+            rate: Some(200.0),
+            ..Input::new(&one)
+        },
+        Input {
+            binary: Some(BinaryType::I16),
+            channels: Some(3),
+            columns: Some("3,1".into()),
+            names: Some("gyro_z,gyro_x".into()),
+            scale: Some(1.0 / 131.0),
+            rate: Some(100.0),
+            ..Input::new(&counts)
+        },
+    ];
+    for input in &inputs {
+        let name = input.file.display().to_string();
+        let table = input.read(&quiet).unwrap();
+        let reference = in_memory(input);
+        assert_eq!(table, reference, "{name}");
+        assert!(
+            table.columns.iter().all(|c| matches!(c, Column::Mapped(_))),
+            "{name}: read through a source"
+        );
+        let units = input.units(&table).unwrap();
+        let settings = fit::FitSettings {
+            model: "WN+RW".into(),
+            ..Default::default()
+        };
+        let fits = |t: &Table| {
+            let f = fit::fit_table(t, &units, &settings, None, &quiet).unwrap();
+            serde_json::to_string(&f).unwrap()
+        };
+        assert_eq!(fits(&table), fits(&reference), "{name}: fit");
+        let results = |t: Table| {
+            let a = analyze::analyze(t, units.clone(), &Default::default(), &quiet).unwrap();
+            a.results_json().unwrap().to_string()
+        };
+        assert_eq!(results(table), results(reference), "{name}: analyze");
+    }
 }
 
 /// The command streams binary from a file and from standard input (decoded once into a

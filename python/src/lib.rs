@@ -309,7 +309,7 @@ fn array_table(x: &Bound<'_, PyAny>, rate: f64, names: Option<Vec<String>>) -> P
     Ok(Table {
         file: ARRAY.into(),
         names,
-        columns: cols.into_iter().map(|c| c.into_owned()).collect(),
+        columns: cols.into_iter().map(|c| c.into_owned().into()).collect(),
         rate_hz: Some(check_rate(rate)?),
         timing: None,
         topic: None,
@@ -564,7 +564,11 @@ fn read_file<'py>(
         None => None,
     };
     let (n, k) = (table.n_rows(), table.columns.len());
-    let flat: Vec<f64> = table.columns.into_iter().flatten().collect();
+    let flat: Vec<f64> = table
+        .columns
+        .iter()
+        .flat_map(|c| c.iter().copied())
+        .collect();
     let arr = Array2::from_shape_vec((n, k).f(), flat).map_err(|e| usage(format!("read: {e}")))?;
     Ok((
         arr.into_pyarray(py),

@@ -352,7 +352,7 @@ pub fn estimate(n: usize, seed: u64, bootstrap: usize, ui: &Ui) -> Result<DemoRu
     let table = crate::io::Table {
         file: "<demo>".into(),
         names: data.names,
-        columns: data.columns,
+        columns: data.columns.into_iter().map(Into::into).collect(),
         rate_hz: Some(DEMO_RATE_HZ),
         timing: None,
         topic: None,

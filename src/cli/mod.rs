@@ -143,8 +143,10 @@ pub struct InputArgs {
     /// chi-square CI (the default) streams too, reading the series three more times with 16
     /// bytes per 64 samples and 16 MiB per thread; the Gaussian CI holds 8 more bytes per
     /// sample. Series shorter than 4194304 samples are estimated in memory (8 bytes per
-    /// sample). Text, logs and the other subcommands read the
-    /// whole input into memory (standard input, pipes and FIFOs first as bytes; regular files
+    /// sample). `fit` and `analyze` read a regular raw binary file through the same
+    /// sources (one f64 channel used in place, other layouts decoded once in parallel), then
+    /// hold their working data in memory; gzip, standard input and pipes, text and logs are
+    /// read whole into memory (standard input, pipes and FIFOs first as bytes; regular files
     /// are memory-mapped).
     pub file: PathBuf,
     /// Sampling rate in Hz (> 0). Required for inputs without time stamps; for logs (and

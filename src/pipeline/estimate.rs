@@ -472,7 +472,7 @@ pub fn compute(
     config: &AvarConfig,
     ui: &Ui,
 ) -> Result<Vec<(String, AllanVariance)>> {
-    let cols: Vec<&[f64]> = table.columns.iter().map(Vec::as_slice).collect();
+    let cols: Vec<&[f64]> = table.columns.iter().map(|c| &c[..]).collect();
     compute_columns(&table.file, &table.names, &cols, rate_hz, config, ui)
 }
 

@@ -928,7 +928,7 @@ pub fn write_joint_table(
 /// let table = imunoise::io::Table {
 ///     file: "<array>".into(),
 ///     names: vec!["gyro_x_dps".into()],
-///     columns: cols,
+///     columns: cols.into_iter().map(Into::into).collect(),
 ///     rate_hz: Some(100.0),
 ///     timing: None,
 ///     topic: None,

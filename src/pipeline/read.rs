@@ -145,7 +145,10 @@ impl Input {
     }
 
     /// Reads the file: one table per selected topic for logs, one table otherwise; each
-    /// with its rate (from --rate or the stamps) and, for stamped input, its timing.
+    /// with its rate (from --rate or the stamps) and, for stamped input, its timing. A regular
+    /// raw binary file (`binary` set, not gzip, no time column) comes through
+    /// [`crate::source::decode_binary`]: its columns are [`io::Column::Mapped`] (one f64
+    /// channel is the file itself), with the values the in-memory reader gives.
     pub fn read_all(&self, ui: &Ui) -> Result<Vec<Table>> {
         let size = std::fs::metadata(&self.file).map_or(String::new(), |m| {
             format!(" ({:.1} MB)", m.len() as f64 / 1e6)
@@ -181,6 +184,12 @@ impl Input {
                 Some(spec[0].clone())
             }
         };
+        if let Some(kind) = self.binary
+            && time_col.is_none()
+            && let Some(t) = self.read_binary_file(kind, columns.as_deref())?
+        {
+            return Ok(t);
+        }
         let mut time_first = false;
         if let (Some(tc), Some(cols)) = (&time_col, columns.as_mut()) {
             // Read the time column too, first; it is taken out below.
@@ -212,12 +221,15 @@ impl Input {
             let stamps: Vec<i64> = time.iter().map(|&v| (v * k).round() as i64).collect();
             let (cols, timing) = logs::timing::prepare(
                 stamps,
-                std::mem::take(&mut t.columns),
+                std::mem::take(&mut t.columns)
+                    .into_iter()
+                    .map(io::Column::into_vec)
+                    .collect(),
                 self.rate,
                 self.gaps,
                 &t.file,
             )?;
-            t.columns = cols;
+            t.columns = cols.into_iter().map(Into::into).collect();
             t.rate_hz = Some(timing.rate_hz);
             t.timing = Some(timing);
         } else {
@@ -230,13 +242,65 @@ impl Input {
         Ok(t)
     }
 
+    /// A raw binary regular file (not gzip) through [`crate::source::decode_binary`]: one f64
+    /// channel is used in place (the file mapped, no copy), other layouts are decoded in one
+    /// parallel pass (the scale applied there, as [`Input::finish`] would apply it: the same
+    /// values). `None` for other inputs, which the in-memory reader takes.
+    fn read_binary_file(
+        &self,
+        kind: BinaryType,
+        columns: Option<&[io::ColumnSpec]>,
+    ) -> Result<Option<Table>> {
+        let name = self.file.display().to_string();
+        if name.ends_with(".gz")
+            || !crate::source::is_regular(&self.file)
+            || crate::source::is_gzip(&self.file)
+        {
+            return Ok(None);
+        }
+        let layout = crate::source::BinaryLayout {
+            scale: self.scale,
+            ..crate::source::BinaryLayout::new(kind, self.channels.unwrap_or(1))
+        };
+        let all: Vec<String> = (1..=layout.channels).map(|c| format!("ch{c}")).collect();
+        let idx: Vec<usize> = match columns {
+            Some(spec) => io::resolve_columns(spec, &all)?,
+            None => (0..layout.channels).collect(),
+        };
+        if (1..idx.len()).any(|i| idx[..i].contains(&idx[i])) {
+            return Err(Error::Usage(
+                "--columns names the same column twice".to_string(),
+            ));
+        }
+        let maps = crate::source::decode_binary(&self.file, &name, &layout, &idx)?;
+        let mut t = Table {
+            file: name,
+            names: idx.iter().map(|&i| all[i].clone()).collect(),
+            columns: maps
+                .into_iter()
+                .map(|m| io::Column::Mapped(std::sync::Arc::new(m)))
+                .collect(),
+            rate_hz: self.rate,
+            timing: None,
+            topic: None,
+        };
+        self.finish_names(&mut t)?;
+        t.rate()?;
+        Ok(Some(t))
+    }
+
     /// `--scale` and `--names`, after the columns are final.
     fn finish(&self, t: &mut Table) -> Result<()> {
         if let Some(scale) = self.scale {
             for c in &mut t.columns {
-                c.iter_mut().for_each(|v| *v *= scale);
+                c.to_mut().iter_mut().for_each(|v| *v *= scale);
             }
         }
+        self.finish_names(t)
+    }
+
+    /// `--names`, after the columns are final.
+    fn finish_names(&self, t: &mut Table) -> Result<()> {
         if let Some(names) = &self.names {
             let names: Vec<String> = names.split(',').map(|n| n.trim().to_string()).collect();
             if names.len() != t.names.len() {
@@ -278,7 +342,7 @@ impl Input {
             let mut t = Table {
                 file: file.clone(),
                 names: series.names,
-                columns: cols,
+                columns: cols.into_iter().map(Into::into).collect(),
                 rate_hz: Some(timing.rate_hz),
                 timing: Some(timing),
                 topic: Some(topic),

@@ -60,7 +60,7 @@ pub struct ReportInput<'a> {
     /// Channel names.
     pub names: &'a [String],
     /// Channel samples.
-    pub columns: &'a [Vec<f64>],
+    pub columns: &'a [crate::io::Column],
     /// Units.
     pub units: &'a [Unit],
     /// AV curves.
@@ -448,8 +448,8 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
 "#,
         src = html_esc(inp.source),
         rate = inp.rate_hz,
-        n = inp.columns.first().map_or(0, Vec::len),
-        h = inp.columns.first().map_or(0, Vec::len) as f64 / inp.rate_hz / 3600.0,
+        n = inp.columns.first().map_or(0, |c| c.len()),
+        h = inp.columns.first().map_or(0, |c| c.len()) as f64 / inp.rate_hz / 3600.0,
         method = inp.fits.first().map_or("-".to_string(), |f| {
             let ci = match f.ci_method {
                 super::fit::CiMethod::None => "no CIs".to_string(),
@@ -515,7 +515,7 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         100.0 * h
     );
     for (k, (name, av)) in inp.curves.iter().enumerate() {
-        let n = inp.columns.get(k).map_or(0, Vec::len);
+        let n = inp.columns.get(k).map_or(0, |c| c.len());
         if let Some(r) = record_length(av, n, inp.rate_hz, h) {
             let _ = writeln!(
                 html,
