@@ -611,6 +611,29 @@ fn fast_paths_match_the_reference_at_every_scale() {
     }
 }
 
+/// MVAR's last term (k = T + 1) starts a segment of its own when T + 1 is a multiple of the
+/// streamed kernel's segment length (1088): found by `cargo xtask fuzz` as an index past the
+/// end at T = 2175 (m < 64 took y_T). Every m of MDEV and TDEV (and OHDEV) at such lengths,
+/// against the reference.
+#[test]
+fn streamed_mvar_whose_last_term_starts_a_segment() {
+    for t in [2 * 1088 - 1, 4 * 1088 - 1, 2 * 1088, 2 * 1088 - 2] {
+        let y = mixed(t, 13);
+        for st in [Statistic::Mdev, Statistic::Tdev, Statistic::Ohdev] {
+            let s = stability(&y, 1.0, st, &no_ci(Scales::Octave, InputKind::Rate)).unwrap();
+            for p in &s.points {
+                let r = reference(st, &y, 1.0, InputKind::Rate, p.m);
+                assert!(
+                    rel(p.var, r) < TOL_REFERENCE,
+                    "T={t} {st} m={}: fast {} reference {r}",
+                    p.m,
+                    p.var
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn fast_paths_match_the_reference_across_blocks() {
     // longer than several summation blocks (2^14 terms), so block restarts are exercised

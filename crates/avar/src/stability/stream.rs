@@ -392,10 +392,18 @@ fn third_diff_at(f: impl Fn(usize) -> (f64, f64), m: usize, k: usize) -> f64 {
 /// otherwise from the checkpoints.
 #[inline]
 fn start(y: &[f64], fr: &Frames, kind: Diff, m: usize, k: usize) -> (f64, f64) {
+    // at k = T + 1 (MVAR's last term, a segment of its own when T + 1 is a multiple of the
+    // segment length) h_k would need the sample y_T, which does not exist; the segment reads
+    // only w there (see `seg_run`), so h is 0
+    let past_end = k > y.len();
     if m < G {
-        let h = (k - m..k)
-            .map(|i| (y[i] - y[i - m]) - (y[i - m] - y[i - 2 * m]))
-            .sum();
+        let h = if past_end {
+            0.0
+        } else {
+            (k - m..k)
+                .map(|i| (y[i] - y[i - m]) - (y[i - m] - y[i - 2 * m]))
+                .sum()
+        };
         let w = match kind {
             Diff::Hadamard => 0.0,
             Diff::Modified => (k - 2 * m..k - 1)
@@ -404,7 +412,11 @@ fn start(y: &[f64], fr: &Frames, kind: Diff, m: usize, k: usize) -> (f64, f64) {
         };
         return (h, w);
     }
-    let h = third_diff_at(|p| fr.c_at(y, p), m, k);
+    let h = if past_end {
+        0.0
+    } else {
+        third_diff_at(|p| fr.c_at(y, p), m, k)
+    };
     let w = match kind {
         Diff::Hadamard => 0.0,
         Diff::Modified => third_diff_at(|p| fr.p_at(y, p), m, k),
