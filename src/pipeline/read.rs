@@ -273,6 +273,25 @@ impl Input {
             ));
         }
         let maps = crate::source::decode_binary(&self.file, &name, &layout, &idx)?;
+        // a file used in place has not been looked at yet: its values must be finite too
+        // (the decoded copies were checked as they were made)
+        for (m, &c) in maps.iter().zip(&idx) {
+            use rayon::prelude::*;
+            let x = avar::SampleSource::samples(m);
+            if let Some(r) = x.par_iter().position_first(|v| !v.is_finite()) {
+                return Err(Error::Located {
+                    file: name,
+                    line: r + 1,
+                    column: c + 1,
+                    message: format!(
+                        "{} in row {} channel {}: values must be finite",
+                        x[r],
+                        r + 1,
+                        c + 1
+                    ),
+                });
+            }
+        }
         let mut t = Table {
             file: name,
             names: idx.iter().map(|&i| all[i].clone()).collect(),
