@@ -273,9 +273,11 @@ impl Input {
             ));
         }
         let maps = crate::source::decode_binary(&self.file, &name, &layout, &idx)?;
-        // a file used in place has not been looked at yet: its values must be finite too
-        // (the decoded copies were checked as they were made)
-        for (m, &c) in maps.iter().zip(&idx) {
+        // a file used in place (one f64 channel, no scale) has not been looked at yet: its
+        // values must be finite too (the decoded copies were checked as they were made)
+        let in_place =
+            kind == BinaryType::F64 && layout.channels == 1 && self.scale.is_none_or(|s| s == 1.0);
+        for (m, &c) in maps.iter().zip(&idx).filter(|_| in_place) {
             use rayon::prelude::*;
             let x = avar::SampleSource::samples(m);
             if let Some(r) = x.par_iter().position_first(|v| !v.is_finite()) {
