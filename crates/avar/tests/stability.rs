@@ -583,6 +583,21 @@ fn mixed(n: usize, seed: u64) -> Vec<f64> {
         .collect()
 }
 
+/// Every point of `s` (computed from `data`) within [`TOL_REFERENCE`] of the statistic's
+/// reference function.
+fn assert_reference(s: &Stability, data: &[f64], rate: f64, input: InputKind, what: &str) {
+    for p in &s.points {
+        let r = reference(s.statistic, data, rate, input, p.m);
+        assert!(
+            rel(p.var, r) < TOL_REFERENCE,
+            "{what} {} {input:?} m={}: fast {} reference {r}",
+            s.statistic,
+            p.m,
+            p.var
+        );
+    }
+}
+
 #[test]
 fn fast_paths_match_the_reference_at_every_scale() {
     let y = mixed(601, 11);
@@ -596,14 +611,8 @@ fn fast_paths_match_the_reference_at_every_scale() {
         for (data, input) in [(&y, InputKind::Rate), (&x, InputKind::Angle)] {
             let s = stability(data, rate, st, &no_ci(Scales::All, input)).unwrap();
             assert_eq!(s.points.len() as u64, st.max_m(601), "{st} {input:?}");
+            assert_reference(&s, data, rate, input, "all τ");
             for p in &s.points {
-                let r = reference(st, data, rate, input, p.m);
-                assert!(
-                    rel(p.var, r) < TOL_REFERENCE,
-                    "{st} {input:?} m={}: fast {} reference {r}",
-                    p.m,
-                    p.var
-                );
                 assert_eq!(p.n_terms, st.n_terms(601, p.m));
                 assert_eq!(p.tau, p.m as f64 / rate);
             }
@@ -621,15 +630,7 @@ fn streamed_mvar_whose_last_term_starts_a_segment() {
         let y = mixed(t, 13);
         for st in [Statistic::Mdev, Statistic::Tdev, Statistic::Ohdev] {
             let s = stability(&y, 1.0, st, &no_ci(Scales::Octave, InputKind::Rate)).unwrap();
-            for p in &s.points {
-                let r = reference(st, &y, 1.0, InputKind::Rate, p.m);
-                assert!(
-                    rel(p.var, r) < TOL_REFERENCE,
-                    "T={t} {st} m={}: fast {} reference {r}",
-                    p.m,
-                    p.var
-                );
-            }
+            assert_reference(&s, &y, 1.0, InputKind::Rate, &format!("T={t}"));
         }
     }
 }
@@ -648,15 +649,7 @@ fn fast_paths_match_the_reference_across_blocks() {
             &no_ci(Scales::Explicit(ms.clone()), InputKind::Rate),
         )
         .unwrap();
-        for p in &s.points {
-            let r = reference(st, &y, 1.0, InputKind::Rate, p.m);
-            assert!(
-                rel(p.var, r) < TOL_REFERENCE,
-                "{st} m={}: {} vs {r}",
-                p.m,
-                p.var
-            );
-        }
+        assert_reference(&s, &y, 1.0, InputKind::Rate, "across blocks");
     }
 }
 
