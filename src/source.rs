@@ -347,6 +347,34 @@ pub(crate) fn is_gzip(file: &Path) -> bool {
         })
 }
 
+/// Whether [`decode_binary`] uses `file` in place (a map of the file itself, whose values
+/// nobody has looked at yet) rather than decoding it: one f64 channel without scale, no row
+/// padding, an 8-byte-aligned header, a regular uncompressed file.
+pub(crate) fn used_in_place(file: &Path, layout: &BinaryLayout) -> bool {
+    layout.kind == BinaryType::F64
+        && layout.channels == 1
+        && layout.stride.is_none_or(|s| s == 8)
+        && layout.scale.is_none_or(|s| s == 1.0)
+        && layout.header.is_multiple_of(8)
+        && cfg!(target_endian = "little")
+        && is_regular(file)
+        && !is_gzip(file)
+}
+
+/// The error for the non-finite value `v` at 0-based `row` of 0-based `channel` of `name`.
+pub(crate) fn non_finite(name: &str, row: usize, channel: usize, v: f64) -> Error {
+    Error::Located {
+        file: name.to_string(),
+        line: row + 1,
+        column: channel + 1,
+        message: format!(
+            "{v} in row {} channel {}: values must be finite",
+            row + 1,
+            channel + 1
+        ),
+    }
+}
+
 /// Whether `file` is a regular file (not standard input `-`, a pipe or a FIFO).
 pub(crate) fn is_regular(file: &Path) -> bool {
     file.as_os_str() != "-" && std::fs::metadata(file).is_ok_and(|m| m.is_file())
@@ -389,15 +417,7 @@ pub fn decode_binary(
             layout.channels
         )));
     }
-    let in_place = layout.kind == BinaryType::F64
-        && layout.channels == 1
-        && layout.stride.is_none_or(|s| s == 8)
-        && layout.scale.is_none_or(|s| s == 1.0)
-        && layout.header.is_multiple_of(8)
-        && cfg!(target_endian = "little")
-        && is_regular(file)
-        && !is_gzip(file);
-    if in_place {
+    if used_in_place(file, layout) {
         return Ok(vec![MappedSamples::map_f64(file, name, layout.header)?]);
     }
     if is_regular(file) && !is_gzip(file) {
@@ -611,16 +631,7 @@ fn decode_block(
         .enumerate()
         .find(|(_, v)| !v.is_finite())
         .expect("a non-finite value");
-    Err(Error::Located {
-        file: name.to_string(),
-        line: r0 + r + 1,
-        column: c + 1,
-        message: format!(
-            "{v} in row {} channel {}: values must be finite",
-            r0 + r + 1,
-            c + 1
-        ),
-    })
+    Err(non_finite(name, r0 + r, c, v))
 }
 
 /// [`decode_block`] for values of S bytes converted by `conv`: writes every value (times the

@@ -273,25 +273,15 @@ impl Input {
             ));
         }
         let maps = crate::source::decode_binary(&self.file, &name, &layout, &idx)?;
-        // a file used in place (one f64 channel, no scale) has not been looked at yet: its
-        // values must be finite too (the decoded copies were checked as they were made)
-        let in_place =
-            kind == BinaryType::F64 && layout.channels == 1 && self.scale.is_none_or(|s| s == 1.0);
-        for (m, &c) in maps.iter().zip(&idx).filter(|_| in_place) {
+        // a file used in place has not been looked at yet: its values must be finite too (the
+        // decoded copies were checked as they were made)
+        if crate::source::used_in_place(&self.file, &layout) {
             use rayon::prelude::*;
-            let x = avar::SampleSource::samples(m);
-            if let Some(r) = x.par_iter().position_first(|v| !v.is_finite()) {
-                return Err(Error::Located {
-                    file: name,
-                    line: r + 1,
-                    column: c + 1,
-                    message: format!(
-                        "{} in row {} channel {}: values must be finite",
-                        x[r],
-                        r + 1,
-                        c + 1
-                    ),
-                });
+            for (m, &c) in maps.iter().zip(&idx) {
+                let x = avar::SampleSource::samples(m);
+                if let Some(r) = x.par_iter().position_first(|v| !v.is_finite()) {
+                    return Err(crate::source::non_finite(&name, r, c, x[r]));
+                }
             }
         }
         let mut t = Table {
