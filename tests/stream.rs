@@ -1,6 +1,7 @@
 //! Issue 13: the streamed Allan variance from files gives exactly the in-memory results, for
-//! every kind of source (raw f64 mapped in place; other types, interleaved channels, a scale,
-//! gzip, standard input decoded once) and for any thread count; and `fit` and `analyze`, which
+//! every kind of source (raw f64 mapped in place; other types, interleaved channels and a scale
+//! decoded by groups of channels; gzip and standard input decoded once) and for any thread
+//! count; and `fit` and `analyze`, which
 //! read raw binary files through the same sources, give exactly what the in-memory reader's
 //! tables give.
 
@@ -138,6 +139,21 @@ fn every_binary_source_matches_the_in_memory_path() {
             channels: Some(3),
             columns: Some("3,1".into()),
             names: Some("gz,gx".into()),
+            rate: Some(200.0),
+            ..Input::new(&p)
+        },
+        &no_ci(),
+    );
+    // five interleaved f64 channels, all selected in another order: decoded two channels per
+    // pass into the same buffers (`source::group_size`), three groups
+    let five = channels(N, 5);
+    let p = write("five.f64", &raw(&five, BinaryType::F64));
+    drop(five);
+    check(
+        &Input {
+            binary: Some(BinaryType::F64),
+            channels: Some(5),
+            columns: Some("5,2,4,1,3".into()),
             rate: Some(200.0),
             ..Input::new(&p)
         },

@@ -198,7 +198,8 @@ pub fn run(args: &AvarArgs, ui: &Ui) -> Result<()> {
     }
     let spec = args.input.spec();
     if args.statistic.is_none() && crate::pipeline::estimate::can_stream(&spec) {
-        // raw binary: the file is used in place (or decoded once), never read into a table
+        // raw binary: the file is used in place (or decoded by groups of channels), never read
+        // into a table
         let curves = crate::pipeline::estimate::avar_streamed(&spec, &config, ui)?;
         return write_av_curves(args, &config, &curves, &spec.file.display().to_string());
     }

@@ -623,8 +623,10 @@ pub fn can_stream(input: &super::read::Input) -> bool {
 }
 
 /// Each channel's Allan variance of a raw binary file (see [`can_stream`]) without reading it
-/// into memory: the file is used in place through a memory map (one channel of f64, no scale)
-/// or decoded once into compact temporary files (see [`crate::source`]), and each channel is
+/// into memory: the file is used in place through a memory map (one channel of f64, no scale),
+/// or decoded a group of channels at a time into reused buffers (a regular file; see
+/// [`crate::source::for_channel_groups`]), or once into compact temporary files (gzip, pipes,
+/// channels too long for memory; see [`crate::source`]), and each channel is
 /// estimated by [`avar::allan_variance_source`], which streams (no series-sized buffer, a
 /// bounded window of the file resident) when no CI is asked for. Bit-identical to [`compute`]
 /// on the table [`super::read::Input::read`] returns. Channels are named `ch1`, `ch2`, … (or
@@ -677,24 +679,23 @@ pub fn avar_streamed(
         }
         names = given;
     }
-    let pb = ui.spinner(format!("reading {}", input.file.display()));
-    let sources = crate::source::decode_binary(&input.file, &file, &layout, &idx);
-    pb.finish_and_clear();
-    let sources = sources?;
     let Some(rate_hz) = input.rate else {
         return Err(Error::Usage(format!(
             "{file}: --rate is required (the file has no time stamps; for text with a time \
              column give --time-column NAME)"
         )));
     };
-    let pb = ui.bar(sources.len() as u64, "Allan var.");
-    let mut out = Vec::with_capacity(sources.len());
-    for (src, name) in sources.iter().zip(names) {
-        let av = avar::allan_variance_source(src, rate_hz, config)
-            .map_err(|e| avar_error(&file, &name, e))?;
-        out.push((name, av));
-        pb.inc(1);
-    }
+    let pb = ui.bar(names.len() as u64, "Allan var.");
+    let mut out = Vec::with_capacity(names.len());
+    crate::source::for_channel_groups(&input.file, &file, &layout, &idx, |first, group| {
+        for (src, name) in group.iter().zip(&names[first..]) {
+            let av = avar::allan_variance_source(*src, rate_hz, config)
+                .map_err(|e| avar_error(&file, name, e))?;
+            out.push((name.clone(), av));
+            pb.inc(1);
+        }
+        Ok(())
+    })?;
     pb.finish_and_clear();
     Ok(out)
 }
