@@ -390,7 +390,9 @@ pub(crate) fn is_regular(file: &Path) -> bool {
 /// several channels, a stride, a scale, gzip, standard input `-` or a pipe) is decoded once, in
 /// one sequential pass, into compact temporary f64 files (see the module docs). `name` is used
 /// in messages. Errors like [`crate::io::parse_binary`]: a file that is not a whole number of
-/// rows, an empty file, and a non-finite value (naming its row and channel).
+/// rows, an empty file, and a non-finite value (naming its row and channel); a file mapped in
+/// place is not read here, so its values are checked by what reads them (the table reader's
+/// finiteness pass, or the estimator, which refuses a non-finite sample naming its index).
 ///
 /// ```
 /// use avar::SampleSource;
@@ -704,7 +706,8 @@ fn decode_to_memory(
 /// [`group_size`] channels per pass over the file, instead of into a copy of every channel at
 /// once: 8 bytes per row and channel of the group, not of the file. A file used in place, a
 /// gzip file, standard input, a pipe, and a file whose single channel does not fit in memory
-/// go through [`decode_binary`] as one group.
+/// go through [`decode_binary`] as one group (a file used in place is then handed unread: the
+/// estimators check its samples).
 ///
 /// ```
 /// use avar::SampleSource;
