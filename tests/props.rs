@@ -205,11 +205,14 @@ proptest! {
         };
         let sel: Vec<usize> = if reverse { (0..channels).rev().collect() } else { Vec::new() };
         let mut grouped: Vec<Vec<f64>> = Vec::new();
-        let groups = imunoise::source::for_channel_groups(&path, "fuzz.bin", &layout, &sel, |first, g| {
-            assert_eq!(first, grouped.len());
-            grouped.extend(g.iter().map(|s| s.samples().to_vec()));
-            Ok(())
-        });
+        let groups = imunoise::source::for_channel_groups(
+            &path, "fuzz.bin", &layout, &sel,
+            |first, g| {
+                assert_eq!(first, grouped.len());
+                grouped.extend(g.iter().map(|s| s.samples().to_vec()));
+                Ok(())
+            },
+        );
         match (&groups, &reference) {
             (Ok(()), Ok(r)) => {
                 let want: Vec<Vec<f64>> = r.columns.iter().map(|c| c.to_vec()).collect();

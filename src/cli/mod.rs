@@ -139,8 +139,9 @@ pub struct InputArgs {
     /// by only 16 bytes per 128 samples); other types, several channels and --scale are decoded
     /// a group of channels at a time into reused buffers (2 of 6 f64 channels per pass over the
     /// file: 8 bytes per sample of each channel of the group) while they fit in a quarter of
-    /// the available memory, else into temporary files; gzip, standard input and pipes (which cannot seek) are decoded once
-    /// into temporary files (8 bytes per sample and channel of disk space, not memory). The
+    /// the available memory, else into temporary files; gzip, standard input and pipes (which
+    /// cannot seek) are decoded once into temporary files (8 bytes per sample and channel of
+    /// disk space, not memory). The
     /// chi-square CI (the default) streams too, reading the series three more times with 16
     /// bytes per 64 samples and 16 MiB per thread; the Gaussian CI holds 8 more bytes per
     /// sample. Series shorter than 4194304 samples are estimated in memory (8 bytes per
