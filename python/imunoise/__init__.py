@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
@@ -287,17 +288,24 @@ def _as_channels(x: Any) -> "tuple[np.ndarray, bool]":
 
 def avar(
     x: Any,
-    rate: float,
+    rate: Optional[float] = None,
     scales: Union[str, Sequence[int]] = "dyadic",
     ci: str = "chi2",
     alpha: float = 0.05,
     input: str = "rate",
     estimator: str = "overlapping",
     names: Optional[Sequence[str]] = None,
+    **read_options: Any,
 ) -> Union[AvarResult, List[AvarResult]]:
     """The Allan variance of samples ``x`` taken at ``rate`` Hz, with confidence intervals.
 
-    ``x``: 1-D (one channel) or 2-D (samples in rows, one result per column) array-like.
+    ``x``: 1-D (one channel) or 2-D (samples in rows, one result per column) array-like; or
+    a file (a path), read as :func:`read` reads it with ``rate`` and ``read_options``
+    (``binary``, ``channels``, ``scale``, ``columns``, ``topic``, ``unit``,
+    ``time_column``, ``time_unit``, ``gaps``) and estimated as ``imunoise avar FILE``: a raw
+    binary file is streamed (used in place, or decoded a group of channels at a time; never
+    loaded whole), so it can be larger than memory. A file of one channel gives one result,
+    several give a list.
     ``scales``: ``"dyadic"`` (m = 2^j, the default), ``"dyadic1"``, ``"octave"``,
     ``"decade"``, ``"all"``, ``"logN"`` or a list of cluster sizes m (samples; tau = m/rate s).
     ``ci``: ``"chi2"`` (EDF), ``"gaussian"`` or ``"none"``, at level 1 - ``alpha``.
@@ -310,6 +318,19 @@ def avar(
     >>> bool(abs(r.avar[0] * 2 - 1) < 0.2)   # white noise: AV(m) = sigma^2 / m, m = 2
     True
     """
+    if isinstance(x, (str, bytes)) or hasattr(x, "__fspath__"):
+        if names is not None and not isinstance(names, str):
+            names = ",".join(str(n) for n in names)
+        curves = _imunoise.avar_file(
+            os.fsdecode(x), _scales_text(scales), ci, float(alpha), input, estimator,
+            rate=None if rate is None else float(rate), names=names, **read_options,
+        )
+        res = [AvarResult(c, False) for c in curves]
+        return res[0] if len(res) == 1 else res
+    if rate is None:
+        raise UsageError("avar: rate (Hz) is required for samples")
+    if read_options:
+        raise UsageError(f"avar: {sorted(read_options)} apply to files only")
     a, conv = _as_channels(x)
     k = 1 if a.ndim == 1 else a.shape[1]
     curves, copied = _imunoise.avar(

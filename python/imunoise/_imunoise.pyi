@@ -30,6 +30,13 @@ def avar(
     x: npt.NDArray[np.float64], rate: float, scales: str, ci: str, alpha: float, input: str,
     estimator: str, names: Optional[List[str]] = None,
 ) -> Tuple[List[Curve], bool]: ...
+def avar_file(
+    path: str, scales: str, ci: str, alpha: float, input: str, estimator: str,
+    rate: Optional[float] = None, topic: Optional[str] = None, columns: Optional[str] = None,
+    binary: Optional[str] = None, channels: Optional[int] = None, scale: Optional[float] = None,
+    names: Optional[str] = None, unit: Optional[str] = None, time_column: Optional[str] = None,
+    time_unit: str = "s", gaps: str = "refuse",
+) -> List[Curve]: ...
 def fit_array(
     x: npt.NDArray[np.float64], rate: float, model: str, method: str, select: bool,
     bootstrap: int, weighting: str, seed: int, alpha: float, robust: bool, efficiency: float,

@@ -254,6 +254,58 @@ fn avar(
     ))
 }
 
+/// Allan variance of every channel of a file, as `imunoise avar FILE` (see `imunoise.avar`):
+/// raw binary streamed (used in place or decoded by groups of channels, never loaded whole),
+/// every other input read through the command's readers.
+#[pyfunction]
+#[pyo3(signature = (path, scales, ci, alpha, input, estimator, rate=None, topic=None,
+    columns=None, binary=None, channels=None, scale=None, names=None, unit=None,
+    time_column=None, time_unit="s", gaps="refuse"))]
+#[allow(clippy::too_many_arguments)]
+fn avar_file(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    scales: &str,
+    ci: &str,
+    alpha: f64,
+    input: &str,
+    estimator: &str,
+    rate: Option<f64>,
+    topic: Option<String>,
+    columns: Option<String>,
+    binary: Option<&str>,
+    channels: Option<usize>,
+    scale: Option<f64>,
+    names: Option<String>,
+    unit: Option<String>,
+    time_column: Option<String>,
+    time_unit: &str,
+    gaps: &str,
+) -> PyResult<Vec<Curve>> {
+    let cfg = avar_config(scales, ci, alpha, input, estimator)?;
+    let spec = input_spec(
+        path,
+        rate,
+        topic.map(|t| vec![t]),
+        columns,
+        binary,
+        channels,
+        scale,
+        names,
+        unit,
+        time_column,
+        time_unit,
+        gaps,
+    )?;
+    let (_, curves) = py
+        .detach(|| estimate::avar_file(&spec, &cfg, &imunoise::Ui::quiet()))
+        .map_err(py_err)?;
+    Ok(curves
+        .into_iter()
+        .map(|(name, av)| Curve { name, av })
+        .collect())
+}
+
 /// The fit settings from the Python arguments.
 #[allow(clippy::too_many_arguments)]
 fn fit_settings(
@@ -780,6 +832,7 @@ fn _imunoise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Curve>()?;
     m.add_class::<NativeModel>()?;
     m.add_function(wrap_pyfunction!(avar, m)?)?;
+    m.add_function(wrap_pyfunction!(avar_file, m)?)?;
     m.add_function(wrap_pyfunction!(fit_array, m)?)?;
     m.add_function(wrap_pyfunction!(fit_curves, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_array, m)?)?;

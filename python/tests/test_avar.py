@@ -154,3 +154,48 @@ def test_gil_is_released_while_computing():
         t.join()
     # with the GIL held the counter thread would get at most a switch or two
     assert during > 1000
+
+
+def test_file_path_equals_the_command_and_the_array(gyro, cli):
+    # a CSV path is read through the command's readers: the command's JSON, and the numbers of
+    # the same samples given as an array
+    path, x, names = gyro
+    res = imunoise.avar(path, RATE)
+    assert [r.name for r in res] == names
+    assert_json_close(imunoise.to_dict(res), cli("avar", path, "--rate", RATE, "--format", "json"))
+    arr = imunoise.avar(x, RATE, names=names)
+    for a, b in zip(res, arr):
+        assert a.to_dict() == b.to_dict()
+
+
+def test_raw_binary_file_is_streamed_bit_for_bit(tmp_path, cli):
+    # three interleaved f64 channels, above the streaming threshold (2^22 samples): read by
+    # groups of channels, never loaded whole; the same bits as the array path and the command
+    n = (1 << 22) + 123
+    x = imunoise.simulate("WN(sigma2=1e-4) + RW(gamma2=1e-10)", n, RATE, seed=5, channels=3)
+    p = tmp_path / "imu.f64"
+    np.ascontiguousarray(x).tofile(p)
+    res = imunoise.avar(p, RATE, ci="none", binary="f64", channels=3, columns="3,1")
+    assert [r.name for r in res] == ["ch3", "ch1"]
+    for r, c in zip(res, [2, 0]):
+        a = imunoise.avar(np.ascontiguousarray(x[:, c]), RATE, ci="none")
+        assert np.array_equal(r.avar, a.avar) and np.array_equal(r.m, a.m)
+        assert r.n == n and not r.copied
+    doc = cli("avar", p, "--rate", RATE, "--format", "json", "--ci", "none",
+              "--binary", "f64", "--channels", 3, "--columns", "3,1")
+    assert_json_close(imunoise.to_dict(res), doc)
+    one = imunoise.avar(str(p), RATE, ci="none", binary="f64", channels=3, columns="2")
+    assert isinstance(one, imunoise.AvarResult) and one.name == "ch2"
+
+
+def test_file_and_array_argument_errors(tmp_path):
+    p = tmp_path / "w.f64"
+    np.zeros(64).tofile(p)
+    with pytest.raises(imunoise.UsageError, match="--rate is required"):
+        imunoise.avar(p, binary="f64")
+    with pytest.raises(imunoise.UsageError, match="rate"):
+        imunoise.avar(np.zeros(64))
+    with pytest.raises(imunoise.UsageError, match="files only"):
+        imunoise.avar(np.zeros(64), RATE, binary="f64")
+    with pytest.raises(imunoise.InputError, match="missing.f64"):
+        imunoise.avar(tmp_path / "missing.f64", RATE, binary="f64")

@@ -196,42 +196,36 @@ pub fn run(args: &AvarArgs, ui: &Ui) -> Result<()> {
             args.alpha
         )));
     }
-    let spec = args.input.spec();
-    if args.statistic.is_none() && crate::pipeline::estimate::can_stream(&spec) {
-        // raw binary: the file is used in place (or decoded by groups of channels), never read
-        // into a table
-        let curves = crate::pipeline::estimate::avar_streamed(&spec, &config, ui)?;
-        return write_av_curves(args, &config, &curves, &spec.file.display().to_string());
-    }
+    let Some(list) = &args.statistic else {
+        // raw binary is used in place (or decoded by groups of channels), never read into a
+        // table; other inputs are read into one
+        let (file, curves) = crate::pipeline::estimate::avar_file(&args.input.spec(), &config, ui)?;
+        return write_av_curves(args, &config, &curves, &file);
+    };
     let table = args.input.read(ui)?;
-    if let Some(list) = &args.statistic {
-        let mut stats: Vec<Statistic> = Vec::new();
-        for &s in list {
-            let s = Statistic::from(s);
-            if !stats.contains(&s) {
-                stats.push(s);
-            }
+    let mut stats: Vec<Statistic> = Vec::new();
+    for &s in list {
+        let s = Statistic::from(s);
+        if !stats.contains(&s) {
+            stats.push(s);
         }
-        let curves = compute_statistics(&table, table.rate()?, &config, &stats, ui)?;
-        if let Some(path) = &args.plot {
-            write_plot(path, &plot_curves(&curves, &table.file))?;
-        }
-        let stdout = std::io::stdout();
-        let mut out = std::io::BufWriter::new(stdout.lock());
-        let res = match args.format {
-            Format::Json => {
-                serde_json::to_writer(&mut out, &curves_json(&curves))?;
-                writeln!(out)
-            }
-            Format::Csv => write_curves_csv(&mut out, &curves),
-            Format::Table => write_curves_table(&mut out, &curves, args.alpha),
-        };
-        return res
-            .and_then(|_| out.flush())
-            .map_err(|e| crate::Error::write("<stdout>", e));
     }
-    let curves = compute(&table, table.rate()?, &config, ui)?;
-    write_av_curves(args, &config, &curves, &table.file)
+    let curves = compute_statistics(&table, table.rate()?, &config, &stats, ui)?;
+    if let Some(path) = &args.plot {
+        write_plot(path, &plot_curves(&curves, &table.file))?;
+    }
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let res = match args.format {
+        Format::Json => {
+            serde_json::to_writer(&mut out, &curves_json(&curves))?;
+            writeln!(out)
+        }
+        Format::Csv => write_curves_csv(&mut out, &curves),
+        Format::Table => write_curves_table(&mut out, &curves, args.alpha),
+    };
+    res.and_then(|_| out.flush())
+        .map_err(|e| crate::Error::write("<stdout>", e))
 }
 
 /// Writes the AV curves of `imunoise avar` (and the plot) as the flags say.

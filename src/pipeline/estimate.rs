@@ -605,6 +605,39 @@ pub fn robust_curves(
         .collect()
 }
 
+/// Each channel's Allan variance of the file `input` names, as `imunoise avar` computes it:
+/// raw binary through [`avar_streamed`] (used in place or decoded by groups of channels, never
+/// read into a table), every other input (text, gzip, logs, standard input) read by
+/// [`super::read::Input::read`] and estimated by [`compute`]. Returns the name the file goes
+/// by in messages (`<stdin>` for `-`) and the curves, in the units of the samples squared.
+///
+/// ```
+/// use imunoise::pipeline::{estimate::avar_file, read::Input};
+/// use avar::{AvarConfig, CiMethod};
+/// let dir = tempfile::tempdir().unwrap();
+/// let p = dir.path().join("x.csv");
+/// let rows: String = (0..4096).map(|i| format!("{},{}\n", i % 7, i % 3)).collect();
+/// std::fs::write(&p, format!("gx,gy\n{rows}")).unwrap();
+/// let cfg = AvarConfig { ci: CiMethod::None, ..Default::default() };
+/// let input = Input { rate: Some(100.0), ..Input::new(&p) };
+/// let (_, curves) = avar_file(&input, &cfg, &imunoise::Ui::quiet()).unwrap();
+/// assert_eq!(curves.len(), 2);
+/// assert_eq!(curves[1].0, "gy");
+/// ```
+pub fn avar_file(
+    input: &super::read::Input,
+    config: &AvarConfig,
+    ui: &Ui,
+) -> Result<(String, ChannelCurves)> {
+    if can_stream(input) {
+        let curves = avar_streamed(input, config, ui)?;
+        return Ok((input.file.display().to_string(), curves));
+    }
+    let table = input.read(ui)?;
+    let curves = compute(&table, table.rate()?, config, ui)?;
+    Ok((table.file, curves))
+}
+
 /// Whether [`avar_streamed`] can read `input`: raw binary (`--binary`), not a log, without a
 /// time column or topics. `imunoise avar` streams exactly these inputs.
 ///
