@@ -131,6 +131,16 @@ fn every_binary_source_matches_the_in_memory_path() {
         ..Input::new(&p)
     };
     check(&one, &no_ci());
+    // far scales that are not whole class steps of the far walk (here 2^17 samples): their
+    // lagged blocks are read from the file into the walk's window (the dyadic ones come from
+    // its ring of lane copies), from the chunk of their first term on
+    check(
+        &one,
+        &AvarConfig {
+            scales: avar::Scales::Explicit(vec![70_001, 150_000, 333_333, 1_000_003]),
+            ..no_ci()
+        },
+    );
     // three interleaved f64 channels, two selected and renamed: decoded in one pass
     let p = write("three.f64", &raw(&cols, BinaryType::F64));
     check(
