@@ -225,17 +225,24 @@ fn axes(s: &mut String, f: &Frame, xlabel: &str, ylabel: &str) {
     );
 }
 
-fn polyline(s: &mut String, f: &Frame, pts: &[(f64, f64)], style: &str, id: &str) {
+/// A polyline of the points inside the frame's axes (no clip of its own: the callers put the
+/// curves of a plot in one group clipped to the frame, see [`clip_group`]).
+fn polyline(s: &mut String, f: &Frame, pts: &[(f64, f64)], style: &str) {
     let mut d = String::new();
     for &(x, y) in pts {
         if x.is_finite() && y.is_finite() && (!f.logy || y > 0.0) && (!f.logx || x > 0.0) {
             let _ = write!(d, "{:.2},{:.2} ", f.px(x), f.py(y));
         }
     }
-    let _ = writeln!(
-        s,
-        r#"<polyline points="{d}" fill="none" {style} clip-path="url(#clip-{id})"/>"#
-    );
+    let _ = writeln!(s, r#"<polyline points="{d}" fill="none" {style}/>"#);
+}
+
+/// Opens the group of a plot's curves, clipped to the frame. One clipped group instead of a
+/// clip per curve: a PNG renderer draws each clipped element into a layer of its own (the
+/// Allan-deviation plot of a 6-axis analysis took 57 ms to render with ten clips, 30 ms with
+/// one).
+fn clip_group(s: &mut String, id: &str) {
+    let _ = writeln!(s, r#"<g clip-path="url(#clip-{id})">"#);
 }
 
 fn legend(s: &mut String, items: &[(String, String)]) {
@@ -322,6 +329,9 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
         "averaging time τ [s]",
         &format!("Allan deviation σ(τ){unit}"),
     );
+    // The curves, clipped to the frame as one group; the labels of the slope guides go on top.
+    clip_group(&mut s, id);
+    let mut labels = String::new();
     // Slope guides through the observed curve: −1, −½ from the first point; +½, +1 from the last.
     let first = obs[0];
     let last = *obs.last().expect("non-empty");
@@ -340,7 +350,6 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
             &f,
             &line,
             r##"stroke="#9a9a9a" stroke-width="1" stroke-dasharray="2 4""##,
-            id,
         );
         // Label near the anchor, inside the plot.
         let tx = if slope < 0.0 {
@@ -351,7 +360,7 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
         let ty = anchor.1 * (tx / anchor.0).powf(slope);
         if ty > y0 && ty < y1 && tx > x0 && tx < x1 {
             let _ = writeln!(
-                s,
+                labels,
                 r##"<text x="{:.1}" y="{:.1}" font-size="11" fill="#777">slope {label}</text>"##,
                 f.px(tx) + 4.0,
                 f.py(ty) - 4.0
@@ -374,7 +383,7 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
         }
         let _ = writeln!(
             s,
-            r##"<polygon points="{d}" fill="#0072B2" fill-opacity="0.18" stroke="none" clip-path="url(#clip-{id})"/>"##
+            r##"<polygon points="{d}" fill="#0072B2" fill-opacity="0.18" stroke="none"/>"##
         );
     }
     let mut items = vec![(
@@ -386,17 +395,11 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
             r#"stroke="{}" stroke-width="1.6" stroke-dasharray="7 4""#,
             PALETTE[i % PALETTE.len()]
         );
-        polyline(&mut s, &f, &c.points, &style, id);
+        polyline(&mut s, &f, &c.points, &style);
         items.push((c.label.clone(), style));
     }
     let pts: Vec<(f64, f64)> = obs.iter().map(|q| (q.0, q.1)).collect();
-    polyline(
-        &mut s,
-        &f,
-        &pts,
-        r##"stroke="#0072B2" stroke-width="2""##,
-        id,
-    );
+    polyline(&mut s, &f, &pts, r##"stroke="#0072B2" stroke-width="2""##);
     for q in &pts {
         let _ = writeln!(
             s,
@@ -407,9 +410,11 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
     }
     if let Some(fit) = &p.fitted {
         let style = r##"stroke="#C00000" stroke-width="2""##.to_string();
-        polyline(&mut s, &f, &fit.points, &style, id);
+        polyline(&mut s, &f, &fit.points, &style);
         items.insert(1, (fit.label.clone(), style));
     }
+    s.push_str("</g>\n");
+    s.push_str(&labels);
     for m in &p.marks {
         if !(m.tau > 0.0
             && m.sigma > 0.0
@@ -489,6 +494,7 @@ pub fn stability_svg(title: &str, series: &[StabilitySeries], id: &str) -> Strin
     };
     axes(&mut s, &f, "averaging time τ [s]", "deviation σ(τ)");
     let mut items = Vec::new();
+    clip_group(&mut s, id);
     for (i, c) in series.iter().enumerate() {
         let colour = PALETTE[(i + 5) % PALETTE.len()];
         let obs: Vec<(f64, f64, f64, f64)> = c.points.iter().filter(ok).copied().collect();
@@ -507,12 +513,12 @@ pub fn stability_svg(title: &str, series: &[StabilitySeries], id: &str) -> Strin
             }
             let _ = writeln!(
                 s,
-                r##"<polygon points="{d}" fill="{colour}" fill-opacity="0.15" stroke="none" clip-path="url(#clip-{id})"/>"##
+                r##"<polygon points="{d}" fill="{colour}" fill-opacity="0.15" stroke="none"/>"##
             );
         }
         let style = format!(r#"stroke="{colour}" stroke-width="2""#);
         let pts: Vec<(f64, f64)> = obs.iter().map(|q| (q.0, q.1)).collect();
-        polyline(&mut s, &f, &pts, &style, id);
+        polyline(&mut s, &f, &pts, &style);
         for q in &pts {
             let _ = writeln!(
                 s,
@@ -523,6 +529,7 @@ pub fn stability_svg(title: &str, series: &[StabilitySeries], id: &str) -> Strin
         }
         items.push((c.label.clone(), style));
     }
+    s.push_str("</g>\n");
     legend(&mut s, &items);
     s.push_str("</svg>\n");
     s
@@ -704,5 +711,17 @@ mod tests {
         assert!(svg.contains("Allan deviation σ(τ) [°/s]"));
         assert!(svg.contains("slope −1/2"));
         assert_eq!(svg.matches("<circle").count(), 10);
+        // the curves sit in one group clipped to the frame (one clip, not one per curve), the
+        // slope labels after it
+        assert_eq!(svg.matches("clip-path=").count(), 1);
+        let open = svg.find(r#"<g clip-path="url(#clip-t)">"#).unwrap();
+        let close = open + svg[open..].find("</g>").unwrap();
+        let inside = &svg[open..close];
+        assert_eq!(
+            inside.matches("<polyline").count(),
+            svg.matches("<polyline").count()
+        );
+        assert!(inside.contains("<polygon") && !inside.contains("slope"));
+        assert!(svg[close..].contains("slope −1/2"));
     }
 }
