@@ -379,6 +379,31 @@ pub(crate) fn non_finite(name: &str, row: usize, channel: usize, v: f64) -> Erro
     }
 }
 
+/// Why `file` cannot be read by position, if it cannot: `Some("is standard input")` for `-`,
+/// `Some("is not a regular file (a pipe, FIFO or device)")`, `Some("is gzip-compressed")`;
+/// `None` for a regular uncompressed file. Such inputs are decoded once, in one sequential
+/// pass (raw binary: into temporary files; text: whole into memory), and the commands say so.
+///
+/// ```
+/// use imunoise::source::unseekable;
+/// assert_eq!(unseekable(std::path::Path::new("-")), Some("is standard input"));
+/// let dir = tempfile::tempdir().unwrap();
+/// let p = dir.path().join("w.f64");
+/// std::fs::write(&p, [0u8; 16]).unwrap();
+/// assert_eq!(unseekable(&p), None);
+/// ```
+pub fn unseekable(file: &Path) -> Option<&'static str> {
+    if file.as_os_str() == "-" {
+        Some("is standard input")
+    } else if !is_regular(file) {
+        Some("is not a regular file (a pipe, FIFO or device)")
+    } else if is_gzip(file) {
+        Some("is gzip-compressed")
+    } else {
+        None
+    }
+}
+
 /// Whether `file` is a regular file (not standard input `-`, a pipe or a FIFO).
 pub(crate) fn is_regular(file: &Path) -> bool {
     file.as_os_str() != "-" && std::fs::metadata(file).is_ok_and(|m| m.is_file())

@@ -274,7 +274,8 @@ fn command_file_and_stdin_match_in_memory() {
     let table = input.read(&quiet).unwrap();
     let mem = compute(&table, 50.0, &no_ci(), &quiet).unwrap();
     let expected = serde_json::to_string(&imunoise::pipeline::estimate::to_json(&mem)).unwrap();
-    let run = |from_stdin: bool, threads: &str| -> String {
+    // the output, and the notes on stderr
+    let run_notes = |from_stdin: bool, threads: &str| -> (String, String) {
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_imunoise"));
         cmd.arg("avar")
             .arg(if from_stdin { Path::new("-") } else { &p })
@@ -293,15 +294,55 @@ fn command_file_and_stdin_match_in_memory() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        String::from_utf8(out.stdout)
-            .unwrap()
-            .trim_end()
-            .to_string()
+        (
+            String::from_utf8(out.stdout)
+                .unwrap()
+                .trim_end()
+                .to_string(),
+            String::from_utf8(out.stderr).unwrap(),
+        )
     };
+    let run = |from_stdin: bool, threads: &str| -> String { run_notes(from_stdin, threads).0 };
     for threads in ["1", "2"] {
         assert_eq!(run(false, threads), expected, "file, {threads} threads");
         assert_eq!(run(true, threads), expected, "stdin, {threads} threads");
     }
+    // standard input cannot be read by position: the command says where it goes; a regular
+    // file gets no such note
+    let (_, notes) = run_notes(true, "2");
+    assert!(
+        notes.contains("standard input cannot be read by position")
+            && notes.contains("temporary files"),
+        "{notes}"
+    );
+    assert!(!run_notes(false, "2").1.contains("cannot be read"));
+    // text from standard input is read whole into memory, and the note says so
+    let out = Command::new(env!("CARGO_BIN_EXE_imunoise"))
+        .args([
+            "avar", "-", "--rate", "50", "--ci", "none", "--format", "csv",
+        ])
+        .stdin(std::fs::File::open(write_csv(dir.path(), &cols[0][..4096])).unwrap())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let notes = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        notes.contains("standard input cannot be streamed as text")
+            && notes.contains("read whole into memory"),
+        "{notes}"
+    );
+}
+
+/// `x` as a one-column CSV file with a header, in `dir`.
+fn write_csv(dir: &Path, x: &[f64]) -> std::path::PathBuf {
+    let p = dir.join("one.csv");
+    let body: String = x.iter().map(|v| format!("{v}\n")).collect();
+    std::fs::write(&p, format!("gx\n{body}")).unwrap();
+    p
 }
 
 /// Errors name the file and, for a bad value, its row and channel; a partial row is named.
