@@ -404,6 +404,16 @@ pub fn unseekable(file: &Path) -> Option<&'static str> {
     }
 }
 
+/// The subject of the notes on an input that cannot be read by position: "standard input",
+/// or the file and why (from [`unseekable`]), e.g. "x.f64.gz is gzip-compressed and".
+pub(crate) fn unseekable_subject(file: &Path, why: &str) -> String {
+    if file.as_os_str() == "-" {
+        "standard input".to_string()
+    } else {
+        format!("{} {why} and", file.display())
+    }
+}
+
 /// Whether `file` is a regular file (not standard input `-`, a pipe or a FIFO).
 pub(crate) fn is_regular(file: &Path) -> bool {
     file.as_os_str() != "-" && std::fs::metadata(file).is_ok_and(|m| m.is_file())

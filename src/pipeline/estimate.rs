@@ -633,29 +633,9 @@ pub fn avar_file(
         let curves = avar_streamed(input, config, ui)?;
         return Ok((input.file.display().to_string(), curves));
     }
-    if let Some(why) = crate::source::unseekable(&input.file)
-        .filter(|_| input.file.as_os_str() == "-" || !crate::source::is_regular(&input.file))
-    {
-        ui.note(format!(
-            "note: {} cannot be streamed as text or a log: it is read whole into memory \
-             first (its size in bytes, then 8 bytes per value); raw binary (--binary) is \
-             decoded into temporary files instead",
-            unseekable_subject(&input.file, why)
-        ));
-    }
     let table = input.read(ui)?;
     let curves = compute(&table, table.rate()?, config, ui)?;
     Ok((table.file, curves))
-}
-
-/// The subject of the notes on an input that cannot be read by position: "standard input",
-/// or the file and why (from [`crate::source::unseekable`]).
-fn unseekable_subject(file: &std::path::Path, why: &str) -> String {
-    if file.as_os_str() == "-" {
-        "standard input".to_string()
-    } else {
-        format!("{} {why} and", file.display())
-    }
 }
 
 /// Whether [`avar_streamed`] can read `input`: raw binary (`--binary`), not a log, without a
@@ -743,7 +723,7 @@ pub fn avar_streamed(
             "note: {} cannot be read by position: it is decoded once, in one pass, into \
              temporary files in {} (8 bytes per sample and channel of disk space, deleted at \
              the end); the memory stays bounded",
-            unseekable_subject(&input.file, why),
+            crate::source::unseekable_subject(&input.file, why),
             std::env::temp_dir().display()
         ));
     }

@@ -150,6 +150,15 @@ impl Input {
     /// [`crate::source::decode_binary`]: its columns are [`io::Column::Mapped`] (one f64
     /// channel is the file itself), with the values the in-memory reader gives.
     pub fn read_all(&self, ui: &Ui) -> Result<Vec<Table>> {
+        // standard input, pipes and FIFOs cannot be read by position: say what that costs
+        if !crate::source::is_regular(&self.file) {
+            let why = crate::source::unseekable(&self.file).unwrap_or("is not a regular file");
+            ui.note(format!(
+                "note: {} cannot be read by position: it is read whole into memory first (its \
+                 size in bytes, then 8 bytes per value)",
+                crate::source::unseekable_subject(&self.file, why),
+            ));
+        }
         let size = std::fs::metadata(&self.file).map_or(String::new(), |m| {
             format!(" ({:.1} MB)", m.len() as f64 / 1e6)
         });
