@@ -804,157 +804,269 @@ fn is_number(cell: &str) -> bool {
     matches!(fast_float2::parse_partial::<f64, _>(cell.as_bytes()), Ok((_, n)) if n == cell.len())
 }
 
+/// What the first lines of delimited text say: the delimiter, the column names, where the
+/// data rows start, and which columns are kept, in the order asked for.
+struct TextLayout {
+    delim: Delim,
+    names: Vec<String>,
+    /// Kept columns (0-based), in the order asked for.
+    order: Vec<usize>,
+    /// Whether each of the row's columns is parsed.
+    keep: Vec<bool>,
+    data_start: usize,
+    /// Length of the first row (a capacity hint).
+    row_len: usize,
+}
+
+impl TextLayout {
+    fn new(bytes: &[u8], file: &str, select: Option<&[ColumnSpec]>) -> Result<TextLayout> {
+        let mut p = 0;
+        if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
+            p = 3;
+        }
+        // Skip leading comment and blank lines.
+        loop {
+            let q = skip_blank(bytes, p, Delim::Whitespace);
+            if q >= bytes.len() {
+                return Err(no_rows(file));
+            }
+            if bytes[q] == b'#' || is_eol(bytes[q]) {
+                p = bytes[q..]
+                    .iter()
+                    .position(|&b| b == b'\n')
+                    .map_or(bytes.len(), |i| q + i + 1);
+                continue;
+            }
+            break;
+        }
+        let first_end = bytes[p..]
+            .iter()
+            .position(|&b| is_eol(b))
+            .map_or(bytes.len(), |i| p + i);
+        let first = &bytes[p..first_end];
+        let delim = if first.contains(&b',') {
+            Delim::Byte(b',')
+        } else if first.contains(&b'\t') {
+            Delim::Byte(b'\t')
+        } else {
+            Delim::Whitespace
+        };
+        let cells = split_row(first, p, delim);
+        let ncols = cells.len();
+        // A header when no cell of the first row is a number.
+        let header = cells.iter().all(|(c, _)| !is_number(c));
+        let names: Vec<String> = if header {
+            if let Some((_, off)) = cells.iter().find(|(c, _)| c.is_empty()) {
+                let (line, column, _) = locate(bytes, *off);
+                return Err(Error::Located {
+                    file: file.to_string(),
+                    line,
+                    column,
+                    message: "empty column name in the header".to_string(),
+                });
+            }
+            cells.iter().map(|(c, _)| c.clone()).collect()
+        } else {
+            (1..=ncols).map(|c| format!("col{c}")).collect()
+        };
+        let data_start = if header {
+            let mut q = first_end;
+            if q < bytes.len() && bytes[q] == b'\r' {
+                q += 1;
+            }
+            if q < bytes.len() && bytes[q] == b'\n' {
+                q += 1;
+            }
+            q
+        } else {
+            p
+        };
+        let order = match select {
+            Some(spec) => resolve_columns(spec, &names)?,
+            None => (0..ncols).collect(),
+        };
+        let mut keep = vec![false; ncols];
+        for &i in &order {
+            keep[i] = true;
+        }
+        Ok(TextLayout {
+            delim,
+            names,
+            order,
+            keep,
+            data_start,
+            row_len: (first_end - p + 1).max(1),
+        })
+    }
+
+    /// The rows of `bytes[lo..hi)` (from a line start to a line start or the end), cut at line
+    /// ends into chunks parsed in parallel: the kept columns in the order asked for. Errors
+    /// name the line and column in the whole of `bytes`.
+    fn parse_span(&self, bytes: &[u8], file: &str, lo: usize, hi: usize) -> Result<Vec<Vec<f64>>> {
+        let body = hi - lo;
+        let threads = rayon::current_num_threads().max(1);
+        let n_chunks = if body < (1 << 20) {
+            1
+        } else {
+            (threads * 4).min(body >> 18).max(1)
+        };
+        let mut bounds = vec![lo];
+        for k in 1..n_chunks {
+            let target = lo + body * k / n_chunks;
+            let prev = *bounds.last().expect("non-empty");
+            if target <= prev {
+                continue;
+            }
+            match bytes[target..hi].iter().position(|&b| b == b'\n') {
+                Some(i) if target + i + 1 < hi => bounds.push(target + i + 1),
+                _ => break,
+            }
+        }
+        bounds.push(hi);
+        bounds.dedup();
+        let ncols = self.keep.len();
+        let parts: Vec<std::result::Result<Vec<Vec<f64>>, Fault>> = bounds
+            .par_windows(2)
+            .map(|w| {
+                parse_rows(
+                    bytes,
+                    w[0],
+                    w[1],
+                    self.delim,
+                    &self.keep,
+                    (w[1] - w[0]) / self.row_len + 16,
+                )
+            })
+            .collect();
+        let nkeep = self.keep.iter().filter(|&&k| k).count();
+        let total: usize = parts
+            .iter()
+            .map(|r| r.as_ref().map_or(0, |c| c.first().map_or(0, Vec::len)))
+            .sum();
+        let mut cols: Vec<Vec<f64>> = (0..nkeep).map(|_| Vec::with_capacity(total)).collect();
+        for part in parts {
+            let part = part.map_err(|f| fault_to_error(bytes, file, f, ncols, self.delim))?;
+            for (dst, src) in cols.iter_mut().zip(part) {
+                dst.extend_from_slice(&src);
+            }
+        }
+        // `cols` is in file order of the kept columns; put it in the order asked for.
+        let mut file_order: Vec<usize> = self.order.clone();
+        file_order.sort_unstable();
+        let mut by_index: Vec<Option<Vec<f64>>> = vec![None; ncols];
+        for (i, c) in file_order.into_iter().zip(cols) {
+            by_index[i] = Some(c);
+        }
+        Ok(self
+            .order
+            .iter()
+            .map(|&i| by_index[i].take().expect("each column once"))
+            .collect())
+    }
+
+    /// The names of the kept columns, in the order asked for.
+    fn kept_names(&self) -> Vec<String> {
+        self.order.iter().map(|&i| self.names[i].clone()).collect()
+    }
+}
+
+fn no_rows(file: &str) -> Error {
+    Error::File {
+        file: file.to_string(),
+        message: "the file is empty (no data rows)".to_string(),
+    }
+}
+
 /// Parses delimited text (see the module docs) into a [`Table`], keeping the columns of
 /// `select` (all when `None`).
 pub fn parse_text(bytes: &[u8], file: &str, select: Option<&[ColumnSpec]>) -> Result<Table> {
-    let empty = || Error::File {
-        file: file.to_string(),
-        message: "the file is empty (no data rows)".to_string(),
-    };
-    let mut p = 0;
-    if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
-        p = 3;
-    }
-    // Skip leading comment and blank lines.
-    loop {
-        let q = skip_blank(bytes, p, Delim::Whitespace);
-        if q >= bytes.len() {
-            return Err(empty());
-        }
-        if bytes[q] == b'#' || is_eol(bytes[q]) {
-            p = bytes[q..]
-                .iter()
-                .position(|&b| b == b'\n')
-                .map_or(bytes.len(), |i| q + i + 1);
-            continue;
-        }
-        break;
-    }
-    let first_end = bytes[p..]
-        .iter()
-        .position(|&b| is_eol(b))
-        .map_or(bytes.len(), |i| p + i);
-    let first = &bytes[p..first_end];
-    let delim = if first.contains(&b',') {
-        Delim::Byte(b',')
-    } else if first.contains(&b'\t') {
-        Delim::Byte(b'\t')
-    } else {
-        Delim::Whitespace
-    };
-    let cells = split_row(first, p, delim);
-    let ncols = cells.len();
-    // A header when no cell of the first row is a number.
-    let header = cells.iter().all(|(c, _)| !is_number(c));
-    let names: Vec<String> = if header {
-        if let Some((_, off)) = cells.iter().find(|(c, _)| c.is_empty()) {
-            let (line, column, _) = locate(bytes, *off);
-            return Err(Error::Located {
-                file: file.to_string(),
-                line,
-                column,
-                message: "empty column name in the header".to_string(),
-            });
-        }
-        cells.iter().map(|(c, _)| c.clone()).collect()
-    } else {
-        (1..=ncols).map(|c| format!("col{c}")).collect()
-    };
-    let data_start = if header {
-        let mut q = first_end;
-        if q < bytes.len() && bytes[q] == b'\r' {
-            q += 1;
-        }
-        if q < bytes.len() && bytes[q] == b'\n' {
-            q += 1;
-        }
-        q
-    } else {
-        p
-    };
-    let order = match select {
-        Some(spec) => resolve_columns(spec, &names)?,
-        None => (0..ncols).collect(),
-    };
-    let mut keep = vec![false; ncols];
-    for &i in &order {
-        keep[i] = true;
-    }
-    // Chunks cut at line ends, parsed in parallel.
-    let len = bytes.len();
-    let body = len - data_start;
-    let threads = rayon::current_num_threads().max(1);
-    let n_chunks = if body < (1 << 20) {
-        1
-    } else {
-        (threads * 4).min(body >> 18).max(1)
-    };
-    let mut bounds = vec![data_start];
-    for k in 1..n_chunks {
-        let target = data_start + body * k / n_chunks;
-        let prev = *bounds.last().expect("non-empty");
-        if target <= prev {
-            continue;
-        }
-        match bytes[target..].iter().position(|&b| b == b'\n') {
-            Some(i) if target + i + 1 < len => bounds.push(target + i + 1),
-            _ => break,
-        }
-    }
-    bounds.push(len);
-    bounds.dedup();
-    // Rows per chunk, estimated from the first row's length, to size the vectors.
-    let row_len = (first_end - p + 1).max(1);
-    let parts: Vec<std::result::Result<Vec<Vec<f64>>, Fault>> = bounds
-        .par_windows(2)
-        .map(|w| {
-            parse_rows(
-                bytes,
-                w[0],
-                w[1],
-                delim,
-                &keep,
-                (w[1] - w[0]) / row_len + 16,
-            )
-        })
-        .collect();
-    let nkeep = keep.iter().filter(|&&k| k).count();
-    let mut cols: Vec<Vec<f64>> = Vec::with_capacity(nkeep);
-    let total: usize = parts
-        .iter()
-        .map(|r| r.as_ref().map_or(0, |c| c.first().map_or(0, Vec::len)))
-        .sum();
-    for _ in 0..nkeep {
-        cols.push(Vec::with_capacity(total));
-    }
-    for part in parts {
-        let part = part.map_err(|f| fault_to_error(bytes, file, f, ncols, delim))?;
-        for (dst, src) in cols.iter_mut().zip(part) {
-            dst.extend_from_slice(&src);
-        }
-    }
+    let layout = TextLayout::new(bytes, file, select)?;
+    let cols = layout.parse_span(bytes, file, layout.data_start, bytes.len())?;
     if cols.first().is_none_or(Vec::is_empty) {
-        return Err(empty());
+        return Err(no_rows(file));
     }
-    // `cols` is in file order of the kept columns; put it in the order asked for.
-    let mut file_order: Vec<usize> = order.clone();
-    file_order.sort_unstable();
-    let mut by_index: Vec<Option<Vec<f64>>> = vec![None; ncols];
-    for (i, c) in file_order.into_iter().zip(cols) {
-        by_index[i] = Some(c);
-    }
-    let columns = order
-        .iter()
-        .map(|&i| Column::from(by_index[i].take().expect("each column once")))
-        .collect();
     Ok(Table {
         file: file.to_string(),
-        names: order.iter().map(|&i| names[i].clone()).collect(),
-        columns,
+        names: layout.kept_names(),
+        columns: cols.into_iter().map(Column::from).collect(),
         rate_hz: None,
         timing: None,
         topic: None,
     })
+}
+
+/// [`parse_text`] of the text file `path` in windows of about `window` bytes (each ends at
+/// the first line end at least `window` bytes past its start), handing the values of each window (the kept columns, in the order asked for) to `f`
+/// instead of collecting them: memory for one window, whatever the file's size. The values
+/// and the errors (lines and columns in the whole file) are those of [`parse_text`]. Returns
+/// the kept columns' names. A regular uncompressed file only (it is memory-mapped, and the
+/// pages of each window parsed are released); `file` is the name used in messages.
+///
+/// ```
+/// let dir = tempfile::tempdir().unwrap();
+/// let p = dir.path().join("x.csv");
+/// std::fs::write(&p, "gx,gy\n1,2\n3,4\n5,6\n").unwrap();
+/// let mut seen = Vec::new();
+/// // a window ends at the first line end at least 3 bytes on: one row each here
+/// let names = imunoise::io::parse_text_windows(&p, "x.csv", None, 3, |cols| {
+///     seen.push(cols);
+///     Ok(())
+/// })
+/// .unwrap();
+/// assert_eq!(names, ["gx", "gy"]);
+/// assert_eq!(seen.len(), 3);
+/// assert_eq!(seen[2], vec![vec![5.0], vec![6.0]]);
+/// ```
+pub fn parse_text_windows(
+    path: &Path,
+    file: &str,
+    select: Option<&[ColumnSpec]>,
+    window: usize,
+    mut f: impl FnMut(Vec<Vec<f64>>) -> Result<()>,
+) -> Result<Vec<String>> {
+    let loaded = load(path, file)?;
+    let bytes: &[u8] = &loaded;
+    let layout = TextLayout::new(bytes, file, select)?;
+    let mut lo = layout.data_start;
+    let mut rows = 0usize;
+    // the map's pages of the windows already parsed, released (the whole pages before `lo`)
+    let page = 4096;
+    let mut released = 0usize;
+    while lo < bytes.len() {
+        let target = lo.saturating_add(window.max(1)).min(bytes.len());
+        let hi = if target >= bytes.len() {
+            bytes.len()
+        } else {
+            bytes[target..]
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(bytes.len(), |i| target + i + 1)
+        };
+        let cols = layout.parse_span(bytes, file, lo, hi)?;
+        rows += cols.first().map_or(0, Vec::len);
+        f(cols)?;
+        lo = hi;
+        if let Bytes::Mapped(map) = &loaded {
+            let upto = lo / page * page;
+            if upto > released {
+                // SAFETY: MADV_DONTNEED on a read-only private file mapping that was never
+                // written drops the page-table entries only; a later read (an error's line
+                // count) maps the same file contents again. A hint: errors are ignored.
+                let _ = unsafe {
+                    map.unchecked_advise_range(
+                        memmap2::UncheckedAdvice::DontNeed,
+                        released,
+                        upto - released,
+                    )
+                };
+                released = upto;
+            }
+        }
+    }
+    if rows == 0 {
+        return Err(no_rows(file));
+    }
+    Ok(layout.kept_names())
 }
 
 #[cfg(test)]

@@ -404,6 +404,98 @@ pub fn unseekable(file: &Path) -> Option<&'static str> {
     }
 }
 
+/// Window of [`decode_text`] in bytes of text: the parse of one window (its values as f64,
+/// about half its size for 17-digit CSV) is what is held in memory at a time.
+pub const TEXT_WINDOW: usize = 64 << 20;
+
+/// The columns of a regular, uncompressed text file (CSV, TSV or whitespace-separated, as
+/// [`crate::io::parse_text`] reads it; `select` as `--columns`) parsed in windows of `window`
+/// bytes ([`crate::io::parse_text_windows`]), each value times `scale`, and written to one
+/// compact f64 temporary file per column, mapped as a [`SampleSource`]: memory for one window,
+/// 8 bytes per value of disk space. The values are those of the in-memory reader, bit for
+/// bit, and so are the errors. Returns the columns' names and their sources.
+///
+/// ```
+/// use avar::SampleSource;
+/// let dir = tempfile::tempdir().unwrap();
+/// let p = dir.path().join("x.csv");
+/// std::fs::write(&p, "gx,gy\n1,2\n3,4\n5,6\n").unwrap();
+/// let (names, cols) = imunoise::source::decode_text(&p, "x.csv", None, Some(0.5), 5).unwrap();
+/// assert_eq!(names, ["gx", "gy"]);
+/// assert_eq!(cols[1].samples(), &[1.0, 2.0, 3.0]);
+/// ```
+pub fn decode_text(
+    file: &Path,
+    name: &str,
+    select: Option<&[crate::io::ColumnSpec]>,
+    scale: Option<f64>,
+    window: usize,
+) -> Result<(Vec<String>, Vec<MappedSamples>)> {
+    if let Some(scale) = scale
+        && !(scale.is_finite() && scale != 0.0)
+    {
+        return Err(Error::Usage(format!(
+            "--scale must be finite and non-zero, got {scale}"
+        )));
+    }
+    let tmp_err = |e: std::io::Error| Error::File {
+        file: name.to_string(),
+        message: format!("cannot write the temporary decoded copy: {e}"),
+    };
+    let mut files: Vec<std::io::BufWriter<std::fs::File>> = Vec::new();
+    let mut rows = 0usize;
+    let mut bytes = Vec::new();
+    // per column, the first row the scale takes beyond f64 (reported for the first such
+    // column, as the in-memory reader does)
+    let mut scaled_out: Vec<Option<usize>> = Vec::new();
+    let names = crate::io::parse_text_windows(file, name, select, window, |cols| {
+        if files.is_empty() {
+            for _ in &cols {
+                let f = tempfile::tempfile().map_err(tmp_err)?;
+                files.push(std::io::BufWriter::with_capacity(1 << 20, f));
+            }
+            scaled_out = vec![None; cols.len()];
+        }
+        for (k, (w, col)) in files.iter_mut().zip(&cols).enumerate() {
+            bytes.clear();
+            bytes.reserve(8 * col.len());
+            for (r, &v) in col.iter().enumerate() {
+                let v = match scale {
+                    Some(s) => v * s,
+                    None => v,
+                };
+                if !v.is_finite() && scaled_out[k].is_none() {
+                    scaled_out[k] = Some(rows + r);
+                }
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+            w.write_all(&bytes).map_err(tmp_err)?;
+        }
+        rows += cols.first().map_or(0, Vec::len);
+        Ok(())
+    })?;
+    let first_out = scaled_out
+        .iter()
+        .enumerate()
+        .find_map(|(k, r)| r.map(|r| (k, r)));
+    if let (Some((k, row)), Some(scale)) = (first_out, scale) {
+        // as the in-memory reader says it
+        return Err(Error::Usage(format!(
+            "--scale {scale:e} takes the value of channel {:?} at row {} beyond the range of f64",
+            names[k],
+            row + 1
+        )));
+    }
+    let sources = files
+        .into_iter()
+        .map(|w| {
+            let f = w.into_inner().map_err(|e| tmp_err(e.into_error()))?;
+            MappedSamples::from_file(&f, name, 0)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok((names, sources))
+}
+
 /// The subject of the notes on an input that cannot be read by position: "standard input",
 /// or the file and why (from [`unseekable`]), e.g. "x.f64.gz is gzip-compressed and".
 pub(crate) fn unseekable_subject(file: &Path, why: &str) -> String {
@@ -630,7 +722,7 @@ fn decode_file_within(
 /// Bytes of decoded samples [`decode_binary`] keeps in memory rather than in temporary files:
 /// a quarter of the memory available when the input is opened (`MemAvailable`), so that
 /// several channels are decoded without writing gigabytes to the disk while there is room.
-fn memory_budget() -> usize {
+pub(crate) fn memory_budget() -> usize {
     std::fs::read_to_string("/proc/meminfo")
         .ok()
         .and_then(|s| {

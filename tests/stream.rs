@@ -345,6 +345,85 @@ fn write_csv(dir: &Path, x: &[f64]) -> std::path::PathBuf {
     p
 }
 
+/// Text parsed in windows into temporary files (`avar_text_streamed`, what `imunoise avar`
+/// does with text files of 256 MiB and more) gives the in-memory path's curves bit for bit,
+/// with a column selection, a scale and names, on 1 and 2 threads, and its errors: a bad
+/// value in a later window and a scale that overflows name the same line, column and row.
+#[test]
+fn text_parsed_in_windows_matches_the_in_memory_path() {
+    use imunoise::pipeline::estimate::avar_text_streamed;
+    let dir = tempfile::tempdir().unwrap();
+    let rows = 100_003;
+    let cols = channels(rows, 3);
+    let mut text = String::from("# a comment line\ngx,gy,gz\n");
+    for ((a, b), c) in cols[0].iter().zip(&cols[1]).zip(&cols[2]) {
+        // shortest round-trip form: the f64 values exactly
+        text.push_str(&format!("{a:e},{b:e},{c:e}\r\n"));
+    }
+    let p = dir.path().join("three.csv");
+    std::fs::write(&p, &text).unwrap();
+    let quiet = Ui::quiet();
+    let input = Input {
+        rate: Some(200.0),
+        columns: Some("gz,gx".into()),
+        scale: Some(1.0 / 131.0),
+        names: Some("z,x".into()),
+        ..Input::new(&p)
+    };
+    let table = input.read(&quiet).unwrap();
+    assert_eq!(table.names, ["z", "x"]);
+    for config in [no_ci(), AvarConfig::default()] {
+        let mem = compute(&table, 200.0, &config, &quiet).unwrap();
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            // windows of 64 KiB: about 60 of them, cut inside the CRLF rows
+            let streamed = pool
+                .install(|| avar_text_streamed(&input, &config, 1 << 16, &quiet))
+                .unwrap();
+            assert_eq!(streamed, mem, "{threads} threads");
+        }
+    }
+    // a bad value far past the first window: the same located error
+    let bad_row = 90_000;
+    let mut lines: Vec<&str> = text.split_inclusive('\n').collect();
+    let broken = lines[2 + bad_row].replacen(',', ",1.5x", 1);
+    lines[2 + bad_row] = &broken;
+    let pb = dir.path().join("bad.csv");
+    std::fs::write(&pb, lines.concat()).unwrap();
+    let bad = Input {
+        rate: Some(200.0),
+        ..Input::new(&pb)
+    };
+    let want = bad.read(&quiet).unwrap_err().to_string();
+    assert!(want.contains(&format!(":{}:", bad_row + 3)), "{want}");
+    let got = avar_text_streamed(&bad, &no_ci(), 1 << 16, &quiet)
+        .unwrap_err()
+        .to_string();
+    assert_eq!(got, want);
+    // a scale beyond f64 for one column: the same message (channel and row)
+    let mut text2 = String::from("a,b\n");
+    for r in 0..50_000 {
+        let big = if r == 40_000 { "1e300" } else { "1" };
+        text2.push_str(&format!("2,{big}\n"));
+    }
+    let p2 = dir.path().join("scale.csv");
+    std::fs::write(&p2, text2).unwrap();
+    let over = Input {
+        rate: Some(1.0),
+        scale: Some(1e10),
+        ..Input::new(&p2)
+    };
+    let want = over.read(&quiet).unwrap_err().to_string();
+    let got = avar_text_streamed(&over, &no_ci(), 1 << 12, &quiet)
+        .unwrap_err()
+        .to_string();
+    assert_eq!(got, want);
+    assert!(want.contains("\"b\" at row 40001"), "{want}");
+}
+
 /// Errors name the file and, for a bad value, its row and channel; a partial row is named.
 #[test]
 fn streamed_errors_are_located() {

@@ -141,7 +141,11 @@ pub struct InputArgs {
     /// file: 8 bytes per sample of each channel of the group) while they fit in a quarter of
     /// the available memory, else into temporary files; gzip, standard input and pipes (which
     /// cannot seek) are decoded once into temporary files (8 bytes per sample and channel of
-    /// disk space, not memory). The
+    /// disk space, not memory), and a note says so. A regular uncompressed text file larger
+    /// than a quarter of the available memory (without --time-column) is parsed in 64 MiB
+    /// windows into such temporary files too; other text, gzip text and text from standard
+    /// input or a pipe are read whole into memory (a note says so for standard input and
+    /// pipes). The
     /// chi-square CI (the default) streams too, reading the series three more times with 16
     /// bytes per 64 samples and 16 MiB per thread; the Gaussian CI holds 8 more bytes per
     /// sample. Series shorter than 4194304 samples are estimated in memory (8 bytes per

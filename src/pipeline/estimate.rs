@@ -633,9 +633,113 @@ pub fn avar_file(
         let curves = avar_streamed(input, config, ui)?;
         return Ok((input.file.display().to_string(), curves));
     }
+    if streams_text(input) {
+        let curves = avar_text_streamed(input, config, crate::source::TEXT_WINDOW, ui)?;
+        return Ok((input.file.display().to_string(), curves));
+    }
     let table = input.read(ui)?;
     let curves = compute(&table, table.rate()?, config, ui)?;
     Ok((table.file, curves))
+}
+
+/// Whether `imunoise avar` parses `input` in windows ([`avar_text_streamed`]): a regular,
+/// uncompressed text file longer than a quarter of the available memory (reading it into a
+/// table takes about its size in memory, mapped, and 8 bytes per value beside it), not a
+/// log, without a time column or topics.
+fn streams_text(input: &super::read::Input) -> bool {
+    input.binary.is_none()
+        && input.log_format().is_none()
+        && input.time_column.is_none()
+        && input.topic.is_empty()
+        && input.channels.is_none()
+        && crate::source::unseekable(&input.file).is_none()
+        && std::fs::metadata(&input.file)
+            .is_ok_and(|m| m.len() as usize > crate::source::memory_budget())
+}
+
+/// Each channel's Allan variance of a regular, uncompressed text file (CSV, TSV or
+/// whitespace-separated) without holding it in memory: the text is parsed in windows of
+/// `window` bytes into one compact f64 temporary file per column
+/// ([`crate::source::decode_text`]), and each is estimated by
+/// [`avar::allan_variance_source`]. Bit-identical to [`compute`] on the table
+/// [`super::read::Input::read`] returns (the same values, names, selection, scale and
+/// errors). `rate` is required. `imunoise avar` takes this path for text files longer than a
+/// quarter of the available memory.
+///
+/// ```
+/// use imunoise::pipeline::{estimate::avar_text_streamed, read::Input};
+/// use avar::{AvarConfig, CiMethod};
+/// let dir = tempfile::tempdir().unwrap();
+/// let p = dir.path().join("x.csv");
+/// let rows: String = (0..4096).map(|i| format!("{},{}\n", i % 7, i % 3)).collect();
+/// std::fs::write(&p, format!("gx,gy\n{rows}")).unwrap();
+/// let input = Input { rate: Some(100.0), columns: Some("gy".into()), ..Input::new(&p) };
+/// let cfg = AvarConfig { ci: CiMethod::None, ..Default::default() };
+/// let curves = avar_text_streamed(&input, &cfg, 1000, &imunoise::Ui::quiet()).unwrap();
+/// assert_eq!(curves[0].0, "gy");
+/// assert_eq!(curves[0].1.n, 4096);
+/// ```
+pub fn avar_text_streamed(
+    input: &super::read::Input,
+    config: &AvarConfig,
+    window: usize,
+    ui: &Ui,
+) -> Result<ChannelCurves> {
+    let file = input.file.display().to_string();
+    if input.binary.is_some() || input.time_column.is_some() || !input.topic.is_empty() {
+        return Err(Error::Usage(format!(
+            "{file}: only text without --binary, --time-column or --topic is parsed in windows"
+        )));
+    }
+    if input.channels.is_some() {
+        return Err(Error::Usage(
+            "--channels is for binary input; text input has its columns".to_string(),
+        ));
+    }
+    let Some(rate_hz) = input.rate else {
+        return Err(Error::Usage(format!(
+            "{file}: --rate is required (the file has no time stamps; for text with a time \
+             column give --time-column NAME)"
+        )));
+    };
+    let select = input
+        .columns
+        .as_deref()
+        .map(crate::io::parse_columns)
+        .transpose()?;
+    let size = std::fs::metadata(&input.file).map_or(0, |m| m.len());
+    ui.note(format!(
+        "note: {file} ({:.0} MB of text) is parsed in windows of {} MiB into temporary files \
+         in {} (8 bytes per value of disk space, deleted at the end), not into memory",
+        size as f64 / 1e6,
+        window >> 20,
+        std::env::temp_dir().display()
+    ));
+    let pb = ui.spinner(format!("parsing {file}"));
+    let (mut names, sources) =
+        crate::source::decode_text(&input.file, &file, select.as_deref(), input.scale, window)?;
+    pb.finish_and_clear();
+    if let Some(list) = &input.names {
+        let given: Vec<String> = list.split(',').map(|n| n.trim().to_string()).collect();
+        if given.len() != names.len() {
+            return Err(Error::Usage(format!(
+                "--names gives {} names for {} channels",
+                given.len(),
+                names.len()
+            )));
+        }
+        names = given;
+    }
+    let pb = ui.bar(names.len() as u64, "Allan var.");
+    let mut out = Vec::with_capacity(names.len());
+    for (src, name) in sources.iter().zip(&names) {
+        let av = avar::allan_variance_source(src, rate_hz, config)
+            .map_err(|e| avar_error(&file, name, e))?;
+        out.push((name.clone(), av));
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    Ok(out)
 }
 
 /// Whether [`avar_streamed`] can read `input`: raw binary (`--binary`), not a log, without a

@@ -312,8 +312,22 @@ impl Input {
     /// `--scale` and `--names`, after the columns are final.
     fn finish(&self, t: &mut Table) -> Result<()> {
         if let Some(scale) = self.scale {
-            for c in &mut t.columns {
+            if !(scale.is_finite() && scale != 0.0) {
+                return Err(Error::Usage(format!(
+                    "--scale must be finite and non-zero, got {scale}"
+                )));
+            }
+            for (k, c) in t.columns.iter_mut().enumerate() {
                 c.to_mut().iter_mut().for_each(|v| *v *= scale);
+                // a scale that takes a value beyond f64 is named, not turned into inf silently
+                if let Some(row) = c.iter().position(|v| !v.is_finite()) {
+                    return Err(Error::Usage(format!(
+                        "--scale {scale:e} takes the value of channel {:?} at row {} beyond the \
+                         range of f64",
+                        t.names[k],
+                        row + 1
+                    )));
+                }
             }
         }
         self.finish_names(t)
