@@ -716,20 +716,10 @@ pub fn avar_text_streamed(
         std::env::temp_dir().display()
     ));
     let pb = ui.spinner(format!("parsing {file}"));
-    let (mut names, sources) =
+    let (names, sources) =
         crate::source::decode_text(&input.file, &file, select.as_deref(), input.scale, window)?;
     pb.finish_and_clear();
-    if let Some(list) = &input.names {
-        let given: Vec<String> = list.split(',').map(|n| n.trim().to_string()).collect();
-        if given.len() != names.len() {
-            return Err(Error::Usage(format!(
-                "--names gives {} names for {} channels",
-                given.len(),
-                names.len()
-            )));
-        }
-        names = given;
-    }
+    let names = input.renamed(names)?;
     let pb = ui.bar(names.len() as u64, "Allan var.");
     let mut out = Vec::with_capacity(names.len());
     for (src, name) in sources.iter().zip(&names) {
@@ -804,18 +794,7 @@ pub fn avar_streamed(
         Some(list) => crate::io::resolve_columns(&crate::io::parse_columns(list)?, &all)?,
         None => (0..channels).collect(),
     };
-    let mut names: Vec<String> = idx.iter().map(|&i| all[i].clone()).collect();
-    if let Some(list) = &input.names {
-        let given: Vec<String> = list.split(',').map(|n| n.trim().to_string()).collect();
-        if given.len() != names.len() {
-            return Err(Error::Usage(format!(
-                "--names gives {} names for {} channels",
-                given.len(),
-                names.len()
-            )));
-        }
-        names = given;
-    }
+    let names = input.renamed(idx.iter().map(|&i| all[i].clone()).collect())?;
     let Some(rate_hz) = input.rate else {
         return Err(Error::Usage(format!(
             "{file}: --rate is required (the file has no time stamps; for text with a time \

@@ -335,18 +335,25 @@ impl Input {
 
     /// `--names`, after the columns are final.
     fn finish_names(&self, t: &mut Table) -> Result<()> {
-        if let Some(names) = &self.names {
-            let names: Vec<String> = names.split(',').map(|n| n.trim().to_string()).collect();
-            if names.len() != t.names.len() {
-                return Err(Error::Usage(format!(
-                    "--names gives {} names for {} channels",
-                    names.len(),
-                    t.names.len()
-                )));
-            }
-            t.names = names;
-        }
+        t.names = self.renamed(std::mem::take(&mut t.names))?;
         Ok(())
+    }
+
+    /// The channel names after `--names` (the given ones, one per channel), or `names` as
+    /// they are without it.
+    pub(crate) fn renamed(&self, names: Vec<String>) -> Result<Vec<String>> {
+        let Some(list) = &self.names else {
+            return Ok(names);
+        };
+        let given: Vec<String> = list.split(',').map(|n| n.trim().to_string()).collect();
+        if given.len() != names.len() {
+            return Err(Error::Usage(format!(
+                "--names gives {} names for {} channels",
+                given.len(),
+                names.len()
+            )));
+        }
+        Ok(given)
     }
 
     fn read_log(&self, fmt: logs::LogFormat, ui: &Ui) -> Result<Vec<Table>> {
