@@ -999,8 +999,9 @@ pub fn parse_text(bytes: &[u8], file: &str, select: Option<&[ColumnSpec]>) -> Re
 /// the first line end at least `window` bytes past its start), handing the values of each window (the kept columns, in the order asked for) to `f`
 /// instead of collecting them: memory for one window, whatever the file's size. The values
 /// and the errors (lines and columns in the whole file) are those of [`parse_text`]. Returns
-/// the kept columns' names. A regular uncompressed file only (it is memory-mapped, and the
-/// pages of each window parsed are released); `file` is the name used in messages.
+/// the kept columns' names. For a regular uncompressed file (memory-mapped, and the pages of
+/// each window parsed are released; standard input and pipes are read into memory first, and
+/// gzip-compressed data are refused); `file` is the name used in messages.
 ///
 /// ```
 /// let dir = tempfile::tempdir().unwrap();
@@ -1026,6 +1027,13 @@ pub fn parse_text_windows(
 ) -> Result<Vec<String>> {
     let loaded = load(path, file)?;
     let bytes: &[u8] = &loaded;
+    if bytes.starts_with(&[0x1f, 0x8b]) {
+        return Err(Error::File {
+            file: file.to_string(),
+            message: "is gzip-compressed: it is read whole (read_table), not in windows"
+                .to_string(),
+        });
+    }
     let layout = TextLayout::new(bytes, file, select)?;
     let mut lo = layout.data_start;
     let mut rows = 0usize;

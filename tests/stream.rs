@@ -422,6 +422,23 @@ fn text_parsed_in_windows_matches_the_in_memory_path() {
         .to_string();
     assert_eq!(got, want);
     assert!(want.contains("\"b\" at row 40001"), "{want}");
+    // gzip-compressed text is not parsed in windows (it is read whole): refused, not misread
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    gz.write_all(b"a\n1\n2\n3\n").unwrap();
+    let pz = dir.path().join("x.csv.gz");
+    std::fs::write(&pz, gz.finish().unwrap()).unwrap();
+    let err = avar_text_streamed(
+        &Input {
+            rate: Some(1.0),
+            ..Input::new(&pz)
+        },
+        &no_ci(),
+        1 << 12,
+        &quiet,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("gzip-compressed"), "{err}");
 }
 
 /// Errors name the file and, for a bad value, its row and channel; a partial row is named.
