@@ -226,14 +226,16 @@ impl Table {
 
     /// The sampling rate (Hz), or a usage error saying that `--rate` is needed.
     pub fn rate(&self) -> Result<f64> {
-        self.rate_hz.ok_or_else(|| {
-            Error::Usage(format!(
-                "{}: --rate is required (the file has no time stamps; for text with a time \
-                 column give --time-column NAME)",
-                self.file
-            ))
-        })
+        self.rate_hz.ok_or_else(|| rate_required(&self.file))
     }
+}
+
+/// The usage error of an input of `file` without time stamps read without `--rate`.
+pub(crate) fn rate_required(file: &str) -> Error {
+    Error::Usage(format!(
+        "{file}: --rate is required (the file has no time stamps; for text with a time column \
+         give --time-column NAME)"
+    ))
 }
 
 /// The bytes of a file: memory-mapped, or decompressed into memory for gzip.

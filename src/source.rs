@@ -799,6 +799,13 @@ fn decode_typed<const S: usize>(
     finite
 }
 
+/// `n` anonymous buffers of `rows` f64 each (the decoders' channel copies).
+fn anon_buffers(n: usize, rows: usize, name: &str) -> Result<Vec<memmap2::MmapMut>> {
+    (0..n)
+        .map(|_| memmap2::MmapMut::map_anon(8 * rows).map_err(|e| Error::io(name, e)))
+        .collect()
+}
+
 /// [`decode_file`] into anonymous memory (when it fits in [`memory_budget`]).
 fn decode_to_memory(
     f: &std::fs::File,
@@ -808,10 +815,7 @@ fn decode_to_memory(
     rows: usize,
     per_block: usize,
 ) -> Result<Vec<MappedSamples>> {
-    let mut maps = Vec::with_capacity(channels.len());
-    for _ in channels {
-        maps.push(memmap2::MmapMut::map_anon(8 * rows).map_err(|e| Error::io(name, e))?);
-    }
+    let mut maps = anon_buffers(channels.len(), rows, name)?;
     decode_into(f, name, layout, channels, rows, per_block, &mut maps)?;
     Ok(maps
         .into_iter()
@@ -872,10 +876,7 @@ pub fn for_channel_groups(
     };
     let row = layout.row_bytes();
     let per_block = ((1 << 20) / row).max(1);
-    let mut maps = Vec::with_capacity(group);
-    for _ in 0..group {
-        maps.push(memmap2::MmapMut::map_anon(8 * rows).map_err(|e| Error::io(name, e))?);
-    }
+    let mut maps = anon_buffers(group, rows, name)?;
     for (g, cs) in channels.chunks(group).enumerate() {
         let maps = &mut maps[..cs.len()];
         decode_into(&fh, name, layout, cs, rows, per_block, maps)?;

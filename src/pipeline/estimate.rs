@@ -696,12 +696,7 @@ pub fn avar_text_streamed(
             "--channels is for binary input; text input has its columns".to_string(),
         ));
     }
-    let Some(rate_hz) = input.rate else {
-        return Err(Error::Usage(format!(
-            "{file}: --rate is required (the file has no time stamps; for text with a time \
-             column give --time-column NAME)"
-        )));
-    };
+    let rate_hz = input.rate.ok_or_else(|| crate::io::rate_required(&file))?;
     let select = input
         .columns
         .as_deref()
@@ -722,14 +717,30 @@ pub fn avar_text_streamed(
     let names = input.renamed(names)?;
     let pb = ui.bar(names.len() as u64, "Allan var.");
     let mut out = Vec::with_capacity(names.len());
-    for (src, name) in sources.iter().zip(&names) {
-        let av = avar::allan_variance_source(src, rate_hz, config)
-            .map_err(|e| avar_error(&file, name, e))?;
+    let refs: Vec<&dyn avar::SampleSource> = sources.iter().map(|s| s as _).collect();
+    estimate_sources(&refs, &names, rate_hz, config, &file, &pb, &mut out)?;
+    pb.finish_and_clear();
+    Ok(out)
+}
+
+/// The Allan variance of each source (named by `names`, in order) appended to `out`, a step
+/// of `pb` each: the estimation step of both streamed paths.
+fn estimate_sources(
+    sources: &[&dyn avar::SampleSource],
+    names: &[String],
+    rate_hz: f64,
+    config: &AvarConfig,
+    file: &str,
+    pb: &indicatif::ProgressBar,
+    out: &mut ChannelCurves,
+) -> Result<()> {
+    for (src, name) in sources.iter().zip(names) {
+        let av = avar::allan_variance_source(*src, rate_hz, config)
+            .map_err(|e| avar_error(file, name, e))?;
         out.push((name.clone(), av));
         pb.inc(1);
     }
-    pb.finish_and_clear();
-    Ok(out)
+    Ok(())
 }
 
 /// Whether [`avar_streamed`] can read `input`: raw binary (`--binary`), not a log, without a
@@ -795,12 +806,7 @@ pub fn avar_streamed(
         None => (0..channels).collect(),
     };
     let names = input.renamed(idx.iter().map(|&i| all[i].clone()).collect())?;
-    let Some(rate_hz) = input.rate else {
-        return Err(Error::Usage(format!(
-            "{file}: --rate is required (the file has no time stamps; for text with a time \
-             column give --time-column NAME)"
-        )));
-    };
+    let rate_hz = input.rate.ok_or_else(|| crate::io::rate_required(&file))?;
     if let Some(why) = crate::source::unseekable(&input.file) {
         ui.note(format!(
             "note: {} cannot be read by position: it is decoded once, in one pass, into \
@@ -813,13 +819,15 @@ pub fn avar_streamed(
     let pb = ui.bar(names.len() as u64, "Allan var.");
     let mut out = Vec::with_capacity(names.len());
     crate::source::for_channel_groups(&input.file, &file, &layout, &idx, |first, group| {
-        for (src, name) in group.iter().zip(&names[first..]) {
-            let av = avar::allan_variance_source(*src, rate_hz, config)
-                .map_err(|e| avar_error(&file, name, e))?;
-            out.push((name.clone(), av));
-            pb.inc(1);
-        }
-        Ok(())
+        estimate_sources(
+            group,
+            &names[first..],
+            rate_hz,
+            config,
+            &file,
+            &pb,
+            &mut out,
+        )
     })?;
     pb.finish_and_clear();
     Ok(out)
