@@ -1,6 +1,8 @@
 //! Times the robust Allan variance of a white-noise + random-walk rate series (profiling aid):
-//! `cargo run -p imunoise-avar --release --example robust_prof -- [T] [reps] [channels]`, the
-//! channels estimated in parallel as `imunoise analyze` does.
+//! `cargo run -p imunoise-avar --release --example robust_prof -- [T] [reps] [channels]
+//! [uniform|gauss]`, the channels estimated in parallel as `imunoise analyze` does. The white
+//! noise is uniform by default, Gaussian (Box–Muller) with `gauss`: the robust estimator's
+//! Newton iteration starts nearer its root on Gaussian data.
 use avar::robust::robust_allan_variance_from;
 use avar::{AvarConfig, allan_variance};
 use rayon::prelude::*;
@@ -14,6 +16,7 @@ fn main() {
         .unwrap_or(1.08e7) as usize;
     let reps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3);
     let channels: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(6);
+    let gauss = args.get(4).is_some_and(|s| s == "gauss");
     let xs: Vec<Vec<f64>> = (0..channels as u64)
         .map(|c| {
             let mut s = 0x9E37_79B9_7F4A_7C15u64 ^ (c + 1);
@@ -24,8 +27,17 @@ fn main() {
                     s ^= s >> 7;
                     s ^= s << 17;
                     let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                    let w = if gauss {
+                        s ^= s << 13;
+                        s ^= s >> 7;
+                        s ^= s << 17;
+                        let v = ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+                        (-2.0 * v.ln()).sqrt() * (std::f64::consts::TAU * (u + 0.5)).cos()
+                    } else {
+                        u
+                    };
                     rw += u * 1e-4;
-                    u + rw
+                    w + rw
                 })
                 .collect()
         })
