@@ -586,7 +586,9 @@ pub fn robust_curves(
         ..AvarConfig::default()
     };
     // channels in parallel: each has serial parts (prefix sums, spike replacement) and a few
-    // dominant scales
+    // dominant scales; their buffers are lent by one scratch (fresh pages once per concurrent
+    // channel, not per channel)
+    let scratch = avar::robust::RobustScratch::default();
     table
         .names
         .par_iter()
@@ -595,7 +597,13 @@ pub fn robust_curves(
         .map(|(k, (n, x))| {
             match classical {
                 Some(c) => {
-                    avar::robust::robust_allan_variance_from(x, c[k].1.clone(), &cfg, efficiency)
+                    avar::robust::robust_allan_variance_from_with(
+                        x,
+                        c[k].1.clone(),
+                        &cfg,
+                        efficiency,
+                        &scratch,
+                    )
                 }
                 None => avar::robust::robust_allan_variance(x, rate, &cfg, efficiency),
             }
