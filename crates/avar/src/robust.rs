@@ -503,7 +503,7 @@ pub fn robust_mean_square_detail(d: &[f64], bw: &Biweight) -> Result<RobustScale
 /// neighbourhood rule); only the number of passes differs.
 fn newton_start(ms: f64, mad: f64) -> f64 {
     let s_mad = mad * mad;
-    if !(s_mad > 0.0) {
+    if s_mad.is_nan() || s_mad <= 0.0 {
         return ms;
     }
     if (ms / s_mad).ln().abs() < 0.1 { ms } else { s_mad }
@@ -1144,10 +1144,9 @@ fn sq_sum_diff_lanes(hi: &[f64], mid: &[f64], lo: &[f64], inv_m: f64) -> f64 {
             acc[j] += x * x;
         }
     }
-    for j in 0..n - full {
-        let i = full + j;
+    for (a, i) in acc.iter_mut().zip(full..n) {
         let x = (hi[i] - 2.0 * mid[i] + lo[i]) * inv_m;
-        acc[j] += x * x;
+        *a += x * x;
     }
     ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]))
 }
