@@ -4,8 +4,9 @@
 //! - [`autocovariance`]: γ̂(h) = (1/N) Σ_{t=1}^{N−h} (x_t − x̄)(x_{t+h} − x̄), h = 0..=H, by a
 //!   real FFT zero-padded to a power of two ≥ N + H (no circular wrap-around), so it equals
 //!   the direct O(N·H) sum [`autocovariance_direct`] up to rounding; O(N log N). A long series
-//!   with few lags (N + H beyond four blocks of 4·(H + 1), at least 4096) goes by blocks
-//!   instead: O(N log H), small transforms that stay in cache.
+//!   with few lags (N beyond four blocks of B ≥ H, a power of two ≥ 2048) goes by blocks
+//!   instead, one transform of length 2B per block: O(N log H), small transforms that stay in
+//!   cache.
 //! - [`periodogram`]: P(f_k) = Δt/N |Σ_t (x_t − x̄) e^(−2πi k t/N)|², f_k = k·rate/N.
 //! - [`welch`]: segments of length L with a given overlap, each demeaned, windowed (Hann by
 //!   default) and normalised by Σw², P = Δt|Σ w_t x_t e^(…)|²/Σw²; the average over
@@ -60,9 +61,9 @@ pub fn autocovariance(x: &[f64], max_lag: usize) -> Result<Vec<f64>> {
     check_series(x, max_lag + 1)?;
     let n = x.len();
     let xm = mean(x);
-    let block_len = (4 * (max_lag + 1)).next_power_of_two().max(1 << 12);
-    if n + max_lag > 4 * block_len {
-        return autocovariance_blocked(x, xm, max_lag, block_len);
+    let block = max_lag.max(1).next_power_of_two().max(1 << 11);
+    if n > 4 * block {
+        return autocovariance_blocked(x, xm, max_lag, block);
     }
     let len = (n + max_lag).next_power_of_two().max(2);
     let mut planner = RealFftPlanner::<f64>::new();
@@ -83,46 +84,54 @@ pub fn autocovariance(x: &[f64], max_lag: usize) -> Result<Vec<f64>> {
     Ok(out[..=max_lag].iter().map(|v| v * scale).collect())
 }
 
-/// [`autocovariance`] of a long series with few lags (N + H > 4·`len`): the series is cut into
-/// blocks a_j of B = `len` − H samples, and Σ_t d_t d_{t+h} = Σ_j Σ_{t∈a_j} d_t d_{t+h} is the
-/// lag-h cross-correlation of each block with the block extended by the next H samples. Both
-/// are zero-padded to `len` ≥ B + H, so the negative lags, which wrap around to indices
-/// ≥ `len` − B + 1 > H, do not reach lags 0..=H; the cross-spectra conj(A_j)·E_j are summed
-/// and one inverse FFT gives all lags: O(N log `len`) instead of O(N log N), with small FFTs
-/// that stay in cache (no series-sized buffer).
-fn autocovariance_blocked(x: &[f64], xm: f64, max_lag: usize, len: usize) -> Result<Vec<f64>> {
+/// [`autocovariance`] of a long series with few lags (N > 4·`b`, `b` ≥ H a power of two): the
+/// series is cut into blocks a_j of B = `b` samples, and Σ_t d_t d_{t+h} = Σ_j Σ_{t∈a_j} d_t
+/// d_{t+h} is the lag-h cross-correlation of each block with the pair (a_j, a_{j+1}). With
+/// transforms of length 2B the pair fills the whole buffer and the block alone its first
+/// half, so no lag 0..=H ≤ B wraps around; and the pair's transform is A_j + (−1)^k A_{j+1}
+/// (a shift by half the length), so each block is transformed once: the cross-spectra
+/// conj(A_j)·(A_j + (−1)^k A_{j+1}) are summed and one inverse FFT gives all lags. O(N log B)
+/// instead of O(N log N), with small FFTs that stay in cache (no series-sized buffer).
+fn autocovariance_blocked(x: &[f64], xm: f64, max_lag: usize, b: usize) -> Result<Vec<f64>> {
     let n = x.len();
-    let b = len - max_lag;
+    let len = 2 * b;
     let mut planner = RealFftPlanner::<f64>::new();
     let r2c = planner.plan_fft_forward(len);
     let c2r = planner.plan_fft_inverse(len);
     let mut buf = r2c.make_input_vec();
-    let mut a_spec = r2c.make_output_vec();
-    let mut e_spec = r2c.make_output_vec();
     let mut scratch = r2c.make_scratch_vec();
-    let mut acc = vec![Complex::new(0.0, 0.0); a_spec.len()];
-    let mut start = 0;
-    while start < n {
-        let end = (start + b).min(n);
-        let ext = (end + max_lag).min(n);
-        // the block extended by the next H samples
+    // the spectrum of block j, zero-padded to 2B
+    let mut spectrum = |j: usize, out: &mut [Complex<f64>]| -> Result<()> {
         buf.fill(0.0);
-        for (o, &v) in buf.iter_mut().zip(&x[start..ext]) {
+        let (lo, hi) = (j * b, ((j + 1) * b).min(n));
+        for (o, &v) in buf.iter_mut().zip(&x[lo..hi]) {
             *o = v - xm;
         }
-        r2c.process_with_scratch(&mut buf, &mut e_spec, &mut scratch)
-            .map_err(fft_error)?;
-        // the block alone
-        buf.fill(0.0);
-        for (o, &v) in buf.iter_mut().zip(&x[start..end]) {
-            *o = v - xm;
+        r2c.process_with_scratch(&mut buf, out, &mut scratch)
+            .map_err(fft_error)
+    };
+    let mut cur = r2c.make_output_vec();
+    let mut next = r2c.make_output_vec();
+    let mut acc = vec![Complex::new(0.0, 0.0); cur.len()];
+    let blocks = n.div_ceil(b);
+    spectrum(0, &mut cur)?;
+    for j in 0..blocks {
+        if j + 1 < blocks {
+            spectrum(j + 1, &mut next)?;
+        } else {
+            next.fill(Complex::new(0.0, 0.0));
         }
-        r2c.process_with_scratch(&mut buf, &mut a_spec, &mut scratch)
-            .map_err(fft_error)?;
-        for ((s, a), e) in acc.iter_mut().zip(&a_spec).zip(&e_spec) {
-            *s += a.conj() * e;
+        // (−1)^k: even and odd bins in pairs, then the last bin (k = B, even)
+        let pairs = acc
+            .chunks_exact_mut(2)
+            .zip(cur.chunks_exact(2))
+            .zip(next.chunks_exact(2));
+        for ((s, a), e) in pairs {
+            s[0] += a[0].conj() * (a[0] + e[0]);
+            s[1] += a[1].conj() * (a[1] - e[1]);
         }
-        start = end;
+        acc[b] += cur[b].conj() * (cur[b] + next[b]);
+        std::mem::swap(&mut cur, &mut next);
     }
     // the inverse of a real correlation's spectrum: the imaginary parts at 0 and len/2 are
     // rounding only

@@ -8,9 +8,10 @@ use spectral::empirical::{WelchConfig, autocovariance, autocovariance_direct, we
 use spectral::psd;
 use spectral::tolerances::{FFT_ACV_REL, WELCH_MIN_COVERAGE};
 
-/// Both FFT paths (one transform of the whole series, and blocks of 4·(H + 1) rounded up to a
-/// power of two ≥ 4096 once N + H exceeds four blocks) against the direct sum, including
-/// lengths that are not a multiple of the block and a last block shorter than H.
+/// Both FFT paths (one transform of the whole series, and blocks of B ≥ H, a power of two
+/// ≥ 2048, transformed at length 2B once N exceeds four blocks) against the direct sum,
+/// including lengths that are not a multiple of the block, a last block of one sample, a last
+/// block shorter than H, and H = B (the largest lag that cannot wrap around).
 #[test]
 fn both_fft_paths_equal_the_direct_sum() {
     let model = Model::from(Process::from(Ar1::new(0.9, 1.0).unwrap()));
@@ -21,12 +22,15 @@ fn both_fft_paths_equal_the_direct_sum() {
         .into_iter()
         .map(|v| v - 250.0)
         .collect();
-    // (N, H): the whole-series FFT; blocks of B = 4096 − 10; N + H = four blocks + 2; blocks of
-    // 8192 − 2047; six blocks of 3096 and a last one of 500 < H
+    // (N, H): the whole-series FFT (twice, the second at N = 4B exactly); blocks of 2048 with
+    // a last one of 621 samples; a last block of one sample; H = B = 2048 and H = 2047; nine
+    // blocks of 2048 and a last one of 644 < H
     for (n, h) in [
         (3000, 1000),
+        (8192, 5),
         (60_013, 10),
         (16_385, 1),
+        (60_013, 2048),
         (60_013, 2047),
         (19_076, 1000),
     ] {
