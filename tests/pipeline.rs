@@ -70,7 +70,7 @@ fn fit_json_of_the_library_is_the_commands() {
         ..fit::FitSettings::default()
     };
     let (table, units, curves) = estimate::read_curves(&input(&path), settings.alpha, &ui).unwrap();
-    let quality = estimate::check_quality(&table, 100.0, &ui).unwrap();
+    let quality = estimate::check_quality(&table, 100.0, Some(&curves), &ui).unwrap();
     let mut fits = fit::fit_all(&curves, &units, &settings, &ui).unwrap();
     fit::attach_quality(&mut fits, quality);
     let lib = serde_json::to_string(&fit::FitJson { channels: fits }).unwrap();

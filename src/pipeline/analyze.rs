@@ -111,7 +111,7 @@ pub fn analyze(
     let fit = settings.effective_fit();
     let robust = super::fit::robust_efficiency(settings.robust, settings.efficiency)?;
     let curves = fit_curves(&table, fit.alpha, ui)?;
-    let quality = check_quality(&table, rate, ui)?;
+    let quality = check_quality(&table, rate, Some(&curves), ui)?;
     let mut fits = fit_all_robust(&curves, &units, &fit, None, ui)?;
     attach_quality(&mut fits, quality);
     // the contamination check, always

@@ -545,17 +545,25 @@ pub fn fit_curves(table: &Table, alpha: f64, ui: &Ui) -> Result<ChannelCurves> {
 /// The data-quality pass ([`avar::quality`]) of every channel of `table` at `rate` Hz: one list
 /// of findings per channel (spikes, level shifts, a dominant trend, each with its times and how
 /// it biases the AV), printed as notes before any fitting. Channels shorter than 64 samples are
-/// not examined.
-pub fn check_quality(table: &Table, rate: f64, ui: &Ui) -> Result<Vec<Vec<String>>> {
+/// not examined. `classical`: the channels' classical curves from [`fit_curves`], whose AV at
+/// the pass's three scales is read instead of computed again (the same findings).
+pub fn check_quality(
+    table: &Table,
+    rate: f64,
+    classical: Option<&ChannelCurves>,
+    ui: &Ui,
+) -> Result<Vec<Vec<String>>> {
     let out = table
         .names
         .par_iter()
         .zip(&table.columns)
-        .map(|(name, x)| {
+        .enumerate()
+        .map(|(k, (name, x))| {
             if x.len() < 64 {
                 return Ok(Vec::new());
             }
-            let q = avar::quality::data_quality(x, rate, &Default::default())
+            let given = classical.and_then(|c| c.get(k)).map(|c| &c.1);
+            let q = avar::quality::data_quality_with(x, rate, &Default::default(), given)
                 .map_err(|e| avar_error(&table.file, name, e))?;
             Ok(q.findings
                 .iter()

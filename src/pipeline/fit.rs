@@ -949,11 +949,11 @@ pub fn fit_table(
 ) -> Result<Vec<ChannelFit>> {
     let rate = table.rate()?;
     let mut curves = super::estimate::fit_curves(table, settings.alpha, ui)?;
+    let quality = super::estimate::check_quality(table, rate, Some(&curves), ui)?;
     if let Some(e) = robust {
         let r = robust_curves(table, rate, settings.alpha, e, Some(&curves))?;
         curves = r.into_iter().map(|(n, r)| (n, r.robust)).collect();
     }
-    let quality = super::estimate::check_quality(table, rate, ui)?;
     let mut fits = fit_all_robust(&curves, units, settings, robust, ui)?;
     attach_quality(&mut fits, quality);
     Ok(fits)

@@ -37,7 +37,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{AvarConfig, AvarError, CiMethod, Scales};
+use crate::{AllanVariance, AvarConfig, AvarError, CiMethod, Estimator, InputKind, Scales};
 
 /// Thresholds of the data-quality pass.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -138,6 +138,32 @@ pub fn data_quality(
     rate_hz: f64,
     opts: &QualityOptions,
 ) -> Result<DataQuality, AvarError> {
+    data_quality_with(x, rate_hz, opts, None)
+}
+
+/// [`data_quality`] reading the AV at m = 2 and at the two longest dyadic scales from
+/// `classical`, the overlapping AV of the same samples and rate (any CI, any scale set
+/// holding those three; as [`crate::allan_variance`] computes it, whose value at a scale does
+/// not depend on the other scales), instead of computing them; the same result, bit for bit.
+/// Without such a curve (`None`, other samples, a scale missing) they are computed.
+///
+/// ```
+/// use avar::{AvarConfig, allan_variance};
+/// use avar::quality::{QualityOptions, data_quality, data_quality_with};
+/// let x: Vec<f64> = (0..5000).map(|i| ((i * 7919) % 101) as f64 + 1e-3 * i as f64).collect();
+/// let av = allan_variance(&x, 10.0, &AvarConfig::default()).unwrap();
+/// let opts = QualityOptions::default();
+/// assert_eq!(
+///     data_quality_with(&x, 10.0, &opts, Some(&av)).unwrap(),
+///     data_quality(&x, 10.0, &opts).unwrap()
+/// );
+/// ```
+pub fn data_quality_with(
+    x: &[f64],
+    rate_hz: f64,
+    opts: &QualityOptions,
+    classical: Option<&AllanVariance>,
+) -> Result<DataQuality, AvarError> {
     crate::validate_rate_alpha(rate_hz, 0.05)?;
     if x.len() < 64 {
         return Err(AvarError::TooShort {
@@ -151,13 +177,30 @@ pub fn data_quality(
     let level_shifts = find_shifts(x, &spikes, rate_hz, opts);
     // AV at the first scale and the two longest dyadic ones, for the shares
     let top = (t as f64).log2().floor() as u32 - 1;
-    let cfg = AvarConfig {
-        scales: Scales::Explicit(vec![2, 1 << (top - 1), 1 << top]),
-        ci: CiMethod::None,
-        ..AvarConfig::default()
+    let ms = [2u64, 1 << (top - 1), 1 << top];
+    let given = classical
+        .filter(|c| {
+            c.n == t
+                && c.rate_hz == rate_hz
+                && c.input == InputKind::Rate
+                && c.estimator == Estimator::Overlapping
+        })
+        .and_then(|c| {
+            let at = |m: u64| c.points.iter().find(|p| p.m == m).map(|p| p.avar);
+            Some([at(ms[0])?, at(ms[1])?, at(ms[2])?])
+        });
+    let [av2, av_l1, av_l] = match given {
+        Some(v) => v,
+        None => {
+            let cfg = AvarConfig {
+                scales: Scales::Explicit(ms.to_vec()),
+                ci: CiMethod::None,
+                ..AvarConfig::default()
+            };
+            let av = crate::allan_variance(x, rate_hz, &cfg)?;
+            [av.points[0].avar, av.points[1].avar, av.points[2].avar]
+        }
     };
-    let av = crate::allan_variance(x, rate_hz, &cfg)?;
-    let (av2, av_l1, av_l) = (av.points[0].avar, av.points[1].avar, av.points[2].avar);
     let trend = trend(
         x,
         rate_hz,
@@ -229,10 +272,10 @@ fn times(ts: impl Iterator<Item = f64>) -> String {
 /// A robust scale of `v`: 1.4826·MAD about the median, or 1.2533·(mean absolute deviation)
 /// when that is larger (quantized data often have a MAD of zero); on at most 2^20 values taken
 /// at a fixed stride.
-fn robust_scale(v: impl ExactSizeIterator<Item = f64> + Clone) -> f64 {
-    let n = v.len();
+fn robust_scale(n: usize, v: impl Fn(usize) -> f64) -> f64 {
     let stride = n.div_ceil(1 << 20).max(1);
-    let mut s: Vec<f64> = v.step_by(stride).collect();
+    // the values at 0, stride, 2·stride, … only (not every value, then a subsample)
+    let mut s: Vec<f64> = (0..n).step_by(stride).map(v).collect();
     if s.is_empty() {
         return 0.0;
     }
@@ -247,16 +290,16 @@ fn robust_scale(v: impl ExactSizeIterator<Item = f64> + Clone) -> f64 {
 fn find_spikes(x: &[f64], rate_hz: f64, z: f64) -> Vec<Spike> {
     let t = x.len();
     let e = |i: usize| x[i] - 0.5 * (x[i - 1] + x[i + 1]);
-    let scale = robust_scale((1..t - 1).map(e));
+    let scale = robust_scale(t - 2, |k| e(k + 1));
     if scale.is_nan() || scale <= 0.0 {
         return Vec::new();
     }
     let mut out = Vec::new();
-    // both neighbours' e must exist: samples 0, 1, T−2 and T−1 are not judged
-    for i in 2..t - 2 {
+    let lim = z * scale;
+    let mut check = |i: usize| {
         let a = e(i).abs();
-        if a <= z * scale {
-            continue;
+        if a <= lim {
+            return;
         }
         if a >= 1.5 * e(i - 1).abs().max(e(i + 1).abs()) {
             out.push(Spike {
@@ -266,8 +309,33 @@ fn find_spikes(x: &[f64], rate_hz: f64, z: f64) -> Vec<Spike> {
                 z: a / scale,
             });
         }
+    };
+    // both neighbours' e must exist: samples 0, 1, T−2 and T−1 are not judged. Blocks of
+    // 64 samples are screened first with branch-free counts in 8 lanes (vectorized); the few
+    // blocks holding a candidate are then checked sample by sample, as the rest is
+    const B: usize = 64;
+    let mut i = 2;
+    while i + B <= t - 2 {
+        if beyond_in_block(&x[i - 1..i + B + 1], lim) {
+            (i..i + B).for_each(&mut check);
+        }
+        i += B;
     }
+    (i..t - 2).for_each(&mut check);
     out
+}
+
+/// Whether some |x_i − (x_{i−1} + x_{i+1})/2| > `lim` for the interior samples of `w`.
+fn beyond_in_block(w: &[f64], lim: f64) -> bool {
+    let mut acc = [0.0f64; 8];
+    for (c, ch) in w[1..w.len() - 1].chunks(8).enumerate() {
+        for (l, &v) in ch.iter().enumerate() {
+            let k = 8 * c + l + 1;
+            let a = (v - 0.5 * (w[k - 1] + w[k + 1])).abs();
+            acc[l] += if a > lim { 1.0 } else { 0.0 };
+        }
+    }
+    acc.iter().sum::<f64>() > 0.0
 }
 
 /// Spacing of ≥ 3 spikes whose spacings agree within 2 % of their median.
@@ -318,7 +386,7 @@ fn find_shifts(
     let mut sorted = d.clone();
     let mid = sorted.len() / 2;
     let med = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
-    let scale = robust_scale(d.iter().copied());
+    let scale = robust_scale(d.len(), |k| d[k]);
     if scale.is_nan() || scale <= 0.0 {
         return Vec::new();
     }
@@ -411,6 +479,56 @@ mod tests {
     fn wn(n: usize, seed: u64) -> Vec<f64> {
         let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
         (0..n).map(|_| StandardNormal.sample(&mut rng)).collect()
+    }
+
+    /// The block-screened spike search finds what a plain loop over every sample finds:
+    /// spikes at the first and last judged samples, on both sides of block boundaries, two in
+    /// one block, and in the tail after the last whole block.
+    #[test]
+    fn screened_spike_search_equals_the_plain_loop() {
+        let n = 10_000 + 37;
+        let mut x = wn(n, 9);
+        // blocks start at 2, 66, 130, …: 64 and 67 straddle a boundary, 200 and 205 share one
+        for &i in &[2usize, 64, 67, 129, 200, 205, 5000, n - 40, n - 3] {
+            x[i] += if i % 2 == 0 { 25.0 } else { -30.0 };
+        }
+        let got = find_spikes(&x, 50.0, 10.0);
+        let e = |i: usize| x[i] - 0.5 * (x[i - 1] + x[i + 1]);
+        let scale = robust_scale(n - 2, |k| e(k + 1));
+        let want: Vec<usize> = (2..n - 2)
+            .filter(|&i| {
+                let a = e(i).abs();
+                a > 10.0 * scale && a >= 1.5 * e(i - 1).abs().max(e(i + 1).abs())
+            })
+            .collect();
+        assert_eq!(got.iter().map(|s| s.index).collect::<Vec<_>>(), want);
+        assert!(want.contains(&2) && want.contains(&(n - 3)) && want.len() >= 8, "{want:?}");
+    }
+
+    /// The AV read from a dyadic chi-square curve gives the same result, bit for bit, as the
+    /// AV the pass computes at its three scales, in memory and (from 2^22 samples) with the
+    /// streamed kernel; a spike and a trend make the findings depend on those AV values.
+    #[test]
+    fn a_given_classical_curve_gives_the_same_result() {
+        for n in [50_000usize, (1 << 22) + 12_345] {
+            let mut x = wn(n, 3);
+            for (i, v) in x.iter_mut().enumerate() {
+                *v += 2e-5 * i as f64;
+            }
+            x[n / 3] += 40.0;
+            let av = crate::allan_variance(&x, 100.0, &AvarConfig::default()).unwrap();
+            let opts = QualityOptions::default();
+            let own = data_quality(&x, 100.0, &opts).unwrap();
+            assert!(own.trend.is_some() && own.spikes.len() == 1, "{:?}", own.findings);
+            assert_eq!(data_quality_with(&x, 100.0, &opts, Some(&av)).unwrap(), own);
+            // the curve is read: a doctored AV at the longest scale changes the trend's share
+            let mut doctored = av.clone();
+            doctored.points.last_mut().unwrap().avar *= 4.0;
+            assert_ne!(data_quality_with(&x, 100.0, &opts, Some(&doctored)).unwrap(), own);
+            // a curve of other samples is not used
+            let other = crate::allan_variance(&x[..n - 1], 100.0, &AvarConfig::default()).unwrap();
+            assert_eq!(data_quality_with(&x, 100.0, &opts, Some(&other)).unwrap(), own);
+        }
     }
 
     #[test]
