@@ -918,14 +918,17 @@ pub struct RobustScratch {
 }
 
 impl RobustScratch {
-    /// A buffer (empty) with the largest capacity at hand: the prefix sums take the largest,
-    /// and a small one would only grow.
-    fn take(&self) -> Vec<f64> {
+    /// A buffer (empty) for `len` values: the smallest at hand that holds them, else the
+    /// largest (it grows least), else a new one.
+    fn take(&self, len: usize) -> Vec<f64> {
         let Ok(mut pool) = self.pool.lock() else {
             return Vec::new();
         };
-        let best = (0..pool.len()).max_by_key(|&i| pool[i].capacity());
-        best.map(|i| pool.swap_remove(i)).unwrap_or_default()
+        let fits = (0..pool.len())
+            .filter(|&i| pool[i].capacity() >= len)
+            .min_by_key(|&i| pool[i].capacity());
+        let pick = fits.or_else(|| (0..pool.len()).max_by_key(|&i| pool[i].capacity()));
+        pick.map(|i| pool.swap_remove(i)).unwrap_or_default()
     }
 
     /// Gives a buffer back.
@@ -994,7 +997,12 @@ pub const STRIDE_DIVISOR: u64 = 16;
 /// cluster size m, every `s`-th, written into `out` (cleared first), from the prefix sums `c`
 /// of the centred series (c[0] = 0).
 fn differences_into(c: &[f64], m: usize, s: usize, out: &mut Vec<f64>) {
-    let inv = 1.0 / m as f64;
+    differences_scaled_into(c, m, s, 1.0 / m as f64, out);
+}
+
+/// [`differences_into`] on prefix sums kept every g-th (`c[j]` = C[j·g]) with offsets m/g and
+/// stride s/g, `inv` = 1/m.
+fn differences_scaled_into(c: &[f64], m: usize, s: usize, inv: f64, out: &mut Vec<f64>) {
     out.clear();
     // three aligned slices (no index arithmetic in the loop, so it vectorizes when s = 1)
     let (hi, mid, lo) = (&c[2 * m..], &c[m..c.len() - m], &c[..c.len() - 2 * m]);
@@ -1013,6 +1021,42 @@ fn differences_into(c: &[f64], m: usize, s: usize, out: &mut Vec<f64>) {
                 .zip(lo.iter().step_by(s))
                 .map(|((&h, &md), &l)| (h - 2.0 * md + l) * inv),
         );
+    }
+}
+
+/// Copies of the prefix sums kept every [`COARSE`]-th and every [`COARSE`]²-th value, read by
+/// the strided scales whose offsets and stride are multiples of those steps (every dyadic
+/// m ≥ 16·[`COARSE`]): the same values, from 1/8 and 1/64 of the memory, so that the widely
+/// spaced reads of the large scales hit the cache instead of memory.
+struct CoarsePrefix {
+    c8: Vec<f64>,
+    c64: Vec<f64>,
+}
+
+/// The step of [`CoarsePrefix`].
+const COARSE: usize = 8;
+
+impl CoarsePrefix {
+    fn new(c: &[f64], mut c8: Vec<f64>, mut c64: Vec<f64>) -> Self {
+        c8.clear();
+        c8.extend(c.iter().step_by(COARSE));
+        c64.clear();
+        c64.extend(c8.iter().step_by(COARSE));
+        CoarsePrefix { c8, c64 }
+    }
+
+    /// The differences at cluster size m, every s-th, from the coarsest copy that holds
+    /// them (`c` itself when none does): the values of [`differences_into`], bit for bit.
+    fn differences_into(&self, c: &[f64], m: usize, s: usize, out: &mut Vec<f64>) {
+        let inv = 1.0 / m as f64;
+        let g2 = COARSE * COARSE;
+        if m.is_multiple_of(g2) && s.is_multiple_of(g2) {
+            differences_scaled_into(&self.c64, m / g2, s / g2, inv, out);
+        } else if m.is_multiple_of(COARSE) && s.is_multiple_of(COARSE) {
+            differences_scaled_into(&self.c8, m / COARSE, s / COARSE, inv, out);
+        } else {
+            differences_scaled_into(c, m, s, inv, out);
+        }
     }
 }
 
@@ -1363,7 +1407,7 @@ pub fn robust_allan_variance_from_with(
         r.classical = classical;
         return Ok(r);
     }
-    let scan = spike_scan(data, SPIKE_THRESHOLD, scratch.take())?;
+    let scan = spike_scan(data, SPIKE_THRESHOLD, scratch.take(data.len() + 1))?;
     let spikes = scan.report;
     // the intervals' EDF and noise identification from the series the M-estimator sees
     let template = if spikes.indices.is_empty() {
@@ -1378,7 +1422,7 @@ pub fn robust_allan_variance_from_with(
         scan.prefix
     } else {
         scratch.give(scan.prefix);
-        centred_prefix_sums_into(&scan.series, template.mean, scratch.take())
+        centred_prefix_sums_into(&scan.series, template.mean, scratch.take(data.len() + 1))
     };
     drop(scan.series);
     let ms: Vec<u64> = template.points.iter().map(|p| p.m).collect();
@@ -1399,7 +1443,13 @@ pub fn robust_allan_variance_from_with(
             }
         })
         .collect();
-    // the others (and any the lockstep left), one difference buffer per worker
+    // the others (and any the lockstep left), one difference buffer per worker, the large
+    // scales read from the coarse copies of c
+    let coarse = CoarsePrefix::new(
+        &c,
+        scratch.take(c.len().div_ceil(COARSE)),
+        scratch.take(c.len().div_ceil(COARSE * COARSE)),
+    );
     let est: Vec<(f64, u64, u64, bool)> = ms
         .par_iter()
         .zip(&pre)
@@ -1409,8 +1459,8 @@ pub fn robust_allan_variance_from_with(
             if let Some((r, rej)) = pre {
                 return Ok((r.s / 2.0, *rej, used, r.root));
             }
-            let mut d = scratch.take();
-            differences_into(&c, m as usize, stride as usize, &mut d);
+            let mut d = scratch.take((c.len() - 1 - 2 * m as usize) / stride as usize + 1);
+            coarse.differences_into(&c, m as usize, stride as usize, &mut d);
             let r = robust_mean_square_detail(&d, &bw)
                 .map_err(|e| AvarError::InvalidScales(format!("robust AV at m = {m}: {e}")));
             let out = r.map(|r| {
@@ -1422,6 +1472,8 @@ pub fn robust_allan_variance_from_with(
         })
         .collect::<Result<_, AvarError>>()?;
     scratch.give(c);
+    scratch.give(coarse.c8);
+    scratch.give(coarse.c64);
     let mut robust = template;
     let eff = bw.efficiency();
     for (p, &(av, ..)) in robust.points.iter_mut().zip(&est) {
@@ -1817,6 +1869,24 @@ mod tests {
                 rejected_somewhere |= rej > 0;
             }
             assert!(rejected_somewhere || outlier == 0.0);
+        }
+    }
+
+    /// The coarse copies of the prefix sums give the strided differences bit for bit, for
+    /// offsets and strides that are multiples of 64, of 8 only, and of neither, on a length
+    /// that is not a multiple of 64.
+    #[test]
+    fn coarse_prefix_differences_are_the_same_bits() {
+        let x: Vec<f64> = (0..100_003).map(|i| ((i * 7919) % 1013) as f64 * 0.01).collect();
+        let mean = x.iter().sum::<f64>() / x.len() as f64;
+        let c = centred_prefix_sums(&x, mean);
+        let coarse = CoarsePrefix::new(&c, Vec::new(), Vec::new());
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for (m, s) in [(1024, 64), (2048, 128), (128, 8), (256, 16), (96, 24), (100, 3), (64, 4)] {
+            differences_into(&c, m, s, &mut a);
+            coarse.differences_into(&c, m, s, &mut b);
+            assert_eq!(a.len(), (c.len() - 1 - 2 * m) / s + 1, "m {m} s {s}");
+            assert_eq!(a, b, "m {m} s {s}");
         }
     }
 
