@@ -1589,6 +1589,82 @@ pub fn excess_windows(
     window: usize,
     top: usize,
 ) -> Result<Vec<ExcessWindow>, AvarError> {
+    let (t, mean) = check_excess_args(data, rate_hz, m, window)?;
+    let m = m as usize;
+    let c = centred_prefix_sums_into(data, mean, Vec::new());
+    let mut d = Vec::new();
+    differences_into(&c, m, 1, &mut d);
+    drop(c);
+    let s = robust_mean_square(&d, bw)?;
+    Ok(excess_from(d.iter().copied(), t, m, bw.c * bw.c * s, s, window, rate_hz, top))
+}
+
+/// [`excess_windows`] with the robust mean square σ̂² of the differences at cluster size m
+/// given (`s`, unit² of the data; e.g. twice the robust AV at m, which estimates the same
+/// quantity from every ⌊m/16⌋-th difference) instead of solved for: one pass over the
+/// samples with no buffer (the differences are formed from three running prefix sums, the
+/// same values as [`excess_windows`] forms), instead of two series-sized buffers and the
+/// passes of the estimating equation. With the σ̂² that [`excess_windows`] solves for, the
+/// same windows, bit for bit.
+///
+/// Errors: as [`excess_windows`]; an `s` that is not finite and ≥ 0.
+///
+/// ```
+/// use avar::robust::{Biweight, excess_windows_at};
+/// let mut x: Vec<f64> = (0..10000).map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5).collect();
+/// x[5000] += 40.0; // one spike at t = 50 s (100 Hz)
+/// let b = Biweight::with_efficiency(0.6).unwrap();
+/// // the mean square of D_k = x_k − x_{k−1} of the clean sequence (steps of +41/101 and
+/// // −60/101): 60·41/101²
+/// let w = excess_windows_at(&x, 100.0, 1, &b, 2460.0 / 10201.0, 100, 3).unwrap();
+/// assert!(w[0].start_s <= 50.0 && 50.0 <= w[0].end_s);
+/// assert!(w[0].share > 0.99);
+/// ```
+pub fn excess_windows_at(
+    data: &[f64],
+    rate_hz: f64,
+    m: u64,
+    bw: &Biweight,
+    s: f64,
+    window: usize,
+    top: usize,
+) -> Result<Vec<ExcessWindow>, AvarError> {
+    let (t, mean) = check_excess_args(data, rate_hz, m, window)?;
+    if !(s.is_finite() && s >= 0.0) {
+        return Err(AvarError::InvalidScales(format!(
+            "the robust mean square must be finite and >= 0, got {s}"
+        )));
+    }
+    let m = m as usize;
+    // c_j = Σ_{i<j} (x_i − mean) at j = k, k + m, k + 2m: three running sums, each adding the
+    // same terms in the same order as the stored prefix sums
+    let (mut lo, mut mid, mut hi) = (0.0f64, 0.0f64, 0.0f64);
+    for &x in &data[..m] {
+        mid += x - mean;
+    }
+    for &x in &data[..2 * m] {
+        hi += x - mean;
+    }
+    let inv = 1.0 / m as f64;
+    let ds = (0..=t - 2 * m).map(|k| {
+        let d = (hi - 2.0 * mid + lo) * inv;
+        if k < t - 2 * m {
+            lo += data[k] - mean;
+            mid += data[k + m] - mean;
+            hi += data[k + 2 * m] - mean;
+        }
+        d
+    });
+    Ok(excess_from(ds, t, m, bw.c * bw.c * s, s, window, rate_hz, top))
+}
+
+/// The checks of [`excess_windows`]: (T, the mean of the samples).
+fn check_excess_args(
+    data: &[f64],
+    rate_hz: f64,
+    m: u64,
+    window: usize,
+) -> Result<(usize, f64), AvarError> {
     crate::validate_rate_alpha(rate_hz, 0.05)?;
     crate::check_len(data.len(), data.len())?;
     if window == 0 {
@@ -1608,17 +1684,26 @@ pub fn excess_windows(
         });
     }
     crate::kernel::check_finite(data)?;
-    let mean = data.iter().sum::<f64>() / t as f64;
-    let c = centred_prefix_sums_into(data, mean, Vec::new());
-    let m = m as usize;
-    let mut d = Vec::new();
-    differences_into(&c, m, 1, &mut d);
-    let s = robust_mean_square(&d, bw)?;
-    let lim = bw.c * bw.c * s;
+    Ok((t, data.iter().sum::<f64>() / t as f64))
+}
+
+/// The windows of [`excess_windows`] from the differences D_i (i = 0 … T − 2m, spanning
+/// samples i … i + 2m − 1), the limit c²σ̂² and σ̂².
+#[allow(clippy::too_many_arguments)]
+fn excess_from(
+    ds: impl Iterator<Item = f64>,
+    t: usize,
+    m: usize,
+    lim: f64,
+    s: f64,
+    window: usize,
+    rate_hz: f64,
+    top: usize,
+) -> Vec<ExcessWindow> {
     let nw = t.div_ceil(window);
     let mut ex = vec![0.0; nw];
     let mut mz = vec![0.0f64; nw];
-    for (i, &x) in d.iter().enumerate() {
+    for (i, x) in ds.enumerate() {
         let e = x * x - lim;
         if e > 0.0 {
             // D_k (k = 2m + i, 1-based) spans samples k − 2m + 1..=k, i.e. 0-based i..i + 2m
@@ -1629,12 +1714,11 @@ pub fn excess_windows(
     }
     let total: f64 = ex.iter().sum();
     if total <= 0.0 {
-        return Ok(Vec::new());
+        return Vec::new();
     }
     let mut idx: Vec<usize> = (0..nw).filter(|&w| ex[w] > 0.0).collect();
     idx.sort_by(|&a, &b| ex[b].total_cmp(&ex[a]));
-    Ok(idx
-        .into_iter()
+    idx.into_iter()
         .take(top)
         .map(|w| ExcessWindow {
             start_s: (w * window) as f64 / rate_hz,
@@ -1642,7 +1726,7 @@ pub fn excess_windows(
             share: ex[w] / total,
             max_z: mz[w],
         })
-        .collect())
+        .collect()
 }
 
 #[cfg(test)]
@@ -1888,6 +1972,35 @@ mod tests {
             assert_eq!(a.len(), (c.len() - 1 - 2 * m) / s + 1, "m {m} s {s}");
             assert_eq!(a, b, "m {m} s {s}");
         }
+    }
+
+    /// With the σ̂² that [`excess_windows`] solves for, [`excess_windows_at`] (differences from
+    /// running prefix sums, no buffers) gives the same windows bit for bit, at m = 1 and at a
+    /// larger m, with a window that does not divide T; a bad σ̂² is an error.
+    #[test]
+    fn excess_windows_at_the_solved_scale_are_the_same_bits() {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(8);
+        let mut x: Vec<f64> = (0..50_003)
+            .map(|_| StandardNormal.sample(&mut rng))
+            .map(|z: f64| z + 3.0)
+            .collect();
+        for i in [777usize, 20_000, 20_050, 41_234] {
+            x[i] += 60.0;
+        }
+        let bw = Biweight::with_efficiency(0.6).unwrap();
+        for m in [1u64, 37] {
+            let want = excess_windows(&x, 100.0, m, &bw, 999, 4).unwrap();
+            assert!(!want.is_empty());
+            let mean = x.iter().sum::<f64>() / x.len() as f64;
+            let c = centred_prefix_sums(&x, mean);
+            let mut d = Vec::new();
+            differences_into(&c, m as usize, 1, &mut d);
+            let s = robust_mean_square(&d, &bw).unwrap();
+            let got = excess_windows_at(&x, 100.0, m, &bw, s, 999, 4).unwrap();
+            assert_eq!(got, want, "m = {m}");
+        }
+        assert!(excess_windows_at(&x, 100.0, 1, &bw, f64::NAN, 999, 4).is_err());
+        assert!(excess_windows_at(&x, 100.0, 1, &bw, -1.0, 999, 4).is_err());
     }
 
     /// Newton starts from the mean square when it agrees with the MAD's square within 10 %
