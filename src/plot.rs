@@ -587,7 +587,13 @@ pub fn timeseries_svg(title: &str, unit: &str, x: &[f64], rate_hz: f64, id: &str
             let (lo, hi) = (f.py(e.1), f.py(e.2));
             let mid = 0.5 * (lo + hi);
             let top = hi.min(mid - 0.6);
-            let _ = write!(d, "{}{:.2},{:.2}", if k == 0 { 'M' } else { 'L' }, f.px(e.0), top);
+            let _ = write!(
+                d,
+                "{}{:.2},{:.2}",
+                if k == 0 { 'M' } else { 'L' },
+                f.px(e.0),
+                top
+            );
         }
         for e in env.iter().rev() {
             let (lo, hi) = (f.py(e.1), f.py(e.2));
@@ -792,7 +798,12 @@ mod tests {
         // the column of lag 1234 reaches −0.5
         let c = 1234 * cols / 4000;
         let a = c * 4000 / cols;
-        let stem = format!("M{:.2},{:.2}V{:.2}", f.px(a as f64 / 1000.0), f.py(-0.5), f.py(0.01));
+        let stem = format!(
+            "M{:.2},{:.2}V{:.2}",
+            f.px(a as f64 / 1000.0),
+            f.py(-0.5),
+            f.py(0.01)
+        );
         assert!(d.contains(&stem), "{stem}");
         let short = acf_svg("a", &acf[..100], 1_000_000, 1000.0, "b");
         assert_eq!(path(&short).matches('M').count(), 100);
@@ -809,5 +820,4 @@ mod tests {
         let sparse = timeseries_svg("x", "", &x[..500], 100.0, "y");
         assert!(sparse.contains(r##"stroke="#0072B2" stroke-width="1.2" fill="none""##));
     }
-
 }

@@ -604,15 +604,13 @@ pub fn robust_curves(
         .enumerate()
         .map(|(k, (n, x))| {
             match classical {
-                Some(c) => {
-                    avar::robust::robust_allan_variance_from_with(
-                        x,
-                        c[k].1.clone(),
-                        &cfg,
-                        efficiency,
-                        &scratch,
-                    )
-                }
+                Some(c) => avar::robust::robust_allan_variance_from_with(
+                    x,
+                    c[k].1.clone(),
+                    &cfg,
+                    efficiency,
+                    &scratch,
+                ),
                 None => avar::robust::robust_allan_variance(x, rate, &cfg, efficiency),
             }
             .map(|r| (n.clone(), r))

@@ -502,7 +502,10 @@ mod tests {
             })
             .collect();
         assert_eq!(got.iter().map(|s| s.index).collect::<Vec<_>>(), want);
-        assert!(want.contains(&2) && want.contains(&(n - 3)) && want.len() >= 8, "{want:?}");
+        assert!(
+            want.contains(&2) && want.contains(&(n - 3)) && want.len() >= 8,
+            "{want:?}"
+        );
     }
 
     /// The AV read from a dyadic chi-square curve gives the same result, bit for bit, as the
@@ -519,15 +522,25 @@ mod tests {
             let av = crate::allan_variance(&x, 100.0, &AvarConfig::default()).unwrap();
             let opts = QualityOptions::default();
             let own = data_quality(&x, 100.0, &opts).unwrap();
-            assert!(own.trend.is_some() && own.spikes.len() == 1, "{:?}", own.findings);
+            assert!(
+                own.trend.is_some() && own.spikes.len() == 1,
+                "{:?}",
+                own.findings
+            );
             assert_eq!(data_quality_with(&x, 100.0, &opts, Some(&av)).unwrap(), own);
             // the curve is read: a doctored AV at the longest scale changes the trend's share
             let mut doctored = av.clone();
             doctored.points.last_mut().unwrap().avar *= 4.0;
-            assert_ne!(data_quality_with(&x, 100.0, &opts, Some(&doctored)).unwrap(), own);
+            assert_ne!(
+                data_quality_with(&x, 100.0, &opts, Some(&doctored)).unwrap(),
+                own
+            );
             // a curve of other samples is not used
             let other = crate::allan_variance(&x[..n - 1], 100.0, &AvarConfig::default()).unwrap();
-            assert_eq!(data_quality_with(&x, 100.0, &opts, Some(&other)).unwrap(), own);
+            assert_eq!(
+                data_quality_with(&x, 100.0, &opts, Some(&other)).unwrap(),
+                own
+            );
         }
     }
 

@@ -506,7 +506,11 @@ fn newton_start(ms: f64, mad: f64) -> f64 {
     if s_mad.is_nan() || s_mad <= 0.0 {
         return ms;
     }
-    if (ms / s_mad).ln().abs() < 0.1 { ms } else { s_mad }
+    if (ms / s_mad).ln().abs() < 0.1 {
+        ms
+    } else {
+        s_mad
+    }
 }
 
 /// Newton's method on g(ln s) from the start `x0` ([`newton_start`]; module doc of
@@ -1367,7 +1371,13 @@ pub fn robust_allan_variance_from(
     config: &AvarConfig,
     efficiency: f64,
 ) -> Result<RobustAllanVariance, AvarError> {
-    robust_allan_variance_from_with(data, classical, config, efficiency, &RobustScratch::default())
+    robust_allan_variance_from_with(
+        data,
+        classical,
+        config,
+        efficiency,
+        &RobustScratch::default(),
+    )
 }
 
 /// [`robust_allan_variance_from`] with its buffers lent by `scratch` (the same result, bit for
@@ -1596,7 +1606,16 @@ pub fn excess_windows(
     differences_into(&c, m, 1, &mut d);
     drop(c);
     let s = robust_mean_square(&d, bw)?;
-    Ok(excess_from(d.iter().copied(), t, m, bw.c * bw.c * s, s, window, rate_hz, top))
+    Ok(excess_from(
+        d.iter().copied(),
+        t,
+        m,
+        bw.c * bw.c * s,
+        s,
+        window,
+        rate_hz,
+        top,
+    ))
 }
 
 /// [`excess_windows`] with the robust mean square σ̂² of the differences at cluster size m
@@ -1655,7 +1674,16 @@ pub fn excess_windows_at(
         }
         d
     });
-    Ok(excess_from(ds, t, m, bw.c * bw.c * s, s, window, rate_hz, top))
+    Ok(excess_from(
+        ds,
+        t,
+        m,
+        bw.c * bw.c * s,
+        s,
+        window,
+        rate_hz,
+        top,
+    ))
 }
 
 /// The checks of [`excess_windows`]: (T, the mean of the samples).
@@ -1961,12 +1989,22 @@ mod tests {
     /// that is not a multiple of 64.
     #[test]
     fn coarse_prefix_differences_are_the_same_bits() {
-        let x: Vec<f64> = (0..100_003).map(|i| ((i * 7919) % 1013) as f64 * 0.01).collect();
+        let x: Vec<f64> = (0..100_003)
+            .map(|i| ((i * 7919) % 1013) as f64 * 0.01)
+            .collect();
         let mean = x.iter().sum::<f64>() / x.len() as f64;
         let c = centred_prefix_sums(&x, mean);
         let coarse = CoarsePrefix::new(&c, Vec::new(), Vec::new());
         let (mut a, mut b) = (Vec::new(), Vec::new());
-        for (m, s) in [(1024, 64), (2048, 128), (128, 8), (256, 16), (96, 24), (100, 3), (64, 4)] {
+        for (m, s) in [
+            (1024, 64),
+            (2048, 128),
+            (128, 8),
+            (256, 16),
+            (96, 24),
+            (100, 3),
+            (64, 4),
+        ] {
             differences_into(&c, m, s, &mut a);
             coarse.differences_into(&c, m, s, &mut b);
             assert_eq!(a.len(), (c.len() - 1 - 2 * m) / s + 1, "m {m} s {s}");
@@ -2018,17 +2056,25 @@ mod tests {
     /// rounding and the count of D² ≥ lim exactly, with a tail shorter than the 8 lanes.
     #[test]
     fn lockstep_pass_kernels_equal_plain_loops() {
-        let c: Vec<f64> = (0..1003).map(|i| ((i * 7919) % 113) as f64 * 0.37).collect();
+        let c: Vec<f64> = (0..1003)
+            .map(|i| ((i * 7919) % 113) as f64 * 0.37)
+            .collect();
         for m in [1usize, 3, 16] {
             let n = c.len() - 2 * m;
             let (hi, mid, lo) = (&c[2 * m..], &c[m..m + n], &c[..n]);
             let inv_m = 1.0 / m as f64;
-            let d: Vec<f64> = (0..n).map(|i| (hi[i] - 2.0 * mid[i] + lo[i]) * inv_m).collect();
+            let d: Vec<f64> = (0..n)
+                .map(|i| (hi[i] - 2.0 * mid[i] + lo[i]) * inv_m)
+                .collect();
             let sq: f64 = d.iter().map(|v| v * v).sum();
             assert!((sq_sum_diff(hi, mid, lo, inv_m) / sq - 1.0).abs() < 1e-13);
             for lim in [0.0, 1.0, 50.0, f64::INFINITY] {
                 let want = d.iter().filter(|v| *v * *v >= lim).count() as u64;
-                assert_eq!(count_beyond_diff(hi, mid, lo, inv_m, lim), want, "m {m} lim {lim}");
+                assert_eq!(
+                    count_beyond_diff(hi, mid, lo, inv_m, lim),
+                    want,
+                    "m {m} lim {lim}"
+                );
             }
         }
     }
