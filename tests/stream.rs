@@ -288,12 +288,7 @@ fn command_file_and_stdin_match_in_memory() {
         if from_stdin {
             cmd.stdin(std::fs::File::open(&p).unwrap());
         }
-        let out = cmd.output().unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let out = output_ok(&mut cmd);
         (
             String::from_utf8(out.stdout)
                 .unwrap()
@@ -318,23 +313,29 @@ fn command_file_and_stdin_match_in_memory() {
     assert!(!run_notes(false, "2").1.contains("cannot be read"));
     // text from standard input is read whole into memory, and the note says so (`fit` and
     // `analyze` read every input this way)
-    let out = Command::new(env!("CARGO_BIN_EXE_imunoise"))
-        .args([
-            "avar", "-", "--rate", "50", "--ci", "none", "--format", "csv",
-        ])
-        .stdin(std::fs::File::open(write_csv(dir.path(), &cols[0][..4096])).unwrap())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = output_ok(
+        Command::new(env!("CARGO_BIN_EXE_imunoise"))
+            .args([
+                "avar", "-", "--rate", "50", "--ci", "none", "--format", "csv",
+            ])
+            .stdin(std::fs::File::open(write_csv(dir.path(), &cols[0][..4096])).unwrap()),
     );
     let notes = String::from_utf8_lossy(&out.stderr);
     assert!(
         notes.contains("standard input cannot be read by position: it is read whole into memory"),
         "{notes}"
     );
+}
+
+/// Runs `cmd` and returns its output, failing the test with its stderr unless it succeeded.
+fn output_ok(cmd: &mut Command) -> std::process::Output {
+    let out = cmd.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
 }
 
 /// `x` as a one-column CSV file with a header, in `dir`.
