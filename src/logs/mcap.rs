@@ -7,6 +7,7 @@ use super::imu_msg::{ImuSample, decode_cdr, decode_ros1, is_imu_type};
 use super::{ImuSeries, LogFormat, LogReader, TopicInfo, map_file};
 use crate::error::{Error, Result};
 use std::collections::BTreeMap;
+use std::mem::MaybeUninit;
 use std::path::Path;
 
 /// A mapped MCAP file.
@@ -288,7 +289,6 @@ impl McapReader {
     /// parallel (rayon) and joined in file order, which is the recording order. `None` when
     /// the file has no chunk index (then it is streamed).
     fn read_chunks_parallel(&self, topic: &str) -> Result<Option<ImuSeries>> {
-        use rayon::prelude::*;
         let Ok(Some(summary)) = mcap::Summary::read(&self.map) else {
             return Ok(None);
         };
@@ -324,33 +324,102 @@ impl McapReader {
             })
             .collect();
         chunks.sort_by_key(|c| c.chunk_start_offset);
+        // With message indexes (what writers emit by default), every chunk decodes straight
+        // into its place in the final columns, with no per-chunk copies to join afterwards
+        // (that join took 0.37 s of one thread for 1.08·10^7 messages).
+        if let Some(out) = self.read_direct(&chunks, &decoders, topic)? {
+            return Ok(Some(out));
+        }
+        self.read_joined(&chunks, &decoders, topic).map(Some)
+    }
+
+    /// [`read_chunks_parallel`](Self::read_chunks_parallel) into the final columns, each chunk
+    /// in the place its message index gives: `Ok(None)` when a chunk has no usable index, or
+    /// its index does not match its contents, or the columns cannot be reserved (then
+    /// [`read_joined`](Self::read_joined) reads the chunks).
+    fn read_direct(
+        &self,
+        chunks: &[&mcap::records::ChunkIndex],
+        decoders: &BTreeMap<u16, Decoder>,
+        topic: &str,
+    ) -> Result<Option<ImuSeries>> {
+        use rayon::prelude::*;
+        let Some(counts) = self.indexed_counts(chunks, decoders) else {
+            return Ok(None);
+        };
+        let total: usize = counts.iter().sum();
+        // room for every column, filled by the chunks' sinks (each writes exactly its
+        // part); a failed reservation (an index claiming too much) takes the joining path
+        let mut stamps_v: Vec<i64> = Vec::new();
+        let mut cols_v: Vec<Vec<f64>> = (0..6).map(|_| Vec::new()).collect();
+        if stamps_v.try_reserve_exact(total).is_ok()
+            && cols_v
+                .iter_mut()
+                .all(|c| c.try_reserve_exact(total).is_ok())
+        {
+            let mut stamps = &mut stamps_v.spare_capacity_mut()[..total];
+            let mut cols: Vec<&mut [MaybeUninit<f64>]> = cols_v
+                .iter_mut()
+                .map(|c| &mut c.spare_capacity_mut()[..total])
+                .collect();
+            let mut jobs = Vec::with_capacity(chunks.len());
+            for (ci, &n) in chunks.iter().zip(&counts) {
+                let (here, rest) = std::mem::take(&mut stamps).split_at_mut(n);
+                stamps = rest;
+                let columns: [&mut [MaybeUninit<f64>]; 6] = std::array::from_fn(|k| {
+                    let (here, rest) = std::mem::take(&mut cols[k]).split_at_mut(n);
+                    cols[k] = rest;
+                    here
+                });
+                let sink = SliceSink {
+                    stamps: here,
+                    columns,
+                    n: 0,
+                    overflow: false,
+                };
+                jobs.push((*ci, sink));
+            }
+            let done: Vec<Result<bool>> = jobs
+                .into_par_iter()
+                .map(|(ci, mut sink)| {
+                    self.decode_chunk(ci, topic, decoders, &mut sink)?;
+                    Ok(!sink.overflow && sink.n == sink.stamps.len())
+                })
+                .collect();
+            if done.iter().all(|d| !matches!(d, Ok(false))) {
+                for d in done {
+                    d?;
+                }
+                // SAFETY: the sinks' slices partition [0, total) of each column's spare
+                // capacity, and every sink wrote all of its slice (n == its length).
+                unsafe {
+                    stamps_v.set_len(total);
+                    cols_v.iter_mut().for_each(|c| c.set_len(total));
+                }
+                return Ok(Some(ImuSeries {
+                    stamps_ns: stamps_v,
+                    names: super::IMU_NAMES.iter().map(|s| s.to_string()).collect(),
+                    columns: cols_v,
+                }));
+            }
+        }
+        Ok(None)
+    }
+
+    /// [`read_chunks_parallel`](Self::read_chunks_parallel) chunk by chunk into series of
+    /// their own, joined in file order.
+    fn read_joined(
+        &self,
+        chunks: &[&mcap::records::ChunkIndex],
+        decoders: &BTreeMap<u16, Decoder>,
+        topic: &str,
+    ) -> Result<ImuSeries> {
+        use rayon::prelude::*;
         let parts: Vec<Result<ImuSeries>> = chunks
             .par_iter()
             .map(|ci| {
                 let mut out = ImuSeries::with_capacity(0);
-                // the chunk record alone, read with the record length limit (see BoundedStream)
-                let start = ci.chunk_start_offset as usize;
-                let end = start.saturating_add(ci.chunk_length as usize);
-                let rec = self
-                    .map
-                    .get(start..end)
-                    .ok_or_else(|| self.corrupt(0, "a chunk index points past the end"))?;
-                let mut stream = BoundedStream::new(rec, self.limit);
-                stream.reader = mcap::sans_io::LinearReader::new_with_options(
-                    mcap::sans_io::LinearReaderOptions::default()
-                        .with_record_length_limit(self.limit)
-                        .with_skip_start_magic(true)
-                        .with_skip_end_magic(true),
-                );
-                stream
-                    .for_each(|h, data, _| {
-                        if let Some(d) = decoders.get(&h.channel_id) {
-                            let which = || format!("the message logged at {} ns", h.log_time);
-                            out.push(&d(data).map_err(|why| self.not_imu(topic, which(), why))?);
-                        }
-                        Ok(())
-                    })
-                    .map_err(|s| self.stop(s))?;
+                self.decode_chunk(ci, topic, decoders, &mut out)?;
                 Ok(out)
             })
             .collect();
@@ -366,7 +435,121 @@ impl McapReader {
                 dst.extend_from_slice(src);
             }
         }
-        Ok(Some(out))
+        Ok(out)
+    }
+
+    /// The messages of the channels in `decoders` in each chunk, from the chunk's message index
+    /// records (a u32 byte length of 16-byte entries after the channel id): `None` when a chunk
+    /// has no index for them or an index record is not where and what the chunk index says.
+    fn indexed_counts(
+        &self,
+        chunks: &[&mcap::records::ChunkIndex],
+        decoders: &BTreeMap<u16, Decoder>,
+    ) -> Option<Vec<usize>> {
+        let map: &[u8] = &self.map;
+        chunks
+            .iter()
+            .map(|ci| {
+                let mut n = 0usize;
+                let mut any = false;
+                for (id, &off) in &ci.message_index_offsets {
+                    if !decoders.contains_key(id) {
+                        continue;
+                    }
+                    let at = usize::try_from(off).ok()?;
+                    let h = map.get(at..at.checked_add(15)?)?;
+                    let len = u64::from_le_bytes(h[1..9].try_into().ok()?);
+                    let ch = u16::from_le_bytes(h[9..11].try_into().ok()?);
+                    let bytes = u32::from_le_bytes(h[11..15].try_into().ok()?) as u64;
+                    // the record lies in the file, and no more messages than the chunk can
+                    // hold (a message record takes at least 31 bytes)
+                    let fits = (at as u64 + 9).checked_add(len)? <= map.len() as u64;
+                    let count = bytes / 16;
+                    if h[0] != 0x07
+                        || ch != *id
+                        || bytes % 16 != 0
+                        || len != 6 + bytes
+                        || !fits
+                        || count > ci.uncompressed_size / 31
+                    {
+                        return None;
+                    }
+                    n = n.checked_add(usize::try_from(count).ok()?)?;
+                    any = true;
+                }
+                any.then_some(n)
+            })
+            .collect()
+    }
+
+    /// Decodes the messages of the channels in `decoders` in one indexed chunk into `sink`.
+    fn decode_chunk(
+        &self,
+        ci: &mcap::records::ChunkIndex,
+        topic: &str,
+        decoders: &BTreeMap<u16, Decoder>,
+        sink: &mut impl SamplePush,
+    ) -> Result<()> {
+        // the chunk record alone, read with the record length limit (see BoundedStream)
+        let start = ci.chunk_start_offset as usize;
+        let end = start.saturating_add(ci.chunk_length as usize);
+        let rec = self
+            .map
+            .get(start..end)
+            .ok_or_else(|| self.corrupt(0, "a chunk index points past the end"))?;
+        let mut stream = BoundedStream::new(rec, self.limit);
+        stream.reader = mcap::sans_io::LinearReader::new_with_options(
+            mcap::sans_io::LinearReaderOptions::default()
+                .with_record_length_limit(self.limit)
+                .with_skip_start_magic(true)
+                .with_skip_end_magic(true),
+        );
+        stream
+            .for_each(|h, data, _| {
+                if let Some(d) = decoders.get(&h.channel_id) {
+                    let which = || format!("the message logged at {} ns", h.log_time);
+                    sink.push_sample(&d(data).map_err(|why| self.not_imu(topic, which(), why))?);
+                }
+                Ok(())
+            })
+            .map_err(|s| self.stop(s))?;
+        Ok(())
+    }
+}
+
+/// Where [`McapReader::decode_chunk`] puts the samples.
+trait SamplePush {
+    fn push_sample(&mut self, s: &ImuSample);
+}
+
+impl SamplePush for ImuSeries {
+    fn push_sample(&mut self, s: &ImuSample) {
+        self.push(s);
+    }
+}
+
+/// A chunk's place in the final columns, of the length its message index gives; more
+/// messages than that set `overflow` (and are not stored).
+struct SliceSink<'a> {
+    stamps: &'a mut [MaybeUninit<i64>],
+    columns: [&'a mut [MaybeUninit<f64>]; 6],
+    n: usize,
+    overflow: bool,
+}
+
+impl SamplePush for SliceSink<'_> {
+    fn push_sample(&mut self, s: &ImuSample) {
+        let i = self.n;
+        if i >= self.stamps.len() {
+            self.overflow = true;
+            return;
+        }
+        self.stamps[i].write(s.stamp_ns);
+        for k in 0..3 {
+            self.columns[k][i].write(s.gyro[k]);
+            self.columns[3 + k][i].write(s.acc[k]);
+        }
+        self.n += 1;
     }
 }
 
@@ -442,5 +625,151 @@ impl LogReader for McapReader {
         r.map_err(|s| self.stop(s))?;
         out.check_finite(&format!("{} ({topic})", self.file))?;
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::logs::imu_msg::encode_cdr;
+
+    /// Writes `n` Imu messages on /imu0 and `n / 3` on /imu1 (interleaved), in chunks of about
+    /// `chunk` bytes, with or without message indexes; the values are distinct per message.
+    fn write(path: &Path, n: usize, chunk: u64, indexes: bool) {
+        let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+        let mut w = mcap::WriteOptions::new()
+            .profile("ros2")
+            .chunk_size(Some(chunk))
+            .emit_message_indexes(indexes)
+            .create(f)
+            .unwrap();
+        let s = w
+            .add_schema("sensor_msgs/msg/Imu", "ros2msg", b"(omitted)")
+            .unwrap();
+        let ids = [
+            w.add_channel(s, "/imu0", "cdr", &BTreeMap::new()).unwrap(),
+            w.add_channel(s, "/imu1", "cdr", &BTreeMap::new()).unwrap(),
+        ];
+        let mut seq = 0;
+        for i in 0..n {
+            for (k, &id) in ids.iter().enumerate() {
+                if k == 1 && i % 3 != 0 {
+                    continue;
+                }
+                let v = (i * 7 + k) as f64 * 0.125 - 3.0;
+                let sample = ImuSample {
+                    stamp_ns: 1_000_000 * i as i64 + k as i64,
+                    gyro: [v, v + 1.0, v + 2.0],
+                    acc: [v + 3.0, v + 4.0, v + 5.0],
+                };
+                let t = sample.stamp_ns as u64;
+                let header = mcap::records::MessageHeader {
+                    channel_id: id,
+                    sequence: seq,
+                    log_time: t,
+                    publish_time: t,
+                };
+                w.write_to_known_channel(&header, &encode_cdr(&sample, "imu"))
+                    .unwrap();
+                seq += 1;
+            }
+        }
+        w.finish().unwrap();
+    }
+
+    fn chunks_and_decoders(
+        r: &McapReader,
+        topic: &str,
+    ) -> (Vec<mcap::records::ChunkIndex>, BTreeMap<u16, Decoder>) {
+        let summary = mcap::Summary::read(&r.map).unwrap().unwrap();
+        let decoders = summary
+            .channels
+            .iter()
+            .filter(|(_, c)| c.topic == topic)
+            .map(|(&id, _)| (id, decode_cdr as Decoder))
+            .collect();
+        let mut chunks = summary.chunk_indexes.clone();
+        chunks.sort_by_key(|c| c.chunk_start_offset);
+        (chunks, decoders)
+    }
+
+    /// Every chunk read straight into its place (from its message index) gives the same
+    /// series, bit for bit, as the chunks read into series of their own and joined (the path
+    /// of a file written without message indexes); an index whose counts do not match the
+    /// chunks, or no index at all, makes the direct read decline.
+    #[test]
+    fn direct_and_joined_reads_agree() {
+        let dir = std::env::temp_dir().join(format!("imunoise-mcap-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (with, without) = (dir.join("with.mcap"), dir.join("without.mcap"));
+        // 5000 + 1667 messages of 324 bytes in chunks of about 40 kB: about 55 chunks, the
+        // last one partial
+        write(&with, 5000, 40_000, true);
+        write(&without, 5000, 40_000, false);
+        for topic in ["/imu0", "/imu1"] {
+            let r = McapReader::open(&with).unwrap();
+            let (chunks, dec) = chunks_and_decoders(&r, topic);
+            assert!(chunks.len() > 40, "{} chunks", chunks.len());
+            let refs: Vec<&mcap::records::ChunkIndex> = chunks.iter().collect();
+            let counts = r.indexed_counts(&refs, &dec).expect("indexed");
+            let want = if topic == "/imu0" { 5000 } else { 1667 };
+            assert_eq!(counts.iter().sum::<usize>(), want);
+            let direct = r.read_direct(&refs, &dec, topic).unwrap().expect("direct");
+            let joined = r.read_joined(&refs, &dec, topic).unwrap();
+            assert_eq!(direct.stamps_ns, joined.stamps_ns);
+            assert_eq!(direct.columns, joined.columns);
+            assert_eq!(direct.stamps_ns.len(), want);
+            // the public read takes the direct path here, and the joined one on the same
+            // messages written without message indexes
+            assert_eq!(r.read_imu(topic).unwrap().columns, direct.columns);
+            let plain = McapReader::open(&without).unwrap();
+            let (pc, pd) = chunks_and_decoders(&plain, topic);
+            let prefs: Vec<&mcap::records::ChunkIndex> = pc.iter().collect();
+            assert!(plain.indexed_counts(&prefs, &pd).is_none());
+            assert!(plain.read_direct(&prefs, &pd, topic).unwrap().is_none());
+            let p = plain.read_imu(topic).unwrap();
+            assert_eq!((p.stamps_ns, p.columns), (direct.stamps_ns, direct.columns));
+            // the first chunk given the last chunk's index record (same channel, fewer
+            // messages) and the other way round: the counts no longer match the chunks
+            let mut bad = chunks.clone();
+            let last = bad.len() - 1;
+            let (a, b) = (
+                bad[0].message_index_offsets.clone(),
+                bad[last].message_index_offsets.clone(),
+            );
+            bad[0].message_index_offsets = b;
+            bad[last].message_index_offsets = a;
+            let brefs: Vec<&mcap::records::ChunkIndex> = bad.iter().collect();
+            let bc = r.indexed_counts(&brefs, &dec).expect("still well formed");
+            assert_ne!(bc, counts);
+            assert!(r.read_direct(&brefs, &dec, topic).unwrap().is_none());
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A chunk sink flags more messages than its index gave, and counts fewer.
+    #[test]
+    fn slice_sink_flags_overflow_and_counts() {
+        let s = ImuSample {
+            stamp_ns: 5,
+            gyro: [1.0, 2.0, 3.0],
+            acc: [4.0, 5.0, 6.0],
+        };
+        let mut st = [MaybeUninit::uninit(); 2];
+        let mut c: [[MaybeUninit<f64>; 2]; 6] = [[MaybeUninit::uninit(); 2]; 6];
+        let [c0, c1, c2, c3, c4, c5] = &mut c;
+        let mut sink = SliceSink {
+            stamps: &mut st,
+            columns: [c0, c1, c2, c3, c4, c5],
+            n: 0,
+            overflow: false,
+        };
+        sink.push_sample(&s);
+        assert_eq!((sink.n, sink.overflow), (1, false));
+        sink.push_sample(&s);
+        sink.push_sample(&s);
+        assert_eq!((sink.n, sink.overflow), (2, true));
+        // SAFETY: both elements of the last column were written above
+        assert_eq!(unsafe { c[5][1].assume_init() }, 6.0);
     }
 }
