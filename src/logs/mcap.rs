@@ -98,94 +98,89 @@ impl<'a> BoundedStream<'a> {
     }
 }
 
+fn u64_at(b: &[u8], at: usize) -> Option<u64> {
+    b.get(at..at.checked_add(8)?)
+        .map(|s| u64::from_le_bytes(s.try_into().unwrap_or([0; 8])))
+}
+
+/// The records (opcode, body start, body length) of `b`, up to a data end record: every
+/// length must fit in what remains.
+fn walk_records(b: &[u8]) -> std::result::Result<Vec<(u8, usize, usize)>, String> {
+    let mut out = Vec::new();
+    let mut at = 0usize;
+    while at < b.len() {
+        let op = b[at];
+        let len = u64_at(b, at + 1).ok_or("a record header runs past the end")?;
+        let start = at + 9;
+        if len > (b.len() - start.min(b.len())) as u64 {
+            return Err(format!(
+                "a record at byte {at} claims {len} bytes, more than the {} that remain",
+                b.len().saturating_sub(start)
+            ));
+        }
+        out.push((op, start, len as usize));
+        at = start + len as usize;
+        if op == 0x0F {
+            break; // data end: the summary follows
+        }
+    }
+    Ok(out)
+}
+
+/// Checks the chunk record body `c`: a plausible uncompressed size (at most 1024 times its
+/// compressed size plus 64 MiB, and at most 16 GiB), and with `records`, the records of an
+/// uncompressed chunk fitting in it. Returns the uncompressed size.
+fn check_chunk(c: &[u8], records: bool) -> std::result::Result<usize, String> {
+    let uncompressed = u64_at(c, 16).ok_or("a chunk header is cut short")?;
+    let clen = c
+        .get(28..32)
+        .map(|s| u32::from_le_bytes(s.try_into().unwrap_or([0; 4])) as usize)
+        .ok_or("a chunk header is cut short")?;
+    let compression = c.get(32..32 + clen).ok_or("a chunk header is cut short")?;
+    let compressed = u64_at(c, 32 + clen).ok_or("a chunk header is cut short")?;
+    let body = c.get(40 + clen..).unwrap_or(&[]);
+    if compressed != body.len() as u64 {
+        return Err(format!(
+            "a chunk claims {compressed} bytes of records but holds {}",
+            body.len()
+        ));
+    }
+    if uncompressed > compressed.saturating_mul(1024).saturating_add(1 << 26)
+        || uncompressed > 1 << 34
+    {
+        return Err(format!(
+            "a chunk claims {uncompressed} bytes uncompressed from {compressed} compressed"
+        ));
+    }
+    if compression.is_empty() {
+        if uncompressed != compressed {
+            return Err("an uncompressed chunk's sizes differ".to_string());
+        }
+        if records {
+            walk_records(body)?;
+        }
+    }
+    Ok(uncompressed as usize)
+}
+
 /// Walks the records of the data section (opcode, u64 length, body) before the `mcap` crate
 /// reads them: every length must fit in what remains, and every chunk must claim a plausible
-/// uncompressed size (at most 1024 times its compressed size plus 64 MiB, and at most 16 GiB),
-/// with the records of an uncompressed chunk fitting in it too. The crate reserves the sizes a
-/// file claims before checking them, so a corrupt length would otherwise abort the process on
-/// a failed allocation (found by `cargo xtask fuzz`). Returns the chunks' offsets.
+/// uncompressed size ([`check_chunk`]). The crate reserves the sizes a file claims before
+/// checking them, so a corrupt length would otherwise abort the process on a failed
+/// allocation (found by `cargo xtask fuzz`). The records inside an uncompressed chunk are
+/// walked only before the messages are streamed from the whole map
+/// ([`McapReader::check_all_chunks`]); a chunk read on its own needs no walk (see
+/// [`McapReader::decode_chunk`]). Walking them all here was a first pass over the file (0.2 s of
+/// the 1.0 s read of a 4 GB file). Returns the chunks' offsets and the record length limit.
 fn check_records(
     map: &[u8],
 ) -> std::result::Result<(std::collections::BTreeSet<u64>, usize), String> {
-    let u64_at = |b: &[u8], at: usize| -> Option<u64> {
-        b.get(at..at + 8)
-            .map(|s| u64::from_le_bytes(s.try_into().unwrap_or([0; 8])))
-    };
-    let walk = |b: &[u8]| -> std::result::Result<Vec<(u8, usize, usize)>, String> {
-        // (opcode, body start, body length)
-        let mut out = Vec::new();
-        let mut at = 0usize;
-        while at < b.len() {
-            let op = b[at];
-            let len = u64_at(b, at + 1).ok_or("a record header runs past the end")?;
-            let start = at + 9;
-            if len > (b.len() - start.min(b.len())) as u64 {
-                return Err(format!(
-                    "a record at byte {at} claims {len} bytes, more than the {} that remain",
-                    b.len().saturating_sub(start)
-                ));
-            }
-            out.push((op, start, len as usize));
-            at = start + len as usize;
-            if op == 0x0F {
-                break; // data end: the summary follows
-            }
-        }
-        Ok(out)
-    };
     let body = &map[8..];
-    // each chunk's checks, in parallel: the records of an uncompressed chunk are walked one by
-    // one, and that walk is the first read of most of the file's pages (mapping them is most of
-    // its cost: 0.56 s for a 4 GB file on one thread)
-    let check_chunk = |start: usize, len: usize| -> std::result::Result<usize, String> {
-        let c = &body[start..start + len];
-        let uncompressed = u64_at(c, 16).ok_or("a chunk header is cut short")?;
-        let clen = c
-            .get(28..32)
-            .map(|s| u32::from_le_bytes(s.try_into().unwrap_or([0; 4])) as usize)
-            .ok_or("a chunk header is cut short")?;
-        let compression = c.get(32..32 + clen).ok_or("a chunk header is cut short")?;
-        let compressed = u64_at(c, 32 + clen).ok_or("a chunk header is cut short")?;
-        let records = c.get(40 + clen..).unwrap_or(&[]);
-        if compressed != records.len() as u64 {
-            return Err(format!(
-                "a chunk claims {compressed} bytes of records but holds {}",
-                records.len()
-            ));
-        }
-        if uncompressed > compressed.saturating_mul(1024).saturating_add(1 << 26)
-            || uncompressed > 1 << 34
-        {
-            return Err(format!(
-                "a chunk claims {uncompressed} bytes uncompressed from {compressed} compressed"
-            ));
-        }
-        if compression.is_empty() {
-            if uncompressed != compressed {
-                return Err("an uncompressed chunk's sizes differ".to_string());
-            }
-            walk(records)?;
-        }
-        Ok(uncompressed as usize)
-    };
-    let top = walk(body)?;
+    let top = walk_records(body)?;
     let mut limit = top.iter().fold(1usize << 16, |l, &(_, _, len)| l.max(len));
-    let chunk_recs: Vec<(usize, usize)> = top
-        .iter()
-        .filter(|r| r.0 == 0x06)
-        .map(|&(_, start, len)| (start, len))
-        .collect();
-    // the first error in file order, whatever the threads
-    let sizes: Vec<std::result::Result<usize, String>> = {
-        use rayon::prelude::*;
-        chunk_recs
-            .par_iter()
-            .map(|&(start, len)| check_chunk(start, len))
-            .collect()
-    };
     let mut chunks = std::collections::BTreeSet::new();
-    for (&(start, _), size) in chunk_recs.iter().zip(sizes) {
-        limit = limit.max(size?);
+    for &(_, start, len) in top.iter().filter(|r| r.0 == 0x06) {
+        limit = limit.max(check_chunk(&body[start..start + len], false)?);
         chunks.insert((8 + start - 9) as u64);
     }
     Ok((chunks, limit))
@@ -242,6 +237,29 @@ impl McapReader {
         }
     }
 
+    /// [`check_chunk`] with its records, for the chunk record at file offset `at` (one of
+    /// `self.chunks`, whose lengths [`check_records`] checked).
+    fn check_chunk_at(&self, at: u64) -> Result<()> {
+        let at = at as usize;
+        let len = u64_at(&self.map, at + 1).unwrap_or(0) as usize;
+        let body = self.map.get(at + 9..at + 9 + len).unwrap_or(&[]);
+        check_chunk(body, true)
+            .map(|_| ())
+            .map_err(|e| Error::File {
+                file: self.file.clone(),
+                message: format!("truncated or corrupt MCAP file: {e}"),
+            })
+    }
+
+    /// [`check_chunk_at`](Self::check_chunk_at) for every chunk (in parallel; the first error
+    /// in file order), before the messages are streamed from the whole map.
+    fn check_all_chunks(&self) -> Result<()> {
+        use rayon::prelude::*;
+        let at: Vec<u64> = self.chunks.iter().copied().collect();
+        let done: Vec<Result<()>> = at.par_iter().map(|&a| self.check_chunk_at(a)).collect();
+        done.into_iter().collect()
+    }
+
     fn corrupt(&self, after: u64, e: impl std::fmt::Display) -> Error {
         Error::File {
             file: self.file.clone(),
@@ -251,6 +269,7 @@ impl McapReader {
 
     /// Topics by a full pass over the messages (when the file has no usable summary).
     fn scan_topics(&self) -> Result<Vec<TopicInfo>> {
+        self.check_all_chunks()?;
         let mut stream = BoundedStream::new(&self.map, self.limit);
         let mut counts: BTreeMap<u16, u64> = BTreeMap::new();
         stream
@@ -490,12 +509,21 @@ impl McapReader {
         decoders: &BTreeMap<u16, Decoder>,
         sink: &mut impl SamplePush,
     ) -> Result<()> {
-        // the chunk record alone, read with the record length limit (see BoundedStream)
-        let start = ci.chunk_start_offset as usize;
-        let end = start.saturating_add(ci.chunk_length as usize);
-        let rec = self
-            .map
-            .get(start..end)
+        // The chunk record alone, as long as its own header says (checked by `check_records`;
+        // not the length the index claims): its records then end where its data ends, so a
+        // record inside it that claims more than what is left stops the crate's reader at
+        // the end of the slice (an error, after at most `limit` bytes reserved) instead of
+        // running on into the next records. So the records of an uncompressed chunk need no
+        // walk of their own here (the whole-map paths do walk them: `check_all_chunks`).
+        let start = usize::try_from(ci.chunk_start_offset).unwrap_or(usize::MAX);
+        let rec = u64_at(&self.map, start.saturating_add(1))
+            .and_then(|len| {
+                let end = start
+                    .checked_add(9)?
+                    .checked_add(usize::try_from(len).ok()?)?;
+                self.map.get(start..end)
+            })
+            .filter(|_| self.chunks.contains(&ci.chunk_start_offset))
             .ok_or_else(|| self.corrupt(0, "a chunk index points past the end"))?;
         let mut stream = BoundedStream::new(rec, self.limit);
         stream.reader = mcap::sans_io::LinearReader::new_with_options(
@@ -593,6 +621,7 @@ impl LogReader for McapReader {
                 )
             })
             .unwrap_or(0);
+        self.check_all_chunks()?;
         let mut out = ImuSeries::with_capacity(hint.min(1 << 28) as usize);
         let mut stream = BoundedStream::new(&self.map, self.limit);
         // Per channel id: None = not looked up yet, Some(None) = not this topic.
@@ -634,12 +663,14 @@ mod tests {
     use crate::logs::imu_msg::encode_cdr;
 
     /// Writes `n` Imu messages on /imu0 and `n / 3` on /imu1 (interleaved), in chunks of about
-    /// `chunk` bytes, with or without message indexes; the values are distinct per message.
-    fn write(path: &Path, n: usize, chunk: u64, indexes: bool) {
+    /// `chunk` bytes (zstd, or uncompressed with `plain`), with or without message indexes;
+    /// the values are distinct per message.
+    fn write_with(path: &Path, n: usize, chunk: u64, indexes: bool, plain: bool) {
         let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
         let mut w = mcap::WriteOptions::new()
             .profile("ros2")
             .chunk_size(Some(chunk))
+            .compression((!plain).then_some(mcap::Compression::Zstd))
             .emit_message_indexes(indexes)
             .create(f)
             .unwrap();
@@ -675,6 +706,10 @@ mod tests {
             }
         }
         w.finish().unwrap();
+    }
+
+    fn write(path: &Path, n: usize, chunk: u64, indexes: bool) {
+        write_with(path, n, chunk, indexes, false)
     }
 
     fn chunks_and_decoders(
@@ -743,6 +778,45 @@ mod tests {
             let bc = r.indexed_counts(&brefs, &dec).expect("still well formed");
             assert_ne!(bc, counts);
             assert!(r.read_direct(&brefs, &dec, topic).unwrap().is_none());
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// An uncompressed chunk whose last record claims more bytes than the chunk has left, or
+    /// whose middle record claims 1000 bytes more than it has: reading it chunk by chunk
+    /// (with no walk over its records first) is a clear error, not a panic or a read past
+    /// the chunk; so is streaming the whole file (which walks them first).
+    #[test]
+    fn an_inner_record_past_its_chunk_is_an_error() {
+        let dir = std::env::temp_dir().join(format!("imunoise-mcap-inner-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let good = dir.join("good.mcap");
+        write_with(&good, 600, 40_000, true, true);
+        let bytes = std::fs::read(&good).unwrap();
+        let r = McapReader::open(&good).unwrap();
+        let (chunks, _) = chunks_and_decoders(&r, "/imu0");
+        let o = chunks[1].chunk_start_offset as usize;
+        let len = u64_at(&bytes, o + 1).unwrap() as usize;
+        let body = &bytes[o + 9..o + 9 + len];
+        assert_eq!(check_chunk(body, true).unwrap(), len - 40, "uncompressed");
+        let recs = walk_records(&body[40..]).unwrap();
+        assert!(recs.len() > 20);
+        for (which, k, extra) in [
+            ("last", recs.len() - 1, 64),
+            ("middle", recs.len() / 2, 1000),
+        ] {
+            let (op, start, rlen) = recs[k];
+            assert_eq!(op, 0x05, "a message record");
+            let at = o + 9 + 40 + start - 8; // its length field
+            let mut bad = bytes.clone();
+            bad[at..at + 8].copy_from_slice(&((rlen + extra) as u64).to_le_bytes());
+            let p = dir.join(format!("{which}.mcap"));
+            std::fs::write(&p, &bad).unwrap();
+            let r = McapReader::open(&p).unwrap();
+            let e = r.read_imu("/imu0").unwrap_err().to_string();
+            assert!(e.contains("truncated or corrupt MCAP"), "{which}: {e}");
+            let e = r.scan_topics().unwrap_err().to_string();
+            assert!(e.contains("truncated or corrupt MCAP"), "{which}: {e}");
         }
         std::fs::remove_dir_all(&dir).unwrap();
     }
