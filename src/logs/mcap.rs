@@ -486,7 +486,7 @@ impl McapReader {
                     let count = bytes / 16;
                     if h[0] != 0x07
                         || ch != *id
-                        || bytes % 16 != 0
+                        || !bytes.is_multiple_of(16)
                         || len != 6 + bytes
                         || !fits
                         || count > ci.uncompressed_size / 31
