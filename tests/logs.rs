@@ -73,8 +73,13 @@ fn sample(stamps: &[i64], cols: &[Vec<f64>], i: usize) -> ImuSample {
 
 /// Writes an MCAP file (zstd chunks) with the topics interleaved in stamp order.
 fn write_mcap(path: &Path, topics: &[Topic<'_>]) {
+    write_mcap_with(path, topics, mcap::WriteOptions::new())
+}
+
+/// [`write_mcap`] with other writer options (compression, chunk size, indexes).
+fn write_mcap_with(path: &Path, topics: &[Topic<'_>], options: mcap::WriteOptions) {
     let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
-    let mut w = mcap::WriteOptions::new().profile("ros2").create(f).unwrap();
+    let mut w = options.profile("ros2").create(f).unwrap();
     let mut ids = Vec::new();
     for t in topics {
         let s = w
@@ -1016,6 +1021,25 @@ mod fuzz {
         })
     }
 
+    /// 300 samples at 100 Hz in uncompressed chunks of about 4 kB, with message indexes.
+    fn indexed_mcap() -> &'static Vec<u8> {
+        static F: OnceLock<Vec<u8>> = OnceLock::new();
+        F.get_or_init(|| {
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("i.mcap");
+            let opts = mcap::WriteOptions::new()
+                .compression(None)
+                .chunk_size(Some(4000));
+            write_mcap_with(&path, &[imu("/imu0", 300, 100.0)], opts);
+            let s = open(&path, LogFormat::Mcap)
+                .unwrap()
+                .read_imu("/imu0")
+                .unwrap();
+            assert_eq!(s.stamps_ns.len(), 300);
+            std::fs::read(&path).unwrap()
+        })
+    }
+
     /// Opens `bytes` as `format` and reads every topic; panics only on a broken property.
     fn read_all(format: LogFormat, ext: &str, bytes: &[u8]) {
         let dir = tempfile::tempdir().unwrap();
@@ -1059,6 +1083,21 @@ mod fuzz {
             let keep = b.len() / 2 + cut.index(b.len() / 2 + 1);
             b.truncate(keep);
             read_all(format, ext, &b);
+        }
+
+        /// An MCAP file of uncompressed 4 kB chunks with its summary intact (flips only, no
+        /// cut), so that the chunks are read one by one through the chunk index and the
+        /// message indexes, where no walk over a chunk's records comes first.
+        #[test]
+        fn fuzz_mcap_indexed_chunks_flipped(
+            flips in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..6),
+        ) {
+            let mut b = indexed_mcap().clone();
+            for (i, x) in &flips {
+                let at = i.index(b.len());
+                b[at] ^= x | 1;
+            }
+            read_all(LogFormat::Mcap, "mcap", &b);
         }
 
         #[test]
