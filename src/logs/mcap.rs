@@ -21,6 +21,24 @@ pub struct McapReader {
     limit: usize,
 }
 
+impl Drop for McapReader {
+    /// Drops the map's page-table entries in two halves on two threads before the unmap: the
+    /// unmap of a 4 GB map, all of it read, took 0.14 s of one thread.
+    fn drop(&mut self) {
+        let half = self.map.len() / 2;
+        let map = &self.map;
+        let drop_range = |a: usize, b: usize| {
+            // SAFETY: the map is read-only and about to be unmapped; dropping its pages only
+            // makes a later read fault them in again from the file (nothing reads it again).
+            let _ =
+                unsafe { map.unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, a, b - a) };
+        };
+        if half >= 1 << 26 {
+            rayon::join(|| drop_range(0, half), || drop_range(half, map.len()));
+        }
+    }
+}
+
 /// Why [`BoundedStream::for_each`] stopped early.
 enum Stop {
     /// The crate's error, after this many messages.

@@ -98,6 +98,37 @@ impl Timing {
     }
 }
 
+/// The median of the L = len − 1 differences of `stamps` (ns; the mean of the two middle ones
+/// for even L). A recording's Δt mostly takes one value: the median of every 64th difference
+/// is checked by counting the differences below and equal to it (one pass, no buffer), and
+/// only when it is not the median are all differences selected (`select_nth_unstable`).
+fn median_dt_ns(stamps: &[i64]) -> f64 {
+    let len = stamps.len() - 1;
+    let mid = len / 2;
+    // the ranks the median takes: mid, and mid − 1 too for even L
+    let lo_rank = if len % 2 == 1 { mid } else { mid - 1 };
+    let mut sub: Vec<i64> = stamps.windows(2).step_by(64).map(|w| w[1] - w[0]).collect();
+    let k = sub.len() / 2;
+    let c = *sub.select_nth_unstable(k).1;
+    let (mut below, mut equal) = (0usize, 0usize);
+    for w in stamps.windows(2) {
+        let d = w[1] - w[0];
+        below += usize::from(d < c);
+        equal += usize::from(d == c);
+    }
+    if below <= lo_rank && mid < below + equal {
+        return c as f64;
+    }
+    let mut dts: Vec<i64> = stamps.windows(2).map(|w| w[1] - w[0]).collect();
+    if len % 2 == 1 {
+        *dts.select_nth_unstable(mid).1 as f64
+    } else {
+        let hi = *dts.select_nth_unstable(mid).1;
+        let lo = *dts[..mid].iter().max().expect("non-empty");
+        (lo as f64 + hi as f64) / 2.0
+    }
+}
+
 /// Orders `columns` by `stamps_ns`, removes duplicates, estimates the rate, counts gaps
 /// and applies `policy`. Returns the columns to analyse and the [`Timing`].
 ///
@@ -166,16 +197,7 @@ pub fn prepare(
             "all {n} messages have the same time stamp; the rate cannot be estimated"
         )));
     }
-    let mut dts: Vec<i64> = stamps.windows(2).map(|w| w[1] - w[0]).collect();
-    let mid = dts.len() / 2;
-    let median = if dts.len() % 2 == 1 {
-        *dts.select_nth_unstable(mid).1 as f64
-    } else {
-        let hi = *dts.select_nth_unstable(mid).1;
-        let lo = *dts[..mid].iter().max().expect("non-empty");
-        (lo as f64 + hi as f64) / 2.0
-    };
-    let median_dt_s = median * 1e-9;
+    let median_dt_s = median_dt_ns(&stamps) * 1e-9;
     let rate_from_stamps = 1.0 / median_dt_s;
     let (rate, rate_source) = match rate_arg {
         Some(r) => {
@@ -264,6 +286,90 @@ mod tests {
 
     fn stamps(n: usize, dt: i64) -> Vec<i64> {
         (0..n as i64).map(|i| 1_000_000_000 + i * dt).collect()
+    }
+
+    /// The median by selection over all differences, as `prepare` computed it before.
+    fn median_by_selection(stamps: &[i64]) -> f64 {
+        let mut dts: Vec<i64> = stamps.windows(2).map(|w| w[1] - w[0]).collect();
+        let mid = dts.len() / 2;
+        if dts.len() % 2 == 1 {
+            *dts.select_nth_unstable(mid).1 as f64
+        } else {
+            let hi = *dts.select_nth_unstable(mid).1;
+            let lo = *dts[..mid].iter().max().unwrap();
+            (lo as f64 + hi as f64) / 2.0
+        }
+    }
+
+    /// The counting check gives the median by selection on clean, gapped, two-valued and
+    /// jittered stamps, odd and even numbers of differences, including the two-valued cases
+    /// where the two middle differences differ (the mean of the two).
+    #[test]
+    fn median_dt_equals_selection() {
+        let mut h = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = |m: i64| {
+            h ^= h << 13;
+            h ^= h >> 7;
+            h ^= h << 17;
+            (h % m as u64) as i64
+        };
+        let mut cases: Vec<Vec<i64>> = Vec::new();
+        for n in [2, 3, 4, 5, 64, 65, 1000, 1001, 10_000] {
+            cases.push(stamps(n, 1_000_000));
+            let mut g = stamps(n, 5_000_000);
+            if n > 10 {
+                g.drain(3..6);
+            }
+            cases.push(g);
+            // jitter of ±2 µs: rarely the same Δt twice, so the check fails and selection runs
+            let mut t = 0i64;
+            cases.push(
+                (0..n)
+                    .map(|_| {
+                        t += 1_000_000 + rnd(4001) - 2000;
+                        t
+                    })
+                    .collect(),
+            );
+            // two values, 1 and 3 ms, in proportions near one half (the middle pair can differ)
+            for p in [499, 500, 501] {
+                let mut t = 0i64;
+                cases.push(
+                    (0..n)
+                        .map(|_| {
+                            t += if rnd(1000) < p { 1_000_000 } else { 3_000_000 };
+                            t
+                        })
+                        .collect(),
+                );
+            }
+        }
+        // exactly half 1 ms and half 3 ms differences, in both orders: the median is 2 ms
+        for first in [1_000_000i64, 3_000_000] {
+            let mut t = 0i64;
+            cases.push(
+                (0..201)
+                    .map(|i| {
+                        t += if (i <= 100) == (first == 1_000_000) {
+                            1_000_000
+                        } else {
+                            3_000_000
+                        };
+                        t
+                    })
+                    .collect(),
+            );
+        }
+        for s in &cases {
+            assert_eq!(
+                median_dt_ns(s),
+                median_by_selection(s),
+                "{} stamps",
+                s.len()
+            );
+        }
+        assert_eq!(median_dt_ns(&cases[cases.len() - 1]), 2_000_000.0);
+        assert_eq!(median_dt_ns(&cases[cases.len() - 2]), 2_000_000.0);
     }
 
     #[test]
