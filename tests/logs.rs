@@ -471,102 +471,197 @@ fn bag_connection(id: u32, t: &Topic<'_>) -> Vec<u8> {
 /// Writes a ROS 1 bag (format 2.0, one uncompressed chunk, with its index), the messages
 /// in recording order (position in each topic's vectors, topics interleaved).
 fn write_bag(path: &Path, topics: &[Topic<'_>]) {
+    write_bag_chunked(path, topics, usize::MAX, false)
+}
+
+/// A ROS 1 bag (format 2.0, uncompressed chunks of `per_chunk` messages each, the
+/// connections in the first chunk and in the index), indexed as `rosbag record` writes it:
+/// after each chunk its index data records, at the end the connections and one chunk info
+/// record per chunk. With `miscount`, the first chunk info claims one message more on its
+/// first connection than the chunk holds.
+fn write_bag_chunked(path: &Path, topics: &[Topic<'_>], per_chunk: usize, miscount: bool) {
     use imunoise::logs::imu_msg::encode_ros1;
-    let header = |index_pos: u64, chunks: u32| {
+    let mut events: Vec<(usize, usize)> = Vec::new();
+    for (k, t) in topics.iter().enumerate() {
+        events.extend((0..t.stamps.len()).map(|i| (i, k)));
+    }
+    events.sort();
+    let n_chunks = events.len().div_ceil(per_chunk).max(1) as u32;
+    let header = |index_pos: u64| {
         bag_record(
             &[
                 bag_field("op", &[3]),
                 bag_field("index_pos", &index_pos.to_le_bytes()),
                 bag_field("conn_count", &(topics.len() as u32).to_le_bytes()),
-                bag_field("chunk_count", &chunks.to_le_bytes()),
+                bag_field("chunk_count", &n_chunks.to_le_bytes()),
             ],
             &[b' '; 64],
         )
     };
     let mut out = b"#ROSBAG V2.0\n".to_vec();
     let hdr_at = out.len();
-    out.extend_from_slice(&header(0, 1));
-    let mut chunk = Vec::new();
-    for (k, t) in topics.iter().enumerate() {
-        chunk.extend_from_slice(&bag_connection(k as u32, t));
-    }
-    let mut events: Vec<(usize, usize)> = Vec::new();
-    for (k, t) in topics.iter().enumerate() {
-        events.extend((0..t.stamps.len()).map(|i| (i, k)));
-    }
-    events.sort();
-    let mut index: Vec<Vec<(i64, u32)>> = vec![Vec::new(); topics.len()];
-    let (mut t0, mut t1) = (i64::MAX, i64::MIN);
-    for &(i, k) in &events {
-        let t = &topics[k];
-        let st = t.stamps[i];
-        let data = if t.schema == "sensor_msgs/Imu" {
-            encode_ros1(&sample(&t.stamps, &t.cols, i), i as u32, "imu_link")
-        } else {
-            vec![1, 2, 3]
-        };
-        index[k].push((st, chunk.len() as u32));
-        t0 = t0.min(st);
-        t1 = t1.max(st);
-        chunk.extend_from_slice(&bag_record(
-            &[
-                bag_field("op", &[2]),
-                bag_field("conn", &(k as u32).to_le_bytes()),
-                bag_field("time", &bag_time(st)),
-            ],
-            &data,
-        ));
-    }
-    let chunk_pos = out.len() as u64;
-    out.extend_from_slice(&bag_record(
-        &[
-            bag_field("op", &[5]),
-            bag_field("compression", b"none"),
-            bag_field("size", &(chunk.len() as u32).to_le_bytes()),
-        ],
-        &chunk,
-    ));
-    for (k, ix) in index.iter().enumerate() {
-        let data: Vec<u8> = ix
-            .iter()
-            .flat_map(|&(st, off)| [bag_time(st).to_vec(), off.to_le_bytes().to_vec()].concat())
-            .collect();
+    out.extend_from_slice(&header(0));
+    // (chunk position, per connection: messages, first and last stamp)
+    type Info = (u64, Vec<(u32, u32)>, i64, i64);
+    let mut infos: Vec<Info> = Vec::new();
+    let batches: Vec<&[(usize, usize)]> = if events.is_empty() {
+        vec![&[]]
+    } else {
+        events.chunks(per_chunk).collect()
+    };
+    for (c, batch) in batches.into_iter().enumerate() {
+        let mut chunk = Vec::new();
+        if c == 0 {
+            for (k, t) in topics.iter().enumerate() {
+                chunk.extend_from_slice(&bag_connection(k as u32, t));
+            }
+        }
+        let mut index: Vec<Vec<(i64, u32)>> = vec![Vec::new(); topics.len()];
+        let (mut t0, mut t1) = (i64::MAX, i64::MIN);
+        for &(i, k) in batch {
+            let t = &topics[k];
+            let st = t.stamps[i];
+            let data = if t.schema == "sensor_msgs/Imu" {
+                encode_ros1(&sample(&t.stamps, &t.cols, i), i as u32, "imu_link")
+            } else {
+                vec![1, 2, 3]
+            };
+            index[k].push((st, chunk.len() as u32));
+            t0 = t0.min(st);
+            t1 = t1.max(st);
+            chunk.extend_from_slice(&bag_record(
+                &[
+                    bag_field("op", &[2]),
+                    bag_field("conn", &(k as u32).to_le_bytes()),
+                    bag_field("time", &bag_time(st)),
+                ],
+                &data,
+            ));
+        }
+        let chunk_pos = out.len() as u64;
         out.extend_from_slice(&bag_record(
             &[
-                bag_field("op", &[4]),
-                bag_field("ver", &1u32.to_le_bytes()),
-                bag_field("conn", &(k as u32).to_le_bytes()),
-                bag_field("count", &(ix.len() as u32).to_le_bytes()),
+                bag_field("op", &[5]),
+                bag_field("compression", b"none"),
+                bag_field("size", &(chunk.len() as u32).to_le_bytes()),
             ],
-            &data,
+            &chunk,
         ));
+        let mut per = Vec::new();
+        for (k, ix) in index.iter().enumerate() {
+            if ix.is_empty() && !batch.is_empty() {
+                continue;
+            }
+            let data: Vec<u8> = ix
+                .iter()
+                .flat_map(|&(st, off)| [bag_time(st).to_vec(), off.to_le_bytes().to_vec()].concat())
+                .collect();
+            out.extend_from_slice(&bag_record(
+                &[
+                    bag_field("op", &[4]),
+                    bag_field("ver", &1u32.to_le_bytes()),
+                    bag_field("conn", &(k as u32).to_le_bytes()),
+                    bag_field("count", &(ix.len() as u32).to_le_bytes()),
+                ],
+                &data,
+            ));
+            per.push((k as u32, ix.len() as u32));
+        }
+        if t0 > t1 {
+            (t0, t1) = (0, 0);
+        }
+        infos.push((chunk_pos, per, t0, t1));
     }
     let index_pos = out.len() as u64;
     for (k, t) in topics.iter().enumerate() {
         out.extend_from_slice(&bag_connection(k as u32, t));
     }
-    let entries: Vec<u8> = index
-        .iter()
-        .enumerate()
-        .flat_map(|(k, ix)| [(k as u32).to_le_bytes(), (ix.len() as u32).to_le_bytes()].concat())
-        .collect();
-    if t0 > t1 {
-        (t0, t1) = (0, 0);
+    for (c, (chunk_pos, per, t0, t1)) in infos.iter().enumerate() {
+        let entries: Vec<u8> = per
+            .iter()
+            .enumerate()
+            .flat_map(|(e, &(k, n))| {
+                let n = n + u32::from(miscount && c == 0 && e == 0);
+                [k.to_le_bytes(), n.to_le_bytes()].concat()
+            })
+            .collect();
+        out.extend_from_slice(&bag_record(
+            &[
+                bag_field("op", &[6]),
+                bag_field("ver", &1u32.to_le_bytes()),
+                bag_field("chunk_pos", &chunk_pos.to_le_bytes()),
+                bag_field("start_time", &bag_time(*t0)),
+                bag_field("end_time", &bag_time(*t1)),
+                bag_field("count", &(per.len() as u32).to_le_bytes()),
+            ],
+            &entries,
+        ));
     }
-    out.extend_from_slice(&bag_record(
-        &[
-            bag_field("op", &[6]),
-            bag_field("ver", &1u32.to_le_bytes()),
-            bag_field("chunk_pos", &chunk_pos.to_le_bytes()),
-            bag_field("start_time", &bag_time(t0)),
-            bag_field("end_time", &bag_time(t1)),
-            bag_field("count", &(topics.len() as u32).to_le_bytes()),
-        ],
-        &entries,
-    ));
-    let h = header(index_pos, 1);
+    let h = header(index_pos);
     out[hdr_at..hdr_at + h.len()].copy_from_slice(&h);
     std::fs::write(path, out).unwrap();
+}
+
+/// A bag of many chunks (as `rosbag record` writes them) is read chunk by chunk in parallel
+/// into the final columns, and equals the CSV of the same data; an index that miscounts a
+/// chunk makes that read decline, and the bag is read chunk after chunk instead, with the
+/// same values; a bad message is reported with the number the sequential read gives it.
+#[cfg(feature = "rosbag")]
+#[test]
+fn ros1_bag_of_many_chunks_is_read_in_parallel() {
+    use imunoise::logs::{LogReader, rosbag1::BagReader};
+    let dir = tempfile::tempdir().unwrap();
+    let csv = p(&dir, "run.csv");
+    let mut t = imu("/imu0", 12_000, 400.0);
+    t.schema = "sensor_msgs/Imu";
+    write_csv(&csv, &t.cols);
+    let cam = Topic {
+        name: "/cam",
+        schema: "sensor_msgs/Image",
+        stamps: stamps(300, 10.0),
+        cols: vec![],
+    };
+    let topics = [t, cam];
+    let (good, bad) = (p(&dir, "many.bag"), p(&dir, "miscounted.bag"));
+    write_bag_chunked(&good, &topics, 700, false);
+    write_bag_chunked(&bad, &topics, 700, true);
+    let r = BagReader::open(&good).unwrap();
+    let par = r
+        .read_imu_parallel("/imu0")
+        .unwrap()
+        .expect("the parallel read");
+    assert_eq!(par.stamps_ns, topics[0].stamps);
+    assert_eq!(par.columns, topics[0].cols);
+    assert_eq!(r.read_imu("/imu0").unwrap(), par);
+    let rb = BagReader::open(&bad).unwrap();
+    assert!(rb.read_imu_parallel("/imu0").unwrap().is_none());
+    assert_eq!(rb.read_imu("/imu0").unwrap(), par);
+    let a = ok(&["avar", s(&good), "--format", "json", "-q"]);
+    let b = ok(&["avar", s(&csv), "--rate", "400", "--format", "json", "-q"]);
+    assert_eq!(a, b, "bag and CSV give the same AV JSON, byte for byte");
+    // a bad message in the fifth chunk: the same message number as the sequential read
+    let mut bytes = std::fs::read(&good).unwrap();
+    let frame = b"imu_link";
+    let hits: Vec<usize> = bytes
+        .windows(frame.len())
+        .enumerate()
+        .filter(|(_, w)| *w == frame)
+        .map(|(i, _)| i)
+        .collect();
+    // the frame id's u32 length sits just before it: claim far more than the message holds
+    let at = hits[3000] - 4;
+    bytes[at..at + 4].copy_from_slice(&1_000_000u32.to_le_bytes());
+    let broken = p(&dir, "broken.bag");
+    std::fs::write(&broken, &bytes).unwrap();
+    let e = BagReader::open(&broken)
+        .unwrap()
+        .read_imu("/imu0")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("message 3001 on /imu0 is not a valid sensor_msgs/Imu"),
+        "{e}"
+    );
 }
 
 #[cfg(feature = "rosbag")]
@@ -1021,22 +1116,25 @@ mod fuzz {
         })
     }
 
-    /// 300 samples at 100 Hz in uncompressed chunks of about 4 kB, with message indexes.
-    fn indexed_mcap() -> &'static Vec<u8> {
-        static F: OnceLock<Vec<u8>> = OnceLock::new();
+    /// 300 samples at 100 Hz: an MCAP file in uncompressed chunks of about 4 kB with message
+    /// indexes, and a ROS 1 bag in chunks of 25 messages with its index.
+    fn indexed_logs() -> &'static (Vec<u8>, Vec<u8>) {
+        static F: OnceLock<(Vec<u8>, Vec<u8>)> = OnceLock::new();
         F.get_or_init(|| {
             let dir = tempfile::tempdir().unwrap();
-            let path = dir.path().join("i.mcap");
+            let (mc, bag) = (dir.path().join("i.mcap"), dir.path().join("i.bag"));
             let opts = mcap::WriteOptions::new()
                 .compression(None)
                 .chunk_size(Some(4000));
-            write_mcap_with(&path, &[imu("/imu0", 300, 100.0)], opts);
-            let s = open(&path, LogFormat::Mcap)
-                .unwrap()
-                .read_imu("/imu0")
-                .unwrap();
-            assert_eq!(s.stamps_ns.len(), 300);
-            std::fs::read(&path).unwrap()
+            write_mcap_with(&mc, &[imu("/imu0", 300, 100.0)], opts);
+            let mut t = imu("/imu0", 300, 100.0);
+            t.schema = "sensor_msgs/Imu";
+            write_bag_chunked(&bag, &[t], 25, false);
+            for (path, format) in [(&mc, LogFormat::Mcap), (&bag, LogFormat::Bag)] {
+                let s = open(path, format).unwrap().read_imu("/imu0").unwrap();
+                assert_eq!(s.stamps_ns.len(), 300);
+            }
+            (std::fs::read(&mc).unwrap(), std::fs::read(&bag).unwrap())
         })
     }
 
@@ -1085,19 +1183,26 @@ mod fuzz {
             read_all(format, ext, &b);
         }
 
-        /// An MCAP file of uncompressed 4 kB chunks with its summary intact (flips only, no
-        /// cut), so that the chunks are read one by one through the chunk index and the
-        /// message indexes, where no walk over a chunk's records comes first.
+        /// An MCAP file of uncompressed 4 kB chunks with its summary intact, and a ROS 1 bag of
+        /// 25-message chunks with its index (flips only, no cut), so that the chunks are read
+        /// one by one, in parallel, through the indexes (for the MCAP file with no walk over a
+        /// chunk's records first).
         #[test]
-        fn fuzz_mcap_indexed_chunks_flipped(
+        fn fuzz_indexed_chunks_flipped(
+            bag in any::<bool>(),
             flips in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..6),
         ) {
-            let mut b = indexed_mcap().clone();
+            let (format, ext, fixture) = if bag {
+                (LogFormat::Bag, "bag", &indexed_logs().1)
+            } else {
+                (LogFormat::Mcap, "mcap", &indexed_logs().0)
+            };
+            let mut b = fixture.clone();
             for (i, x) in &flips {
                 let at = i.index(b.len());
                 b[at] ^= x | 1;
             }
-            read_all(LogFormat::Mcap, "mcap", &b);
+            read_all(format, ext, &b);
         }
 
         #[test]

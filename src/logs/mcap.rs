@@ -4,10 +4,9 @@
 //! says `ros1`).
 
 use super::imu_msg::{ImuSample, decode_cdr, decode_ros1, is_imu_type};
-use super::{ImuSeries, LogFormat, LogReader, TopicInfo, map_file};
+use super::{ImuSeries, LogFormat, LogReader, SamplePush, TopicInfo, map_file};
 use crate::error::{Error, Result};
 use std::collections::BTreeMap;
-use std::mem::MaybeUninit;
 use std::path::Path;
 
 /// A mapped MCAP file.
@@ -380,67 +379,12 @@ impl McapReader {
         decoders: &BTreeMap<u16, Decoder>,
         topic: &str,
     ) -> Result<Option<ImuSeries>> {
-        use rayon::prelude::*;
         let Some(counts) = self.indexed_counts(chunks, decoders) else {
             return Ok(None);
         };
-        let total: usize = counts.iter().sum();
-        // room for every column, filled by the chunks' sinks (each writes exactly its
-        // part); a failed reservation (an index claiming too much) takes the joining path
-        let mut stamps_v: Vec<i64> = Vec::new();
-        let mut cols_v: Vec<Vec<f64>> = (0..6).map(|_| Vec::new()).collect();
-        if stamps_v.try_reserve_exact(total).is_ok()
-            && cols_v
-                .iter_mut()
-                .all(|c| c.try_reserve_exact(total).is_ok())
-        {
-            let mut stamps = &mut stamps_v.spare_capacity_mut()[..total];
-            let mut cols: Vec<&mut [MaybeUninit<f64>]> = cols_v
-                .iter_mut()
-                .map(|c| &mut c.spare_capacity_mut()[..total])
-                .collect();
-            let mut jobs = Vec::with_capacity(chunks.len());
-            for (ci, &n) in chunks.iter().zip(&counts) {
-                let (here, rest) = std::mem::take(&mut stamps).split_at_mut(n);
-                stamps = rest;
-                let columns: [&mut [MaybeUninit<f64>]; 6] = std::array::from_fn(|k| {
-                    let (here, rest) = std::mem::take(&mut cols[k]).split_at_mut(n);
-                    cols[k] = rest;
-                    here
-                });
-                let sink = SliceSink {
-                    stamps: here,
-                    columns,
-                    n: 0,
-                    overflow: false,
-                };
-                jobs.push((*ci, sink));
-            }
-            let done: Vec<Result<bool>> = jobs
-                .into_par_iter()
-                .map(|(ci, mut sink)| {
-                    self.decode_chunk(ci, topic, decoders, &mut sink)?;
-                    Ok(!sink.overflow && sink.n == sink.stamps.len())
-                })
-                .collect();
-            if done.iter().all(|d| !matches!(d, Ok(false))) {
-                for d in done {
-                    d?;
-                }
-                // SAFETY: the sinks' slices partition [0, total) of each column's spare
-                // capacity, and every sink wrote all of its slice (n == its length).
-                unsafe {
-                    stamps_v.set_len(total);
-                    cols_v.iter_mut().for_each(|c| c.set_len(total));
-                }
-                return Ok(Some(ImuSeries {
-                    stamps_ns: stamps_v,
-                    names: super::IMU_NAMES.iter().map(|s| s.to_string()).collect(),
-                    columns: cols_v,
-                }));
-            }
-        }
-        Ok(None)
+        super::read_parts_into(chunks, &counts, |ci, _, sink| {
+            self.decode_chunk(ci, topic, decoders, sink)
+        })
     }
 
     /// [`read_chunks_parallel`](Self::read_chunks_parallel) chunk by chunk into series of
@@ -563,42 +507,6 @@ impl McapReader {
     }
 }
 
-/// Where [`McapReader::decode_chunk`] puts the samples.
-trait SamplePush {
-    fn push_sample(&mut self, s: &ImuSample);
-}
-
-impl SamplePush for ImuSeries {
-    fn push_sample(&mut self, s: &ImuSample) {
-        self.push(s);
-    }
-}
-
-/// A chunk's place in the final columns, of the length its message index gives; more
-/// messages than that set `overflow` (and are not stored).
-struct SliceSink<'a> {
-    stamps: &'a mut [MaybeUninit<i64>],
-    columns: [&'a mut [MaybeUninit<f64>]; 6],
-    n: usize,
-    overflow: bool,
-}
-
-impl SamplePush for SliceSink<'_> {
-    fn push_sample(&mut self, s: &ImuSample) {
-        let i = self.n;
-        if i >= self.stamps.len() {
-            self.overflow = true;
-            return;
-        }
-        self.stamps[i].write(s.stamp_ns);
-        for k in 0..3 {
-            self.columns[k][i].write(s.gyro[k]);
-            self.columns[3 + k][i].write(s.acc[k]);
-        }
-        self.n += 1;
-    }
-}
-
 impl LogReader for McapReader {
     fn format(&self) -> LogFormat {
         LogFormat::Mcap
@@ -678,7 +586,9 @@ impl LogReader for McapReader {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::logs::SliceSink;
     use crate::logs::imu_msg::encode_cdr;
+    use std::mem::MaybeUninit;
 
     /// Writes `n` Imu messages on /imu0 and `n / 3` on /imu1 (interleaved), in chunks of about
     /// `chunk` bytes (zstd, or uncompressed with `plain`), with or without message indexes;

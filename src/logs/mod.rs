@@ -13,6 +13,8 @@
 
 use crate::error::{Error, Result};
 use serde::Serialize;
+#[cfg(any(feature = "mcap", feature = "rosbag"))]
+use std::mem::MaybeUninit;
 use std::path::Path;
 
 pub mod imu_msg;
@@ -101,6 +103,124 @@ pub struct ImuSeries {
     pub names: Vec<String>,
     /// One column per channel, same length as `stamps_ns`.
     pub columns: Vec<Vec<f64>>,
+}
+
+#[cfg(any(feature = "mcap", feature = "rosbag"))]
+/// Where a log reader's chunk decoder puts the samples: a growing [`ImuSeries`], or a
+/// [`SliceSink`] (the chunk's place in the final columns).
+pub(crate) trait SamplePush {
+    /// Appends one sample.
+    fn push_sample(&mut self, s: &imu_msg::ImuSample);
+}
+
+#[cfg(any(feature = "mcap", feature = "rosbag"))]
+impl SamplePush for ImuSeries {
+    fn push_sample(&mut self, s: &imu_msg::ImuSample) {
+        self.push(s);
+    }
+}
+
+#[cfg(any(feature = "mcap", feature = "rosbag"))]
+/// A chunk's place in the final columns, of the length its log's index gives; more
+/// messages than that set `overflow` (and are not stored).
+pub(crate) struct SliceSink<'a> {
+    pub(crate) stamps: &'a mut [MaybeUninit<i64>],
+    pub(crate) columns: [&'a mut [MaybeUninit<f64>]; 6],
+    pub(crate) n: usize,
+    pub(crate) overflow: bool,
+}
+
+#[cfg(any(feature = "mcap", feature = "rosbag"))]
+impl SamplePush for SliceSink<'_> {
+    fn push_sample(&mut self, s: &imu_msg::ImuSample) {
+        let i = self.n;
+        if i >= self.stamps.len() {
+            self.overflow = true;
+            return;
+        }
+        self.stamps[i].write(s.stamp_ns);
+        for k in 0..3 {
+            self.columns[k][i].write(s.gyro[k]);
+            self.columns[3 + k][i].write(s.acc[k]);
+        }
+        self.n += 1;
+    }
+}
+
+#[cfg(any(feature = "mcap", feature = "rosbag"))]
+/// Reads `parts` (a log's chunks) in parallel straight into their places in the final
+/// columns: part k holds `counts[k]` samples (from the log's index) and `read(part, base,
+/// sink)` decodes them into `sink`, `base` being the index of its first sample in the series.
+/// No per-part series to join afterwards (that join took 0.37 s of one thread for 1.08·10^7
+/// MCAP messages). `Ok(None)` when a part holds another number of samples than its count
+/// (the index does not match the data: the caller reads another way) or the columns cannot be
+/// reserved; otherwise the first error in part order, or the series.
+pub(crate) fn read_parts_into<P: Sync>(
+    parts: &[P],
+    counts: &[usize],
+    read: impl Fn(&P, usize, &mut SliceSink<'_>) -> Result<()> + Sync,
+) -> Result<Option<ImuSeries>> {
+    use rayon::prelude::*;
+    let Some(total) = counts.iter().try_fold(0usize, |a, &n| a.checked_add(n)) else {
+        return Ok(None);
+    };
+    let mut stamps_v: Vec<i64> = Vec::new();
+    let mut cols_v: Vec<Vec<f64>> = (0..6).map(|_| Vec::new()).collect();
+    if stamps_v.try_reserve_exact(total).is_err()
+        || !cols_v
+            .iter_mut()
+            .all(|c| c.try_reserve_exact(total).is_ok())
+    {
+        return Ok(None);
+    }
+    let mut stamps = &mut stamps_v.spare_capacity_mut()[..total];
+    let mut cols: Vec<&mut [MaybeUninit<f64>]> = cols_v
+        .iter_mut()
+        .map(|c| &mut c.spare_capacity_mut()[..total])
+        .collect();
+    let mut jobs = Vec::with_capacity(parts.len());
+    let mut base = 0;
+    for (part, &n) in parts.iter().zip(counts) {
+        let (here, rest) = std::mem::take(&mut stamps).split_at_mut(n);
+        stamps = rest;
+        let columns: [&mut [MaybeUninit<f64>]; 6] = std::array::from_fn(|k| {
+            let (here, rest) = std::mem::take(&mut cols[k]).split_at_mut(n);
+            cols[k] = rest;
+            here
+        });
+        let sink = SliceSink {
+            stamps: here,
+            columns,
+            n: 0,
+            overflow: false,
+        };
+        jobs.push((part, base, sink));
+        base += n;
+    }
+    let done: Vec<Result<bool>> = jobs
+        .into_par_iter()
+        .map(|(part, base, mut sink)| {
+            read(part, base, &mut sink)?;
+            Ok(!sink.overflow && sink.n == sink.stamps.len())
+        })
+        .collect();
+    if done.iter().any(|d| matches!(d, Ok(false))) {
+        return Ok(None);
+    }
+    for d in done {
+        d?;
+    }
+    // SAFETY: the sinks' slices partition [0, total) of each column's spare capacity, and
+    // every sink wrote all of its slice (n == its length, checked above).
+    unsafe {
+        stamps_v.set_len(total);
+        cols_v.iter_mut().for_each(|c| c.set_len(total));
+    }
+    Ok(Some(ImuSeries {
+        stamps_ns: stamps_v,
+        names: IMU_NAMES.iter().map(|s| s.to_string()).collect(),
+        columns: cols_v,
+    }))
 }
 
 /// The six channel names of an IMU, units as suffixes (rad/s, m/s²).

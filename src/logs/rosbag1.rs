@@ -7,7 +7,7 @@
 //! (a recording that was not closed) is an error, not a panic.
 
 use super::imu_msg::{decode_ros1, is_imu_type};
-use super::{ImuSeries, LogFormat, LogReader, TopicInfo};
+use super::{ImuSeries, LogFormat, LogReader, SamplePush, TopicInfo};
 use crate::error::{Error, Result};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -19,12 +19,23 @@ type Connections = BTreeMap<u32, (String, String)>;
 pub struct BagReader {
     file: String,
     bag: rosbag::RosBag,
+    /// The file, for the walk over the chunk section's record headers
+    /// ([`Self::chunk_starts`]; positioned reads: mapping them would keep whole page-cache
+    /// folios of the file resident a second time, beside the crate's own map).
+    fh: std::fs::File,
+    /// The chunk section: from the end of the bag header record to the index.
+    section: (usize, usize),
 }
+
+/// Per chunk of the index: its record's offset and (connection, messages) pairs.
+type ChunkInfos = Vec<(u64, Vec<(u32, u32)>)>;
 
 const VERSION: &[u8] = b"#ROSBAG V2.0\n";
 
 /// Reads `index_pos` from the bag header record and checks it lies inside the file.
-fn check_header(b: &[u8], file: &str) -> Result<()> {
+/// Checks the bag header record; returns the chunk section (from the end of the header record
+/// to the index).
+fn check_header(b: &[u8], file: &str) -> Result<(usize, usize)> {
     let bad = |m: &str| Error::File {
         file: file.to_string(),
         message: m.to_string(),
@@ -65,7 +76,7 @@ fn check_header(b: &[u8], file: &str) -> Result<()> {
             "truncated or corrupt bag: its index starts at byte {i}, but the file has {} bytes",
             b.len()
         ))),
-        Some(_) => Ok(()),
+        Some(i) => Ok((start, i as usize)),
     }
 }
 
@@ -74,13 +85,22 @@ impl BagReader {
     pub fn open(path: &Path) -> Result<Self> {
         let file = path.display().to_string();
         let map = super::map_file(path)?;
-        check_header(&map, &file)?;
+        let section = check_header(&map, &file)?;
         drop(map);
+        let fh = std::fs::File::open(path).map_err(|e| Error::File {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
         let bag = rosbag::RosBag::new(path).map_err(|e| Error::File {
             file: file.clone(),
             message: format!("not a readable ROS 1 bag: {e}"),
         })?;
-        Ok(BagReader { file, bag })
+        Ok(BagReader {
+            file,
+            bag,
+            fh,
+            section,
+        })
     }
 
     fn corrupt(&self, e: impl std::fmt::Display) -> Error {
@@ -91,23 +111,155 @@ impl BagReader {
     }
 
     /// Connections (id → topic, type) and message counts per connection, from the index.
-    fn index(&self) -> Result<(Connections, BTreeMap<u32, u64>)> {
+    fn index(&self) -> Result<(Connections, BTreeMap<u32, u64>, ChunkInfos)> {
         let mut conns = BTreeMap::new();
         let mut counts: BTreeMap<u32, u64> = BTreeMap::new();
+        let mut chunks = Vec::new();
         for r in self.bag.index_records() {
             match r.map_err(|e| self.corrupt(e))? {
                 rosbag::IndexRecord::Connection(c) => {
                     conns.insert(c.id, (c.topic.to_string(), c.tp.to_string()));
                 }
                 rosbag::IndexRecord::ChunkInfo(ci) => {
+                    let mut per = Vec::new();
                     for e in ci.entries() {
                         *counts.entry(e.conn_id).or_default() += e.count as u64;
+                        per.push((e.conn_id, e.count));
                     }
+                    chunks.push((ci.chunk_pos, per));
                 }
                 rosbag::IndexRecord::IndexData(_) => {}
             }
         }
-        Ok((conns, counts))
+        Ok((conns, counts, chunks))
+    }
+
+    /// The offsets of the chunk records in the chunk section, by a walk over its records'
+    /// lengths (header length, header, data length; the data is skipped), or `None` when a
+    /// length runs past the section or a read fails (the sequential read then reports it).
+    fn chunk_starts(&self) -> Option<Vec<u64>> {
+        use std::os::unix::fs::FileExt;
+        let (mut at, end) = self.section;
+        let mut buf = vec![0u8; 4096];
+        let mut out = Vec::new();
+        while at < end {
+            // the record's header length, header and data length, in one read when they fit
+            let got = buf.len().min(end - at);
+            self.fh.read_exact_at(&mut buf[..got], at as u64).ok()?;
+            let hlen = u32::from_le_bytes(buf.get(..4)?.try_into().ok()?) as usize;
+            if hlen + 8 > got {
+                if hlen + 8 > end - at {
+                    return None;
+                }
+                buf.resize(hlen + 8, 0);
+                self.fh
+                    .read_exact_at(&mut buf[..hlen + 8], at as u64)
+                    .ok()?;
+            }
+            let header = &buf[4..4 + hlen];
+            let dlen = u32::from_le_bytes(buf[4 + hlen..8 + hlen].try_into().ok()?) as usize;
+            let next = (at + 8 + hlen).checked_add(dlen)?;
+            if next > end {
+                return None;
+            }
+            // the op field (name=value with a u32 length): 5 is a chunk
+            let mut p = 0;
+            while p + 4 <= header.len() {
+                let n = u32::from_le_bytes(header[p..p + 4].try_into().ok()?) as usize;
+                let f = header.get(p + 4..(p + 4).checked_add(n)?)?;
+                if f == b"op=\x05" {
+                    out.push(at as u64);
+                }
+                p += 4 + n;
+            }
+            at = next;
+        }
+        Some(out)
+    }
+
+    /// The parallel read of [`read_imu`](LogReader::read_imu) alone (for tests): `Ok(None)`
+    /// when the index does not match the chunks and `read_imu` reads them one after the other.
+    #[doc(hidden)]
+    pub fn read_imu_parallel(&self, topic: &str) -> Result<Option<ImuSeries>> {
+        let (conns, _, chunks) = self.index()?;
+        let ids: Vec<u32> = conns
+            .iter()
+            .filter(|(_, (t, tp))| t == topic && is_imu_type(tp))
+            .map(|(&id, _)| id)
+            .collect();
+        self.read_parallel(&ids, chunks, topic)
+    }
+
+    /// With an index whose chunk infos name every chunk record of the file: the chunks holding
+    /// `ids` decoded in parallel, each into its place in the final columns
+    /// ([`super::read_parts_into`]). `Ok(None)`: the index does not match the chunks (then they
+    /// are read one after the other).
+    fn read_parallel(
+        &self,
+        ids: &[u32],
+        mut chunks: ChunkInfos,
+        topic: &str,
+    ) -> Result<Option<ImuSeries>> {
+        chunks.sort_by_key(|c| c.0);
+        let Some(starts) = self.chunk_starts() else {
+            return Ok(None);
+        };
+        if chunks.len() != starts.len() || chunks.iter().zip(&starts).any(|(c, &s)| c.0 != s) {
+            return Ok(None);
+        }
+        let parts: Vec<(u64, usize)> = chunks
+            .iter()
+            .map(|(pos, per)| {
+                let n: u64 = per
+                    .iter()
+                    .filter(|(c, _)| ids.contains(c))
+                    .map(|&(_, k)| k as u64)
+                    .sum();
+                (*pos, n as usize)
+            })
+            .filter(|&(_, n)| n > 0)
+            .collect();
+        let counts: Vec<usize> = parts.iter().map(|p| p.1).collect();
+        super::read_parts_into(&parts, &counts, |&(pos, _), base, sink| {
+            let mut it = self.bag.chunk_records();
+            it.seek(pos).map_err(|e| self.corrupt(e))?;
+            let chunk = match it.next() {
+                Some(Ok(rosbag::ChunkRecord::Chunk(c))) => c,
+                Some(Err(e)) => return Err(self.corrupt(e)),
+                _ => return Err(self.corrupt(format!("no chunk record at byte {pos}"))),
+            };
+            self.decode_chunk(&chunk, ids, topic, base, sink)
+                .map(|_| ())
+        })
+    }
+
+    /// Decodes the messages of `ids` in `chunk` into `sink`; `before` messages of the topic
+    /// come before the chunk (for the message numbers of errors).
+    fn decode_chunk(
+        &self,
+        chunk: &rosbag::record_types::Chunk<'_>,
+        ids: &[u32],
+        topic: &str,
+        before: usize,
+        sink: &mut impl SamplePush,
+    ) -> Result<usize> {
+        let mut k = 0;
+        for m in chunk.messages() {
+            if let rosbag::MessageRecord::MessageData(m) = m.map_err(|e| self.corrupt(e))?
+                && ids.contains(&m.conn_id)
+            {
+                let s = decode_ros1(m.data).map_err(|why| Error::File {
+                    file: self.file.clone(),
+                    message: format!(
+                        "message {} on {topic} is not a valid sensor_msgs/Imu: {why}",
+                        before + k + 1
+                    ),
+                })?;
+                sink.push_sample(&s);
+                k += 1;
+            }
+        }
+        Ok(k)
     }
 }
 
@@ -117,7 +269,7 @@ impl LogReader for BagReader {
     }
 
     fn topics(&self) -> Result<Vec<TopicInfo>> {
-        let (conns, counts) = self.index()?;
+        let (conns, counts, _) = self.index()?;
         let mut by_topic: BTreeMap<String, TopicInfo> = BTreeMap::new();
         for (id, (topic, tp)) in conns {
             let e = by_topic.entry(topic.clone()).or_insert_with(|| TopicInfo {
@@ -132,12 +284,16 @@ impl LogReader for BagReader {
     }
 
     fn read_imu(&self, topic: &str) -> Result<ImuSeries> {
-        let (conns, counts) = self.index()?;
+        let (conns, counts, chunks) = self.index()?;
         let ids: Vec<u32> = conns
             .iter()
             .filter(|(_, (t, tp))| t == topic && is_imu_type(tp))
             .map(|(&id, _)| id)
             .collect();
+        if let Some(out) = self.read_parallel(&ids, chunks, topic)? {
+            out.check_finite(&format!("{} ({topic})", self.file))?;
+            return Ok(out);
+        }
         let n: u64 = ids
             .iter()
             .map(|i| counts.get(i).copied().unwrap_or(0))
@@ -147,20 +303,8 @@ impl LogReader for BagReader {
             let rosbag::ChunkRecord::Chunk(chunk) = r.map_err(|e| self.corrupt(e))? else {
                 continue;
             };
-            for m in chunk.messages() {
-                if let rosbag::MessageRecord::MessageData(m) = m.map_err(|e| self.corrupt(e))?
-                    && ids.contains(&m.conn_id)
-                {
-                    let s = decode_ros1(m.data).map_err(|why| Error::File {
-                        file: self.file.clone(),
-                        message: format!(
-                            "message {} on {topic} is not a valid sensor_msgs/Imu: {why}",
-                            out.stamps_ns.len() + 1
-                        ),
-                    })?;
-                    out.push(&s);
-                }
-            }
+            let before = out.stamps_ns.len();
+            self.decode_chunk(&chunk, &ids, topic, before, &mut out)?;
         }
         out.check_finite(&format!("{} ({topic})", self.file))?;
         Ok(out)
