@@ -1,7 +1,9 @@
 //! ROS 2 MCAP (`.mcap`) with the format owners' crate `mcap`: the file is memory-mapped,
-//! chunks are decompressed one at a time (zstd, lz4 or none), and each `sensor_msgs/msg/Imu`
-//! message is decoded in place ([`super::imu_msg`]; CDR, or ROS 1 encoding when the channel
-//! says `ros1`).
+//! and each `sensor_msgs/msg/Imu` message is decoded in place ([`super::imu_msg`]; CDR, or
+//! ROS 1 encoding when the channel says `ros1`). With a summary that indexes the chunks (zstd,
+//! lz4 or none), the chunks holding the topic are decompressed and decoded in parallel, each
+//! into its place in the final columns when the message indexes give the counts; without
+//! one, the file is streamed.
 
 use super::imu_msg::{ImuSample, decode_cdr, decode_ros1, is_imu_type};
 use super::{ImuSeries, LogFormat, LogReader, SamplePush, TopicInfo, map_file};

@@ -1,6 +1,8 @@
-//! ROS 1 bags (`.bag`, format 2.0) with the crate `rosbag`: the file is memory-mapped,
-//! chunks (none, bz2 or lz4) are decompressed one at a time, and `sensor_msgs/Imu`
-//! messages are decoded in place ([`super::imu_msg::decode_ros1`]).
+//! ROS 1 bags (`.bag`, format 2.0) with the crate `rosbag`: the file is memory-mapped, and
+//! `sensor_msgs/Imu` messages are decoded in place ([`super::imu_msg::decode_ros1`]). With an
+//! index that names every chunk, the chunks (none, bz2 or lz4) holding the topic are
+//! decompressed and decoded in parallel, each into its place in the final columns; otherwise
+//! one after the other.
 //!
 //! Counts come from the index section (chunk info records). The bag header is checked
 //! here before the crate slices the file with it, so that a truncated or unindexed bag
