@@ -602,6 +602,22 @@ fn write_bag_chunked(path: &Path, topics: &[Topic<'_>], per_chunk: usize, miscou
     std::fs::write(path, out).unwrap();
 }
 
+/// The topics of the ROS 1 bag tests: /imu0 (12 000 `sensor_msgs/Imu` at 400 Hz, also written
+/// to `csv`) and /cam (`cam` images at 10 Hz).
+#[cfg(feature = "rosbag")]
+fn bag_topics(csv: &Path, cam: usize) -> [Topic<'static>; 2] {
+    let mut t = imu("/imu0", 12_000, 400.0);
+    t.schema = "sensor_msgs/Imu";
+    write_csv(csv, &t.cols);
+    let cam = Topic {
+        name: "/cam",
+        schema: "sensor_msgs/Image",
+        stamps: stamps(cam, 10.0),
+        cols: vec![],
+    };
+    [t, cam]
+}
+
 /// A bag of many chunks (as `rosbag record` writes them) is read chunk by chunk in parallel
 /// into the final columns, and equals the CSV of the same data; an index that miscounts a
 /// chunk makes that read decline, and the bag is read chunk after chunk instead, with the
@@ -612,16 +628,7 @@ fn ros1_bag_of_many_chunks_is_read_in_parallel() {
     use imunoise::logs::{LogReader, rosbag1::BagReader};
     let dir = tempfile::tempdir().unwrap();
     let csv = p(&dir, "run.csv");
-    let mut t = imu("/imu0", 12_000, 400.0);
-    t.schema = "sensor_msgs/Imu";
-    write_csv(&csv, &t.cols);
-    let cam = Topic {
-        name: "/cam",
-        schema: "sensor_msgs/Image",
-        stamps: stamps(300, 10.0),
-        cols: vec![],
-    };
-    let topics = [t, cam];
+    let topics = bag_topics(&csv, 300);
     let (good, bad) = (p(&dir, "many.bag"), p(&dir, "miscounted.bag"));
     write_bag_chunked(&good, &topics, 700, false);
     write_bag_chunked(&bad, &topics, 700, true);
@@ -669,16 +676,7 @@ fn ros1_bag_of_many_chunks_is_read_in_parallel() {
 fn ros1_bag_equals_csv_and_bad_bags_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let (bag, csv) = (p(&dir, "run.bag"), p(&dir, "run.csv"));
-    let mut t = imu("/imu0", 12_000, 400.0);
-    t.schema = "sensor_msgs/Imu";
-    write_csv(&csv, &t.cols);
-    let cam = Topic {
-        name: "/cam",
-        schema: "sensor_msgs/Image",
-        stamps: stamps(20, 10.0),
-        cols: vec![],
-    };
-    write_bag(&bag, &[t, cam]);
+    write_bag(&bag, &bag_topics(&csv, 20));
     let a = ok(&["avar", s(&bag), "--format", "json", "-q"]);
     let b = ok(&["avar", s(&csv), "--rate", "400", "--format", "json", "-q"]);
     assert_eq!(a, b, "bag and CSV give the same AV JSON, byte for byte");

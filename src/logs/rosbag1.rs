@@ -29,6 +29,15 @@ pub struct BagReader {
     section: (usize, usize),
 }
 
+/// The connections of `topic` that carry `sensor_msgs/Imu`.
+fn imu_ids(conns: &Connections, topic: &str) -> Vec<u32> {
+    conns
+        .iter()
+        .filter(|(_, (t, tp))| t == topic && is_imu_type(tp))
+        .map(|(&id, _)| id)
+        .collect()
+}
+
 /// Per chunk of the index: its record's offset and (connection, messages) pairs.
 type ChunkInfos = Vec<(u64, Vec<(u32, u32)>)>;
 
@@ -184,11 +193,7 @@ impl BagReader {
     #[doc(hidden)]
     pub fn read_imu_parallel(&self, topic: &str) -> Result<Option<ImuSeries>> {
         let (conns, _, chunks) = self.index()?;
-        let ids: Vec<u32> = conns
-            .iter()
-            .filter(|(_, (t, tp))| t == topic && is_imu_type(tp))
-            .map(|(&id, _)| id)
-            .collect();
+        let ids = imu_ids(&conns, topic);
         self.read_parallel(&ids, chunks, topic)
     }
 
@@ -287,11 +292,7 @@ impl LogReader for BagReader {
 
     fn read_imu(&self, topic: &str) -> Result<ImuSeries> {
         let (conns, counts, chunks) = self.index()?;
-        let ids: Vec<u32> = conns
-            .iter()
-            .filter(|(_, (t, tp))| t == topic && is_imu_type(tp))
-            .map(|(&id, _)| id)
-            .collect();
+        let ids = imu_ids(&conns, topic);
         if let Some(out) = self.read_parallel(&ids, chunks, topic)? {
             out.check_finite(&format!("{} ({topic})", self.file))?;
             return Ok(out);
