@@ -43,9 +43,8 @@ type ChunkInfos = Vec<(u64, Vec<(u32, u32)>)>;
 
 const VERSION: &[u8] = b"#ROSBAG V2.0\n";
 
-/// Reads `index_pos` from the bag header record and checks it lies inside the file.
-/// Checks the bag header record; returns the chunk section (from the end of the header record
-/// to the index).
+/// Reads `index_pos` from the bag header record and checks it lies inside the file; returns
+/// the chunk section (from the end of the header record to the index).
 fn check_header(b: &[u8], file: &str) -> Result<(usize, usize)> {
     let bad = |m: &str| Error::File {
         file: file.to_string(),
@@ -236,7 +235,6 @@ impl BagReader {
                 _ => return Err(self.corrupt(format!("no chunk record at byte {pos}"))),
             };
             self.decode_chunk(&chunk, ids, topic, base, sink)
-                .map(|_| ())
         })
     }
 
@@ -249,7 +247,7 @@ impl BagReader {
         topic: &str,
         before: usize,
         sink: &mut impl SamplePush,
-    ) -> Result<usize> {
+    ) -> Result<()> {
         let mut k = 0;
         for m in chunk.messages() {
             if let rosbag::MessageRecord::MessageData(m) = m.map_err(|e| self.corrupt(e))?
@@ -266,7 +264,7 @@ impl BagReader {
                 k += 1;
             }
         }
-        Ok(k)
+        Ok(())
     }
 }
 
