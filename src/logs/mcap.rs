@@ -323,9 +323,11 @@ fn add(by_topic: &mut BTreeMap<String, TopicInfo>, ch: &mcap::Channel<'_>, count
 }
 
 impl McapReader {
-    /// With a summary that indexes the chunks: the chunks holding `topic` are decoded in
-    /// parallel (rayon) and joined in file order, which is the recording order. `None` when
-    /// the file has no chunk index (then it is streamed).
+    /// With a summary that indexes the chunks (every index pointing at a chunk record that
+    /// `check_records` checked): the chunks holding `topic` are decoded in parallel (rayon),
+    /// in file order, which is the recording order ([`read_direct`](Self::read_direct), else
+    /// [`read_joined`](Self::read_joined)). `None` when the file has no chunk index (then it
+    /// is streamed).
     fn read_chunks_parallel(&self, topic: &str) -> Result<Option<ImuSeries>> {
         let Ok(Some(summary)) = mcap::Summary::read(&self.map) else {
             return Ok(None);
@@ -465,7 +467,9 @@ impl McapReader {
             .collect()
     }
 
-    /// Decodes the messages of the channels in `decoders` in one indexed chunk into `sink`.
+    /// Decodes the messages of the channels in `decoders` in one indexed chunk into `sink`;
+    /// `ci` points at one of the chunks `check_records` checked (`read_chunks_parallel` makes
+    /// sure of it for every index it passes on).
     fn decode_chunk(
         &self,
         ci: &mcap::records::ChunkIndex,
@@ -487,7 +491,6 @@ impl McapReader {
                     .checked_add(usize::try_from(len).ok()?)?;
                 self.map.get(start..end)
             })
-            .filter(|_| self.chunks.contains(&ci.chunk_start_offset))
             .ok_or_else(|| self.corrupt(0, "a chunk index points past the end"))?;
         let mut stream = BoundedStream::new(rec, self.limit);
         stream.reader = mcap::sans_io::LinearReader::new_with_options(
