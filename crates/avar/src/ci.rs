@@ -47,6 +47,19 @@ const J_MAX: f64 = 100.0;
 pub const CONSERVATIVE_SE: f64 = 1.5;
 
 /// Result of the lag-1 ACF noise identification.
+///
+/// ```
+/// use avar::ci::identify_noise;
+/// // a random walk (the steps of a deterministic pseudo-random sequence): r1 ≈ 1 gives
+/// // ρ ≈ 1/2, so it is differenced once into white steps (ρ ≈ 0)
+/// let mut s = 1u64; let mut acc = 0.0;
+/// let rw: Vec<f64> = (0..2000).map(|_| { s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+///     acc += (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5; acc }).collect();
+/// let id = identify_noise(&rw).unwrap();
+/// assert_eq!((id.d, id.alpha_rg), (1, -2));
+/// assert_eq!(id.alpha_raw, -2.0 * (id.rho + id.d as f64));
+/// assert!(id.alpha_edf <= id.alpha_rg as f64 && id.alpha_edf >= -2.0); // the conservative side
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NoiseId {
     /// The real exponent used for the EDF: −2(ρ + k·se_ρ + d) with k = [`CONSERVATIVE_SE`] and

@@ -165,6 +165,19 @@ impl Scales {
 }
 
 /// The estimator of the Allan variance.
+///
+/// ```
+/// use avar::{allan_variance, AvarConfig, CiMethod, Estimator, Scales};
+/// let x = [1.0, 3.0, 2.0, 6.0, 5.0, 5.0, 0.0, 2.0];
+/// let cfg = |estimator| AvarConfig { scales: Scales::Explicit(vec![2]), ci: CiMethod::None, estimator, ..Default::default() };
+/// let over = &allan_variance(&x, 1.0, &cfg(Estimator::Overlapping)).unwrap().points[0];
+/// let non = &allan_variance(&x, 1.0, &cfg(Estimator::NonOverlapping)).unwrap().points[0];
+/// // pair means 2, 2.5, 4, 5.5, 5, 2.5, 1; differences m apart 2, 3, 1, −3, −4 (T − 2m + 1)
+/// assert_eq!((over.n_terms, over.avar), (5, (4.0 + 9.0 + 1.0 + 9.0 + 16.0) / (2.0 * 5.0)));
+/// // disjoint pair means 2, 4, 5, 1; differences 2, 1, −4 (⌊T/m⌋ − 1)
+/// assert_eq!((non.n_terms, non.avar), (3, (4.0 + 1.0 + 16.0) / (2.0 * 3.0)));
+/// assert_eq!(Estimator::default(), Estimator::Overlapping);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Estimator {
@@ -177,6 +190,20 @@ pub enum Estimator {
 }
 
 /// What the samples are.
+///
+/// ```
+/// use avar::{allan_variance, AvarConfig, CiMethod, InputKind, Scales};
+/// let rate = [1.0, 3.0, 2.0, 6.0, 5.0, 5.0, 0.0, 2.0];
+/// // the same record integrated at 1 Hz: 9 angle samples θ_0 = 0, θ_k = θ_{k−1} + x_k
+/// let angle: Vec<f64> = std::iter::once(0.0)
+///     .chain(rate.iter().scan(0.0, |th, x| { *th += x; Some(*th) }))
+///     .collect();
+/// let cfg = |input| AvarConfig { scales: Scales::Explicit(vec![1, 2]), ci: CiMethod::None, input, ..Default::default() };
+/// let a = allan_variance(&rate, 1.0, &cfg(InputKind::Rate)).unwrap();
+/// let b = allan_variance(&angle, 1.0, &cfg(InputKind::Angle)).unwrap();
+/// assert_eq!(b.n, 8); // T + 1 angle samples hold T rate samples
+/// assert_eq!(a.avars(), b.avars()); // small integers: both routes are exact
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum InputKind {
@@ -189,6 +216,23 @@ pub enum InputKind {
 }
 
 /// Confidence-interval family.
+///
+/// ```
+/// use avar::{allan_variance, AvarConfig, CiMethod};
+/// let x: Vec<f64> = (0..512).map(|i| ((i * 7919) % 101) as f64).collect();
+/// let av = |ci| allan_variance(&x, 1.0, &AvarConfig { ci, ..Default::default() }).unwrap();
+/// let (none, chi2, gauss) = (av(CiMethod::None), av(CiMethod::ChiSquare), av(CiMethod::Gaussian));
+/// assert!(none.points.iter().all(|p| p.avar_lo.is_none() && p.edf.is_none()));
+/// assert_eq!(none.avars(), chi2.avars()); // the same estimate, whatever the interval
+/// for (p, q) in chi2.points.iter().zip(&gauss.points) {
+///     assert_eq!(p.avar, q.avar);
+///     let (lo, hi) = (p.avar_lo.unwrap(), p.avar_hi.unwrap());
+///     assert!(0.0 <= lo && lo <= p.avar && p.avar <= hi); // never negative
+///     // AV ± z·se: symmetric up to the rounding of lo and hi (ε·hi each)
+///     let (lo, hi) = (q.avar_lo.unwrap(), q.avar_hi.unwrap());
+///     assert!((lo + hi - 2.0 * q.avar).abs() <= 4.0 * f64::EPSILON * hi);
+/// }
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum CiMethod {

@@ -7,6 +7,19 @@ use crate::config::{AvarConfig, CiMethod, Scales};
 use crate::error::AvarError;
 
 /// The Haar WV at one MODWT level.
+///
+/// ```
+/// use avar::haar_wavelet_variance;
+/// let x: Vec<f64> = (0..100).map(|i| ((i * 7) % 17) as f64).collect();
+/// let wv = haar_wavelet_variance(&x, 4.0, Some(3), 0.05).unwrap();
+/// for p in &wv.points {
+///     assert_eq!(p.scale, 1 << p.j); // τ_j = 2^j samples
+///     assert_eq!(p.tau, p.scale as f64 / 4.0); // s at 4 Hz
+///     assert_eq!(p.n_coeffs, 100 - p.scale + 1); // M_j = T − 2^j + 1
+///     assert_eq!(p.eta, (p.n_coeffs as f64 / p.scale as f64).max(1.0));
+///     assert!(p.wv_lo < p.wv && p.wv < p.wv_hi);
+/// }
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WvPoint {
     /// MODWT level j >= 1.
@@ -28,6 +41,15 @@ pub struct WvPoint {
 }
 
 /// Haar wavelet variances at levels 1..=J.
+///
+/// ```
+/// use avar::haar_wavelet_variance;
+/// let x: Vec<f64> = (0..300).map(|i| ((i * 7) % 17) as f64).collect();
+/// let wv = haar_wavelet_variance(&x, 50.0, Some(4), 0.1).unwrap();
+/// assert_eq!((wv.rate_hz, wv.n, wv.alpha), (50.0, 300, 0.1));
+/// let levels: Vec<u32> = wv.points.iter().map(|p| p.j).collect();
+/// assert_eq!(levels, vec![1, 2, 3, 4]);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct HaarWaveletVariance {
     /// Sampling rate (Hz).

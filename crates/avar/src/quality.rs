@@ -40,6 +40,19 @@ use serde::{Deserialize, Serialize};
 use crate::{AllanVariance, AvarConfig, AvarError, CiMethod, Estimator, InputKind, Scales};
 
 /// Thresholds of the data-quality pass.
+///
+/// ```
+/// use avar::quality::{data_quality, QualityOptions};
+/// let d = QualityOptions::default();
+/// assert_eq!((d.spike_z, d.shift_z, d.blocks, d.trend_share), (10.0, 10.0, 256, 0.5));
+/// // a ±1 square wave with one sample off its neighbours by 16 (e_i = ±2 elsewhere)
+/// let mut x: Vec<f64> = (0..1000).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+/// x[500] += 14.0;
+/// // the robust scale of e is 1.4826·MAD = 1.4826·4 ≈ 5.9: 16 is below 10 of them, above 2
+/// let strict = QualityOptions { spike_z: 2.0, ..d.clone() };
+/// assert!(data_quality(&x, 1.0, &d).unwrap().spikes.is_empty());
+/// assert_eq!(data_quality(&x, 1.0, &strict).unwrap().spikes[0].index, 500);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct QualityOptions {
     /// A spike is at least this many robust scales of e_i (default 10: under Gaussian noise a
@@ -67,6 +80,20 @@ impl Default for QualityOptions {
 }
 
 /// One spike: a sample that stands off its two neighbours.
+///
+/// ```
+/// use avar::quality::{data_quality, QualityOptions};
+/// // a ±1 square wave at 100 Hz with 100 added to sample 500 (x_500 = 101, neighbours −1)
+/// let mut x: Vec<f64> = (0..1000).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+/// x[500] += 100.0;
+/// let opts = QualityOptions::default();
+/// let q = data_quality(&x, 100.0, &opts).unwrap();
+/// assert_eq!(q.spikes.len(), 1);
+/// let s = &q.spikes[0];
+/// assert_eq!((s.index, s.time_s), (500, 5.0));
+/// assert_eq!(s.excess, 102.0); // 101 − (−1 − 1)/2
+/// assert!(s.z > opts.spike_z);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Spike {
     /// Zero-based sample index.
@@ -80,6 +107,20 @@ pub struct Spike {
 }
 
 /// One level shift: the mean after differs from the mean before.
+///
+/// ```
+/// use avar::quality::{data_quality, QualityOptions};
+/// // a ±1 square wave at 64 Hz that steps up by 1.0 at sample 512 (t = 8 s): block means of
+/// // 16 samples are exactly 0 before and 1 after
+/// let x: Vec<f64> = (0..1024)
+///     .map(|i| if i % 2 == 0 { 1.0 } else { -1.0 } + if i >= 512 { 1.0 } else { 0.0 })
+///     .collect();
+/// let q = data_quality(&x, 64.0, &QualityOptions::default()).unwrap();
+/// assert_eq!(q.level_shifts.len(), 1);
+/// let l = &q.level_shifts[0];
+/// assert_eq!((l.index, l.time_s, l.size), (512, 8.0, 1.0));
+/// assert!(q.spikes.is_empty());
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LevelShift {
     /// Zero-based index of the first sample after the shift.
@@ -93,6 +134,17 @@ pub struct LevelShift {
 }
 
 /// A linear trend over the whole record.
+///
+/// ```
+/// use avar::quality::{data_quality, QualityOptions};
+/// // a pure ramp of 1 per sample at 10 Hz: AV(m) = m²/2 is all trend
+/// let x: Vec<f64> = (0..1024).map(|i| i as f64).collect();
+/// let q = data_quality(&x, 10.0, &QualityOptions::default()).unwrap();
+/// let tr = q.trend.unwrap();
+/// assert_eq!(tr.slope_per_s, 10.0); // 1 per sample · 10 Hz
+/// assert_eq!(tr.tau_longest_s, 51.2); // m = 2^(⌊log2 1024⌋ − 1) = 512 samples
+/// assert!((tr.share_longest - 1.0).abs() < 1e-12);
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Trend {
     /// Least-squares slope (data units per second).
@@ -104,6 +156,20 @@ pub struct Trend {
 }
 
 /// What the pass found, with one sentence per finding in `findings`.
+///
+/// ```
+/// use avar::quality::{data_quality, QualityOptions};
+/// // a ±1 square wave at 100 Hz with a spike of 100 every 100 samples (every second)
+/// let mut x: Vec<f64> = (0..1000).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+/// for i in (100..1000).step_by(100) {
+///     x[i] += 100.0;
+/// }
+/// let q = data_quality(&x, 100.0, &QualityOptions::default()).unwrap();
+/// assert_eq!((q.n, q.rate_hz), (1000, 100.0));
+/// assert_eq!(q.spikes.len(), 9);
+/// assert_eq!(q.spike_period_s, Some(1.0));
+/// assert!(q.findings[0].contains("9 spikes"));
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DataQuality {
     /// Number of samples T.
@@ -125,6 +191,19 @@ pub struct DataQuality {
 
 impl DataQuality {
     /// True when nothing was found.
+    ///
+    /// ```
+    /// use avar::quality::{data_quality, QualityOptions};
+    /// let opts = QualityOptions::default();
+    /// // a ±1 square wave: no spike, equal block means, AV = 0 at the (even) longest scales
+    /// let mut x: Vec<f64> = (0..1000).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+    /// let q = data_quality(&x, 1.0, &opts).unwrap();
+    /// assert!(q.is_clean() && q.findings.is_empty());
+    /// x[500] += 100.0;
+    /// let q = data_quality(&x, 1.0, &opts).unwrap();
+    /// assert!(!q.is_clean());
+    /// assert_eq!(q.findings.len(), q.spikes.len());
+    /// ```
     pub fn is_clean(&self) -> bool {
         self.findings.is_empty()
     }
@@ -133,6 +212,18 @@ impl DataQuality {
 /// Runs the data-quality pass on rate samples `x` at `rate_hz` (see the module doc).
 ///
 /// Errors: fewer than 64 samples, non-finite samples (by index), a bad rate.
+///
+/// ```
+/// use avar::quality::{data_quality, QualityOptions};
+/// use avar::AvarError;
+/// let opts = QualityOptions::default();
+/// let mut x: Vec<f64> = (0..64).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+/// assert_eq!(data_quality(&x, 1.0, &opts).unwrap().n, 64);
+/// assert_eq!(data_quality(&x[..63], 1.0, &opts), Err(AvarError::TooShort { got: 63, need: 64 }));
+/// assert!(data_quality(&x, 0.0, &opts).is_err());
+/// x[7] = f64::NAN;
+/// assert!(matches!(data_quality(&x, 1.0, &opts), Err(AvarError::NonFinite { index: 7, .. })));
+/// ```
 pub fn data_quality(
     x: &[f64],
     rate_hz: f64,

@@ -88,6 +88,18 @@ impl AvarPoint {
 ///
 /// `avar_slope` = Δ ln AV / Δ ln τ; the AD slope is half of it. Reference slopes of the AD:
 /// −1 quantization, −1/2 white noise, 0 flicker, +1/2 random walk, +1 drift (REFERENCES §5).
+///
+/// ```
+/// use avar::{allan_variance, AvarConfig, CiMethod, Scales};
+/// // a rate ramp of 0.5 per sample at 4 Hz: AV = 0.25·m²/2, i.e. 0.5 at m = 2 and 8 at m = 8
+/// let x: Vec<f64> = (0..64).map(|i| 0.5 * i as f64).collect();
+/// let cfg = AvarConfig { scales: Scales::Explicit(vec![2, 8]), ci: CiMethod::None, ..Default::default() };
+/// let s = allan_variance(&x, 4.0, &cfg).unwrap().slopes()[0];
+/// assert_eq!((s.tau_lo, s.tau_hi), (0.5, 2.0));
+/// // ln 16 / ln 4 = 2, up to the rounding of the logarithms
+/// assert!((s.avar_slope - 2.0).abs() < 1e-12);
+/// assert_eq!(s.adev_slope, s.avar_slope / 2.0);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Slope {
     /// Smaller τ (s).

@@ -132,6 +132,18 @@ impl Biweight {
     /// The biweight with tuning constant `c` (> 0, in standard deviations).
     ///
     /// Errors: c not finite, or so small (below c₀ ≈ 1.5) that M_c ≤ 0.
+    ///
+    /// ```
+    /// use avar::robust::Biweight;
+    /// let b = Biweight::with_c(4.0).unwrap();
+    /// assert_eq!(b.c, 4.0);
+    /// // back from its efficiency (c found by bisection to 1e-13 relative)
+    /// let e = Biweight::with_efficiency(b.efficiency()).unwrap();
+    /// assert!((e.c - 4.0).abs() < 1e-9);
+    /// // c ≤ 1: Z² − 1 ≤ 0 wherever χ_c(Z²) > 0, so M_c < 0
+    /// assert!(Biweight::with_c(1.0).is_err());
+    /// assert!(Biweight::with_c(f64::INFINITY).is_err());
+    /// ```
     pub fn with_c(c: f64) -> Result<Self, AvarError> {
         if !(c.is_finite() && c > 0.0) {
             return Err(AvarError::InvalidEfficiency(format!(
@@ -171,6 +183,17 @@ impl Biweight {
     /// [`EFFICIENCY_RANGE`]. The efficiency grows with c; c is found by bisection to 1e-13.
     ///
     /// Errors: eff outside [`EFFICIENCY_RANGE`] or not finite.
+    ///
+    /// ```
+    /// use avar::robust::{Biweight, DEFAULT_EFFICIENCY, EFFICIENCY_RANGE};
+    /// let b = Biweight::with_efficiency(DEFAULT_EFFICIENCY).unwrap();
+    /// let b95 = Biweight::with_efficiency(0.95).unwrap();
+    /// assert!(b95.c > b.c); // the efficiency grows with c
+    /// // c to 1e-13 relative: the efficiency to about as much
+    /// assert!((b95.efficiency() - 0.95).abs() < 1e-10);
+    /// assert!(Biweight::with_efficiency(EFFICIENCY_RANGE.1 + 0.005).is_err());
+    /// assert!(Biweight::with_efficiency(f64::NAN).is_err());
+    /// ```
     pub fn with_efficiency(eff: f64) -> Result<Self, AvarError> {
         let (lo_e, hi_e) = EFFICIENCY_RANGE;
         if !(eff.is_finite() && (lo_e..=hi_e).contains(&eff)) {
@@ -204,6 +227,15 @@ impl Biweight {
     }
 
     /// Gaussian efficiency e(c) = M_c² / (2 Var χ_c(Z²)) from the closed-form moments.
+    ///
+    /// ```
+    /// use avar::robust::Biweight;
+    /// let b = Biweight::with_c(4.0).unwrap();
+    /// let e = b.efficiency();
+    /// assert_eq!(e, b.m_c * b.m_c / (2.0 * b.var_chi));
+    /// assert!(0.0 < e && e < 1.0); // the mean square is the efficient one at the Gaussian model
+    /// assert!((b.efficiency_quadrature() - e).abs() < 1e-10); // the independent quadrature
+    /// ```
     pub fn efficiency(&self) -> f64 {
         self.m_c * self.m_c / (2.0 * self.var_chi)
     }
@@ -226,6 +258,16 @@ impl Biweight {
     }
 
     /// χ_c(u) = u (1 − u/c²)⁴ for 0 ≤ u ≤ c², else 0 (u = squared standardized difference).
+    ///
+    /// ```
+    /// use avar::robust::Biweight;
+    /// let b = Biweight::with_c(4.0).unwrap(); // c² = 16
+    /// assert_eq!(b.chi(0.0), 0.0);
+    /// assert_eq!(b.chi(4.0), 4.0 * 0.75f64.powi(4)); // 1.265625
+    /// assert_eq!(b.chi(8.0), 0.5); // 8 · (1/2)⁴
+    /// assert_eq!(b.chi(16.0), 0.0);
+    /// assert_eq!(b.chi(1e6), 0.0);
+    /// ```
     #[inline]
     pub fn chi(&self, u: f64) -> f64 {
         let c2 = self.c * self.c;
@@ -240,6 +282,14 @@ impl Biweight {
 
     /// The factor 1/e(c) ≥ 1 by which the variance of the robust estimate exceeds at most that
     /// of the classical one under Gaussian noise (module doc).
+    ///
+    /// ```
+    /// use avar::robust::Biweight;
+    /// let b = Biweight::with_efficiency(0.6).unwrap();
+    /// assert_eq!(b.variance_inflation(), 1.0 / b.efficiency());
+    /// // the efficiency is 0.6 to 1e-12, so 1/e is 1/0.6 to about 3e-12
+    /// assert!((b.variance_inflation() - 1.0 / 0.6).abs() < 1e-11);
+    /// ```
     pub fn variance_inflation(&self) -> f64 {
         1.0 / self.efficiency()
     }
@@ -612,6 +662,18 @@ const NEWTON_ERR: f64 = 1e-14;
 const NEWTON_K_MIN: f64 = 0.05;
 
 /// The result of [`robust_mean_square_detail`].
+///
+/// ```
+/// use avar::robust::{Biweight, robust_mean_square, robust_mean_square_detail};
+/// let b = Biweight::with_efficiency(0.6).unwrap();
+/// let d: Vec<f64> = (0..100).map(|i| ((i * 37) % 19) as f64 - 9.0).collect();
+/// let r = robust_mean_square_detail(&d, &b).unwrap();
+/// assert!(r.root);
+/// assert_eq!(r.s, robust_mean_square(&d, &b).unwrap());
+/// // s solves (1/n) Σ χ_c(d²/s) = a(c); Newton stops about 1e-14 from the root in ln s
+/// let g = d.iter().map(|v| b.chi(v * v / r.s)).sum::<f64>() / d.len() as f64;
+/// assert!((g - b.a).abs() < 1e-9);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RobustScale {
     /// The robust mean square s (unit² of the input).
@@ -622,6 +684,25 @@ pub struct RobustScale {
 }
 
 /// A robust Allan variance with the classical one it was derived from.
+///
+/// ```
+/// use avar::robust::{difference_stride, robust_allan_variance};
+/// use avar::AvarConfig;
+/// let x: Vec<f64> = (0..2000).map(|i| ((i * 7919) % 101) as f64 / 101.0).collect();
+/// let r = robust_allan_variance(&x, 1.0, &AvarConfig::default(), 0.6).unwrap();
+/// assert_eq!(r.efficiency, r.biweight.efficiency());
+/// // values in [0, 1) spread evenly: no sample is 6 robust SDs off its neighbours
+/// assert!(r.spikes.indices.is_empty());
+/// for (k, (p, q)) in r.robust.points.iter().zip(&r.classical.points).enumerate() {
+///     assert_eq!(p.m, q.m);
+///     // every difference_stride(m)-th of the T − 2m + 1 differences
+///     assert_eq!(r.used[k], (2000 - 2 * p.m) / difference_stride(p.m) + 1);
+///     assert!(r.rejected[k] <= r.used[k]);
+///     assert!(r.root_found[k]); // no contamination: the equation has a root
+///     // the classical chi-square EDF times e (the variance inflated by 1/e)
+///     assert_eq!(p.edf, q.edf.map(|edf| edf * r.efficiency));
+/// }
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobustAllanVariance {
     /// Gaussian efficiency of the estimator.
@@ -657,6 +738,21 @@ pub const SPIKE_HALF_WINDOW: usize = 10;
 pub const MAX_SPIKE_FRACTION: f64 = 0.01;
 
 /// What [`replace_spikes`] did.
+///
+/// ```
+/// use avar::robust::{replace_spikes, SPIKE_HALF_WINDOW};
+/// use std::borrow::Cow;
+/// let mut x: Vec<f64> = (0..1000).map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5).collect();
+/// x[500] += 30.0;
+/// let (_, r) = replace_spikes(&x, 6.0).unwrap();
+/// assert_eq!(r.indices, vec![500]);
+/// assert_eq!((r.threshold, r.beyond), (6.0, 1));
+/// assert!(r.residual_sd > 0.0);
+/// // fewer than 4w + 1 samples: not judged, nothing replaced, the data returned as they are
+/// let (y, r) = replace_spikes(&x[..4 * SPIKE_HALF_WINDOW], 6.0).unwrap();
+/// assert!(r.indices.is_empty() && r.residual_sd == 0.0);
+/// assert!(matches!(y, Cow::Borrowed(_)));
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SpikeReplacement {
     /// 0-based indices of the replaced samples, increasing.
@@ -989,6 +1085,14 @@ fn count_beyond_lanes(x: &[f64], lim: f64) -> u64 {
 
 /// Every how many differences the estimating equation at cluster size m uses: 1 up to
 /// m = 2·[`STRIDE_DIVISOR`] − 1, then ⌊m / [`STRIDE_DIVISOR`]⌋ (module doc, "Stride").
+///
+/// ```
+/// use avar::robust::{difference_stride, STRIDE_DIVISOR};
+/// assert_eq!(difference_stride(1), 1);
+/// assert_eq!(difference_stride(2 * STRIDE_DIVISOR - 1), 1);
+/// assert_eq!(difference_stride(2 * STRIDE_DIVISOR), 2);
+/// assert_eq!(difference_stride(1000), 1000 / STRIDE_DIVISOR);
+/// ```
 pub fn difference_stride(m: u64) -> u64 {
     (m / STRIDE_DIVISOR).max(1)
 }
@@ -1563,6 +1667,25 @@ pub fn robust_haar_wavelet_variance(
 
 /// A stretch of the record that drives the difference between the classical and the robust
 /// AV at one cluster size.
+///
+/// ```
+/// use avar::robust::{Biweight, excess_windows_at};
+/// // a flat record at 10 Hz with spikes of 10 and 20: at m = 1 each gives two differences ±A
+/// let mut x = vec![0.0; 1000];
+/// x[250] = 10.0;
+/// x[750] = 20.0;
+/// let b = Biweight::with_efficiency(0.6).unwrap();
+/// // σ̂² = 1 given, windows of 100 samples (10 s)
+/// let w = excess_windows_at(&x, 10.0, 1, &b, 1.0, 100, 5).unwrap();
+/// assert_eq!(w.len(), 2);
+/// assert_eq!((w[0].start_s, w[0].end_s), (70.0, 80.0)); // the larger excess first
+/// assert_eq!((w[1].start_s, w[1].end_s), (20.0, 30.0));
+/// // excess D² − c²σ̂² per difference: 400 − c² against 100 − c²; |D|/σ̂ = 20
+/// let c2 = b.c * b.c;
+/// assert!((w[0].share - (400.0 - c2) / (500.0 - 2.0 * c2)).abs() < 1e-12);
+/// assert!((w[0].share + w[1].share - 1.0).abs() < 1e-12);
+/// assert!((w[0].max_z - 20.0).abs() < 1e-12);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ExcessWindow {
     /// Start of the window (s from the first sample).

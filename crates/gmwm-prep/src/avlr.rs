@@ -95,6 +95,20 @@ impl AvlrWindows {
 }
 
 /// One AVLR estimate.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, avlr::{avlr, AvlrWindows}, units::IeeeTerm};
+/// // Continuous-time law of a random walk, AV = K² τ / 3, with K = 1e-4 at 100 Hz.
+/// let m: Vec<u64> = (1..=6).map(|j| 1u64 << j).collect();
+/// let av: Vec<f64> = m.iter().map(|&m| 1e-8 * (m as f64 / 100.0) / 3.0).collect();
+/// let w = AvlrWindows { rw: Some((1, 4)), ..Default::default() };
+/// let e = avlr(&AvCurve::from_m(&m, &av, 100.0)?, &w)?.estimates[0].clone();
+/// assert_eq!((e.term, e.window, e.tau_range), (IeeeTerm::K, (1, 4), (0.04, 0.32)));
+/// assert!((e.value / 1e-4 - 1.0).abs() < 1e-13); // a mean of 4 logs: rounding only
+/// assert_eq!(e.per_sample, e.value * e.value * 0.01); // γ² = K² Δt
+/// assert!(e.sd.is_none() && e.ci_lo.is_none()); // no bootstrap
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AvlrEstimate {
     /// The process.
@@ -118,6 +132,19 @@ pub struct AvlrEstimate {
 }
 
 /// The AVLR fit.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, avlr::{avlr, AvlrWindows}};
+/// // White noise σ² = 1e-4 per sample at 100 Hz: AV(m) = σ²/m.
+/// let m = [1u64, 2, 4, 8];
+/// let av: Vec<f64> = m.iter().map(|&m| 1e-4 / m as f64).collect();
+/// let w = AvlrWindows { wn: Some((0, 3)), ..Default::default() };
+/// let f = avlr(&AvCurve::from_m(&m, &av, 100.0)?, &w)?;
+/// assert_eq!((f.rate_hz, f.windows), (100.0, w));
+/// // the model holds the per-sample estimates
+/// assert_eq!(f.model.processes()?[0].params(), vec![f.estimates[0].per_sample]);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AvlrFit {
     /// Estimates in the order WN, QN, RW, DR (those with a window).
@@ -132,6 +159,18 @@ pub struct AvlrFit {
 
 impl AvlrFit {
     /// The estimate of a process kind, if fitted.
+    ///
+    /// ```
+    /// use gmwm_prep::{AvCurve, avlr::{avlr, AvlrWindows}};
+    /// use processes::ProcessKind;
+    /// let m = [1u64, 2, 4, 8];
+    /// let av: Vec<f64> = m.iter().map(|&m| 1e-4 / m as f64).collect();
+    /// let w = AvlrWindows { wn: Some((0, 3)), ..Default::default() };
+    /// let f = avlr(&AvCurve::from_m(&m, &av, 100.0)?, &w)?;
+    /// assert_eq!(f.get(ProcessKind::WhiteNoise), Some(&f.estimates[0]));
+    /// assert!(f.get(ProcessKind::RandomWalk).is_none()); // no RW window
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn get(&self, kind: ProcessKind) -> Option<&AvlrEstimate> {
         self.estimates.iter().find(|e| e.process == kind)
     }
@@ -155,6 +194,20 @@ pub fn avlr(curve: &AvCurve, windows: &AvlrWindows) -> Result<AvlrFit> {
 
 /// AVLR pooling several curves of the same rate and scales (R avar's `avlr` on an
 /// `imu_avar`: every window's points of every curve enter one mean).
+///
+/// ```
+/// use gmwm_prep::{AvCurve, avlr::{avlr_pooled, AvlrWindows}};
+/// let m = [1u64, 2, 4, 8];
+/// let wn = |s2: f64| AvCurve::from_m(&m, &m.map(|m| s2 / m as f64), 100.0);
+/// let w = AvlrWindows { wn: Some((0, 3)), ..Default::default() };
+/// // the log-log mean pools the σ² geometrically: √(4e-4 · 2.5e-5) = 1e-4
+/// let f = avlr_pooled(&[wn(4e-4)?, wn(2.5e-5)?], &w)?;
+/// assert!((f.estimates[0].per_sample / 1e-4 - 1.0).abs() < 1e-13); // rounding only
+/// // the curves must share their scales
+/// let other = AvCurve::from_m(&[1, 2, 4, 16], &[1.0; 4], 100.0)?;
+/// assert!(avlr_pooled(&[wn(1e-4)?, other], &w).is_err());
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 pub fn avlr_pooled(curves: &[AvCurve], windows: &AvlrWindows) -> Result<AvlrFit> {
     let first = curves
         .first()

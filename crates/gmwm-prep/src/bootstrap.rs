@@ -43,6 +43,13 @@ impl BootstrapOptions {
     }
 
     /// B replications of length n with seed, default AV settings, 95% intervals.
+    ///
+    /// ```
+    /// use gmwm_prep::bootstrap::BootstrapOptions;
+    /// let b = BootstrapOptions::new(200, 7, 10_000);
+    /// assert_eq!((b.replications, b.seed, b.n), (200, 7, 10_000));
+    /// assert_eq!(b.avar, avar::AvarConfig::default());
+    /// ```
     pub fn new(replications: usize, seed: u64, n: usize) -> Self {
         Self {
             replications,
@@ -76,6 +83,31 @@ impl BootstrapOptions {
 pub const MAX_REPLICATIONS: usize = 100_000;
 
 /// Result of [`parametric_bootstrap`].
+///
+/// ```
+/// use gmwm_prep::{AvCurve, bootstrap::{BootstrapOptions, parametric_bootstrap}};
+/// use gmwm_prep::gmwm::{fit, GmwmOptions};
+/// let truth: processes::Model = "WN(sigma2=1e-4)".parse()?;
+/// let m: Vec<u64> = (1..=6).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(4096);
+/// let template: processes::Model = "WN".parse()?;
+/// let f = fit(&curve, &template, &GmwmOptions::default())?;
+/// let boot = BootstrapOptions::new(8, 1, 4096);
+/// let b = parametric_bootstrap(&f, &template, &GmwmOptions::default(), &boot)?;
+/// assert_eq!((b.replications + b.failed, b.theta.len()), (8, b.replications));
+/// assert_eq!((b.av_cov.n, b.av_mean.len()), (6, 6)); // one per scale
+/// // se is the sample standard deviation of the θ* (to rounding)
+/// let t: Vec<f64> = b.theta.iter().map(|t| t[0]).collect();
+/// let mean = t.iter().sum::<f64>() / t.len() as f64;
+/// let var = t.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (t.len() - 1) as f64;
+/// assert!((b.se[0] / var.sqrt() - 1.0).abs() < 1e-12);
+/// // percentile bounds interpolate between the θ*, so they lie within their range
+/// let (lo, hi) = b.ci[0];
+/// assert!(t.iter().cloned().fold(f64::INFINITY, f64::min) <= lo && lo <= hi);
+/// assert!(hi <= t.iter().cloned().fold(f64::NEG_INFINITY, f64::max));
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BootstrapResult {
     /// Replications whose refit succeeded.
@@ -94,7 +126,19 @@ pub struct BootstrapResult {
     pub av_mean: Vec<f64>,
 }
 
-/// AV curve of one simulated replicate of `model`.
+/// AV curve of one simulated replicate of `model` (cluster sizes `m` and length `n` in
+/// samples, `rate_hz` in Hz).
+///
+/// ```
+/// use gmwm_prep::bootstrap::simulate_curve;
+/// let model: processes::Model = "WN(sigma2=1)".parse()?;
+/// let cfg = avar::AvarConfig::default();
+/// let a = simulate_curve(&model, &[1, 4, 16], 10.0, 1024, 42, 0, &cfg)?;
+/// assert_eq!((a.m(), a.n, a.rate_hz), (vec![1, 4, 16], Some(1024), 10.0));
+/// // reproducible: the same seed and stream give the same curve
+/// assert_eq!(a, simulate_curve(&model, &[1, 4, 16], 10.0, 1024, 42, 0, &cfg)?);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 pub fn simulate_curve(
     model: &Model,
     m: &[u64],
@@ -141,6 +185,23 @@ fn mean_cov(rows: &[Vec<f64>]) -> (Vec<f64>, CovMatrix) {
 
 /// Parametric bootstrap of a GMWM fit: B replicates simulated from `fit.model`, each refitted
 /// with `template` and `opts` (see module doc). AV moments only.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, bootstrap::{BootstrapOptions, parametric_bootstrap}};
+/// use gmwm_prep::gmwm::{fit, GmwmOptions};
+/// let truth: processes::Model = "WN(sigma2=1e-4)".parse()?;
+/// let m: Vec<u64> = (1..=6).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(4096);
+/// let template: processes::Model = "WN".parse()?;
+/// let f = fit(&curve, &template, &GmwmOptions::default())?;
+/// let boot = BootstrapOptions::new(8, 1, 4096);
+/// let b = parametric_bootstrap(&f, &template, &GmwmOptions::default(), &boot)?;
+/// assert_eq!(b.replications + b.failed, 8);
+/// // reproducible: replicate b draws stream b of the seed, whatever the thread count
+/// assert_eq!(b, parametric_bootstrap(&f, &template, &GmwmOptions::default(), &boot)?);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 pub fn parametric_bootstrap(
     fit_: &GmwmFit,
     template: &Model,
@@ -238,6 +299,23 @@ pub fn parametric_bootstrap_with_progress(
 /// *quantile* z_{1−α/2}, not the density): simulate the AVLR model on the fit's scales, re-apply
 /// AVLR with the same windows, and set each estimate's `sd` and `ci = θ̂ ± z_{1−α/2} sd`
 /// (per-sample parameters). The point estimates are left as they are (no bias correction).
+///
+/// ```
+/// use gmwm_prep::{AvCurve, avlr::{avlr, AvlrWindows}};
+/// use gmwm_prep::bootstrap::{avlr_bootstrap, BootstrapOptions};
+/// let m: Vec<u64> = (0..6).map(|j| 1u64 << j).collect();
+/// let av: Vec<f64> = m.iter().map(|&m| 1e-4 / m as f64).collect();
+/// let w = AvlrWindows { wn: Some((0, 5)), ..Default::default() };
+/// let f = avlr(&AvCurve::from_m(&m, &av, 100.0)?, &w)?;
+/// let b = avlr_bootstrap(&f, &m, &BootstrapOptions::new(8, 1, 4096))?;
+/// let e = &b.estimates[0];
+/// assert_eq!(e.per_sample, f.estimates[0].per_sample); // point estimate unchanged
+/// // CI = θ̂ ± z_{0.975} sd (to the rounding of θ̂ ± z sd)
+/// let z = gmwm_prep::stats::z_two_sided(0.05);
+/// let (sd, lo, hi) = (e.sd.unwrap(), e.ci_lo.unwrap(), e.ci_hi.unwrap());
+/// assert!(((hi - lo) / (2.0 * z * sd) - 1.0).abs() < 1e-9);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 pub fn avlr_bootstrap(fit_: &AvlrFit, m: &[u64], boot: &BootstrapOptions) -> Result<AvlrFit> {
     boot.check()?;
     let reps: Vec<Result<Vec<f64>>> = (0..boot.replications)

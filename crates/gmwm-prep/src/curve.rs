@@ -38,6 +38,13 @@ pub struct CurvePoint {
 
 impl CurvePoint {
     /// A point with no uncertainty information.
+    ///
+    /// ```
+    /// use gmwm_prep::CurvePoint;
+    /// let p = CurvePoint::new(8, 0.08, 1e-5);
+    /// assert_eq!((p.m, p.tau, p.avar), (8, 0.08, 1e-5));
+    /// assert!(p.avar_lo.is_none() && p.avar_hi.is_none() && p.var.is_none() && p.edf.is_none());
+    /// ```
     pub fn new(m: u64, tau: f64, avar: f64) -> Self {
         Self {
             m,
@@ -50,6 +57,11 @@ impl CurvePoint {
         }
     }
     /// The Allan deviation √AV (unit).
+    ///
+    /// ```
+    /// let p = gmwm_prep::CurvePoint::new(1, 0.01, 0.25);
+    /// assert_eq!(p.adev(), 0.5);
+    /// ```
     pub fn adev(&self) -> f64 {
         self.avar.sqrt()
     }
@@ -86,6 +98,16 @@ const TAU_TO_M_REL_TOL: f64 = 1e-6;
 
 impl AvCurve {
     /// Builds a curve from points, validating it (see [`AvCurve::validate`]).
+    ///
+    /// ```
+    /// use gmwm_prep::{AvCurve, CurvePoint};
+    /// let pts = vec![CurvePoint::new(1, 0.01, 4e-4), CurvePoint::new(2, 0.02, 2e-4)];
+    /// let c = AvCurve::new(pts.clone(), 100.0, Some(1000))?;
+    /// assert_eq!((c.len(), c.n, c.alpha), (2, Some(1000), 0.05));
+    /// // cluster sizes must increase strictly
+    /// assert!(AvCurve::new(vec![pts[1], pts[0]], 100.0, None).is_err());
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn new(points: Vec<CurvePoint>, rate_hz: f64, n: Option<u64>) -> Result<Self> {
         let c = Self {
             rate_hz,
@@ -98,6 +120,14 @@ impl AvCurve {
     }
 
     /// Builds a curve from cluster sizes m (samples) and AV values; τ = m / rate.
+    ///
+    /// ```
+    /// use gmwm_prep::AvCurve;
+    /// let c = AvCurve::from_m(&[1, 10], &[1e-4, 1e-5], 50.0)?;
+    /// assert_eq!(c.tau(), vec![0.02, 0.2]); // τ = m / rate
+    /// assert!(AvCurve::from_m(&[1, 10], &[1e-4], 50.0).is_err()); // lengths differ
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn from_m(m: &[u64], avar: &[f64], rate_hz: f64) -> Result<Self> {
         if m.len() != avar.len() {
             return Err(FitError::InvalidCurve(format!(
@@ -117,6 +147,16 @@ impl AvCurve {
 
     /// Builds a curve from averaging times τ (s) and AV values; m = round(τ · rate), which
     /// must be an integer to 1e-6 relative.
+    ///
+    /// ```
+    /// use gmwm_prep::AvCurve;
+    /// let c = AvCurve::from_tau(&[0.01, 0.04], &[1e-4, 2.5e-5], 100.0)?;
+    /// assert_eq!(c.m(), vec![1, 4]);
+    /// assert_eq!(c.tau(), vec![0.01, 0.04]); // the given τ are kept
+    /// // 0.015 s at 100 Hz is 1.5 samples
+    /// assert!(AvCurve::from_tau(&[0.015], &[1e-4], 100.0).is_err());
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn from_tau(tau: &[f64], avar: &[f64], rate_hz: f64) -> Result<Self> {
         check_rate(rate_hz)?;
         let mut m = Vec::with_capacity(tau.len());
@@ -181,37 +221,89 @@ impl AvCurve {
     }
 
     /// Sets the series length `n` (samples).
+    ///
+    /// ```
+    /// let c = gmwm_prep::AvCurve::from_m(&[1, 2], &[2.0, 1.0], 1.0)?;
+    /// assert_eq!(c.n, None);
+    /// assert_eq!(c.with_n(1000).n, Some(1000));
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn with_n(mut self, n: u64) -> Self {
         self.n = Some(n);
         self
     }
 
     /// Number of scales.
+    ///
+    /// ```
+    /// let c = gmwm_prep::AvCurve::from_m(&[1, 2, 4], &[4.0, 2.0, 1.0], 1.0)?;
+    /// assert_eq!(c.len(), 3);
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn len(&self) -> usize {
         self.points.len()
     }
 
     /// True when the curve has no scale.
+    ///
+    /// ```
+    /// use gmwm_prep::AvCurve;
+    /// let c = AvCurve::from_m(&[1], &[1.0], 1.0)?;
+    /// assert!(!c.is_empty());
+    /// // only a curve built field by field can be empty, and it does not validate
+    /// let empty = AvCurve { points: Vec::new(), ..c };
+    /// assert!(empty.is_empty() && empty.validate().is_err());
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }
 
     /// Cluster sizes m (samples).
+    ///
+    /// ```
+    /// // m = τ · rate
+    /// let c = gmwm_prep::AvCurve::from_tau(&[0.5, 1.0, 2.0], &[4.0, 2.0, 1.0], 4.0)?;
+    /// assert_eq!(c.m(), vec![2, 4, 8]);
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn m(&self) -> Vec<u64> {
         self.points.iter().map(|p| p.m).collect()
     }
 
     /// Averaging times τ (s).
+    ///
+    /// ```
+    /// // τ = m / rate
+    /// let c = gmwm_prep::AvCurve::from_m(&[2, 4, 8], &[4.0, 2.0, 1.0], 4.0)?;
+    /// assert_eq!(c.tau(), vec![0.5, 1.0, 2.0]);
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn tau(&self) -> Vec<f64> {
         self.points.iter().map(|p| p.tau).collect()
     }
 
     /// AV values (unit²).
+    ///
+    /// ```
+    /// let c = gmwm_prep::AvCurve::from_m(&[2, 4, 8], &[4.0, 2.0, 1.0], 4.0)?;
+    /// assert_eq!(c.avar(), vec![4.0, 2.0, 1.0]);
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn avar(&self) -> Vec<f64> {
         self.points.iter().map(|p| p.avar).collect()
     }
 
     /// The sub-curve of the points at indices `range`.
+    ///
+    /// ```
+    /// let c = gmwm_prep::AvCurve::from_m(&[1, 2, 4, 8], &[8.0, 4.0, 2.0, 1.0], 1.0)?.with_n(64);
+    /// let s = c.slice(1..3)?;
+    /// assert_eq!((s.m(), s.avar()), (vec![2, 4], vec![4.0, 2.0]));
+    /// assert_eq!((s.rate_hz, s.n), (c.rate_hz, c.n)); // the rest is kept
+    /// assert!(c.slice(2..5).is_err()); // past the end
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn slice(&self, range: std::ops::Range<usize>) -> Result<Self> {
         if range.start >= range.end || range.end > self.len() {
             return Err(FitError::InvalidCurve(format!(
@@ -229,6 +321,15 @@ impl AvCurve {
     /// finite positive τ and AV, CI bounds (if any) finite with 0 ≤ lo ≤ AV ≤ hi... (a
     /// negative Gaussian lower bound is accepted and ignored), variances/EDF finite and > 0,
     /// alpha in (0, 1).
+    ///
+    /// ```
+    /// use gmwm_prep::{AvCurve, FitError};
+    /// let mut c = AvCurve::from_m(&[1, 2], &[2.0, 1.0], 1.0)?;
+    /// assert!(c.validate().is_ok());
+    /// c.points[1].avar = -1.0;
+    /// assert!(matches!(c.validate(), Err(FitError::NonFinite { index: 1, what: "avar", .. })));
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn validate(&self) -> Result<()> {
         check_rate(self.rate_hz)?;
         if !(self.alpha > 0.0 && self.alpha < 1.0) {

@@ -43,6 +43,18 @@ pub fn largest_shares(fit: &GmwmFit) -> Vec<f64> {
 
 /// Codes of the components of a fit that contribute less than 10⁻³ of the fitted AV at every
 /// scale, with their largest share: the data do not determine their parameters.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, theory::model_avar};
+/// use gmwm_prep::diagnose::{largest_shares, negligible_components};
+/// // no AR1 in the truth: the fitted AR1 carries nothing
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=12).map(|j| 1u64 << j).collect();
+/// let curve = AvCurve::from_m(&m, &model_avar(&truth, &m, 100.0)?, 100.0)?;
+/// let f = fit(&curve, &"WN + RW + AR1".parse()?, &GmwmOptions::default())?;
+/// assert_eq!(negligible_components(&f), vec![("AR1", largest_shares(&f)[2])]);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 pub fn negligible_components(fit: &GmwmFit) -> Vec<(&'static str, f64)> {
     largest_shares(fit)
         .into_iter()

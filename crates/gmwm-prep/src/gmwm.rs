@@ -41,6 +41,20 @@ use processes::{Component, Model, Process, ProcessKind};
 use serde::{Deserialize, Serialize};
 
 /// Which moments the curve holds.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions, Moments}};
+/// // Haar WV of a white noise σ² = 1e-4, ν²_j = AV(m)/2 = σ²/(2m), stored at m.
+/// let m = [1u64, 2, 4, 8];
+/// let wv: Vec<f64> = m.iter().map(|&m| 1e-4 / (2.0 * m as f64)).collect();
+/// let o = GmwmOptions { moments: Moments::HaarWaveletVariance, ..Default::default() };
+/// let f = fit(&AvCurve::from_m(&m, &wv, 100.0)?, &"WN".parse()?, &o)?;
+/// // the optimizer stops at a Gauss–Newton decrement of 1e-12 on the χ² scale; with unit
+/// // relative variances (no n, CI or EDF) that leaves at most √1e-12 relative error
+/// assert!((f.theta[0] / 1e-4 - 1.0).abs() < 1e-6);
+/// assert_eq!(Moments::default(), Moments::AllanVariance);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum Moments {
     /// Allan variance at cluster sizes m (default).
@@ -79,6 +93,14 @@ pub struct CovMatrix {
 
 impl CovMatrix {
     /// Checks the size and finiteness of the entries.
+    ///
+    /// ```
+    /// use gmwm_prep::gmwm::CovMatrix;
+    /// let c = CovMatrix::new(2, vec![2.0, 0.5, 0.5, 1.0])?;
+    /// assert_eq!(c.get(0, 1), 0.5);
+    /// assert!(CovMatrix::new(1, vec![f64::NAN]).is_err());
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn new(n: usize, data: Vec<f64>) -> Result<Self> {
         if data.len() != n * n {
             return Err(FitError::InvalidMatrix(format!(
@@ -92,6 +114,11 @@ impl CovMatrix {
         Ok(Self { n, data })
     }
     /// A diagonal matrix.
+    ///
+    /// ```
+    /// let c = gmwm_prep::gmwm::CovMatrix::diagonal(&[1.0, 4.0]);
+    /// assert_eq!((c.n, c.data), (2, vec![1.0, 0.0, 0.0, 4.0]));
+    /// ```
     pub fn diagonal(d: &[f64]) -> Self {
         let n = d.len();
         let mut data = vec![0.0; n * n];
@@ -101,10 +128,21 @@ impl CovMatrix {
         Self { n, data }
     }
     /// Entry (i, j).
+    ///
+    /// ```
+    /// let c = gmwm_prep::gmwm::CovMatrix::new(2, vec![1.0, 2.0, 3.0, 4.0])?;
+    /// assert_eq!((c.get(0, 1), c.get(1, 0)), (2.0, 3.0)); // row-major
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn get(&self, i: usize, j: usize) -> f64 {
         self.data[i * self.n + j]
     }
     /// The diagonal.
+    ///
+    /// ```
+    /// let c = gmwm_prep::gmwm::CovMatrix::diagonal(&[1.0, 4.0, 9.0]);
+    /// assert_eq!(c.diag(), vec![1.0, 4.0, 9.0]);
+    /// ```
     pub fn diag(&self) -> Vec<f64> {
         (0..self.n).map(|i| self.get(i, i)).collect()
     }
@@ -124,6 +162,22 @@ impl CovMatrix {
 }
 
 /// The weighting matrix Ω.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions, Weighting}, inference::diagonal_covariance};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let v = diagonal_covariance(&curve);
+/// let o = GmwmOptions { weighting: Weighting::Full(v.clone()), ..Default::default() };
+/// let f = fit(&curve, &"WN + RW".parse()?, &o)?;
+/// // Full(V) is used as given: Ω = V⁻¹ (to rounding)
+/// let omega = f.omega();
+/// assert!((0..m.len()).all(|j| (omega.get(j, j) * v.get(j, j) - 1.0).abs() < 1e-14));
+/// assert_eq!(Weighting::default(), Weighting::Diagonal);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub enum Weighting {
     /// Ω = diag(1/Var̂(ν̂_j)) from the curve's CIs/EDF/variances, two-step (module doc).
@@ -143,6 +197,23 @@ pub enum Weighting {
 }
 
 /// Range of the AR1 coefficient φ.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions, PhiRange}};
+/// let truth: processes::Model = "AR1(phi=-0.5, sigma2=1)".parse()?;
+/// let m: Vec<u64> = (0..6).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 1.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 1.0)?;
+/// // a negative φ is reachable with the symmetric range only
+/// let o = GmwmOptions { phi_range: PhiRange::Symmetric, ..Default::default() };
+/// let sym = fit(&curve, &"AR1".parse()?, &o)?;
+/// let pos = fit(&curve, &"AR1".parse()?, &GmwmOptions::default())?;
+/// assert!(sym.theta[0] < 0.0 && pos.theta[0] > 0.0);
+/// // AV(1)/(m AV(m)) → (1 − φ)²/(1 + φ): 4.5 here, < 1 for any φ > 0, so the positive
+/// // range cannot reproduce the curve
+/// assert!(sym.convergence.objective < pos.convergence.objective);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum PhiRange {
     /// φ ∈ (0, 1), several AR1/GM ordered by φ (default; the inertial-sensor case).
@@ -199,6 +270,24 @@ impl Default for GmwmOptions {
 }
 
 /// How the optimizer ended.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let mut av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// av.iter_mut().step_by(2).for_each(|a| *a *= 1.01); // not an exact curve: Q > 0
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let c = &f.convergence;
+/// assert!(c.converged && c.start < c.starts);
+/// // Q(θ̂) = eᵀ Ω e with e = ν̂ − ν(θ̂) (diagonal Ω: a sum of squares, rounding only)
+/// let omega = f.omega();
+/// let e: Vec<f64> = f.observed.iter().zip(&f.fitted).map(|(o, v)| o - v).collect();
+/// let q: f64 = (0..m.len()).map(|j| omega.get(j, j) * e[j] * e[j]).sum();
+/// assert!(c.objective > 0.0 && (q / c.objective - 1.0).abs() < 1e-12);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Convergence {
     /// True when a convergence criterion was met before the iteration limit.
@@ -216,6 +305,23 @@ pub struct Convergence {
 }
 
 /// A fitted model.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let curve = AvCurve::from_m(&m, &gmwm_prep::theory::model_avar(&truth, &m, 100.0)?, 100.0)?;
+/// let template: processes::Model = "WN + RW".parse()?;
+/// let f = fit(&curve, &template, &GmwmOptions::default())?;
+/// assert_eq!(f.kinds, template.kinds());
+/// assert_eq!(f.model, template.with_params(&f.theta)?);
+/// assert_eq!((&f.m, &f.tau, &f.observed), (&curve.m(), &curve.tau(), &curve.avar()));
+/// // the fitted curve is the sum of the components'
+/// for j in 0..m.len() {
+///     assert_eq!(f.fitted[j], f.components.iter().map(|c| c[j]).sum::<f64>());
+/// }
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GmwmFit {
     /// The fitted model (per-sample parameters).
@@ -251,15 +357,56 @@ pub struct GmwmFit {
 
 impl GmwmFit {
     /// Number of parameters p.
+    ///
+    /// ```
+    /// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}};
+    /// let truth: processes::Model = "WN(sigma2=1e-4) + AR1(phi=0.99, sigma2=1e-7)".parse()?;
+    /// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+    /// let curve = AvCurve::from_m(&m, &gmwm_prep::theory::model_avar(&truth, &m, 100.0)?, 100.0)?;
+    /// let f = fit(&curve, &"WN + AR1".parse()?, &GmwmOptions::default())?;
+    /// assert_eq!(f.n_params(), 3); // σ²; φ, σ²
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn n_params(&self) -> usize {
         self.theta.len()
     }
     /// The weighting matrix Ω = WᵀW.
+    ///
+    /// ```
+    /// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, inference::diagonal_covariance};
+    /// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+    /// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+    /// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+    /// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+    /// // no reweighting: Ω = diag(1/(r_j ν̂_j²)), the inverse of the diagonal covariance
+    /// let o = GmwmOptions { reweight_iterations: 0, ..Default::default() };
+    /// let omega = fit(&curve, &"WN + RW".parse()?, &o)?.omega();
+    /// let v = diagonal_covariance(&curve);
+    /// assert!((0..m.len()).all(|j| (omega.get(j, j) * v.get(j, j) - 1.0).abs() < 1e-14));
+    /// assert_eq!(omega.get(0, 1), 0.0);
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn omega(&self) -> CovMatrix {
         let w = self.whitening.to_mat();
         CovMatrix::from_mat(&(w.transpose() * &w))
     }
     /// Jacobian ∂ν/∂θ at θ̂ (J×p).
+    ///
+    /// ```
+    /// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}};
+    /// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+    /// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+    /// let curve = AvCurve::from_m(&m, &gmwm_prep::theory::model_avar(&truth, &m, 100.0)?, 100.0)?;
+    /// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+    /// let a = f.jacobian();
+    /// assert_eq!((a.nrows(), a.ncols()), (10, 2));
+    /// // the AV is linear in σ² and γ²: ν(θ̂) = A θ̂ (to rounding)
+    /// for j in 0..10 {
+    ///     let lin = a[(j, 0)] * f.theta[0] + a[(j, 1)] * f.theta[1];
+    ///     assert!((lin / f.fitted[j] - 1.0).abs() < 1e-12);
+    /// }
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn jacobian(&self) -> Mat<f64> {
         let m: Vec<f64> = self.m.iter().map(|&x| x as f64).collect();
         let (j, p) = (m.len(), self.theta.len());
@@ -1183,6 +1330,18 @@ fn finish(
 }
 
 /// The processes of a fitted model, in model order.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, fitted_processes, GmwmOptions}};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let curve = AvCurve::from_m(&m, &gmwm_prep::theory::model_avar(&truth, &m, 100.0)?, 100.0)?;
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let p = fitted_processes(&f);
+/// assert_eq!(p.iter().map(|p| p.kind()).collect::<Vec<_>>(), f.kinds);
+/// assert_eq!(p.iter().flat_map(|p| p.params()).collect::<Vec<_>>(), f.theta);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 pub fn fitted_processes(fit: &GmwmFit) -> Vec<Process> {
     fit.model
         .components()

@@ -20,11 +20,32 @@ use serde::{Deserialize, Serialize};
 pub const SLOPE_TOLERANCE: f64 = 0.1;
 
 /// √(2 ln 2 / π) = 0.6642824702…, the flat-region factor: σ_B = 0.6643 · B.
+///
+/// ```
+/// use std::f64::consts::{LN_2, PI};
+/// let f = gmwm_prep::ieee::bias_instability_factor();
+/// assert!((f * f - 2.0 * LN_2 / PI).abs() < 1e-15); // squaring the root: rounding only
+/// ```
 pub fn bias_instability_factor() -> f64 {
     (2.0 * std::f64::consts::LN_2 / std::f64::consts::PI).sqrt()
 }
 
 /// One IEEE term read off the curve.
+///
+/// ```
+/// use gmwm_prep::{ieee::read_off_adev, units::IeeeTerm};
+/// use processes::Unit;
+/// // A pure rate random walk: σ(τ) = K √(τ/3) with K = 1e-4 °/s/√s.
+/// let tau: Vec<f64> = (0..8).map(|j| 2f64.powi(j)).collect();
+/// let adev: Vec<f64> = tau.iter().map(|t| 1e-4 * (t / 3.0).sqrt()).collect();
+/// let r = read_off_adev(&tau, &adev, &Unit::DegPerSec)?;
+/// let k = r.get(IeeeTerm::K).unwrap();
+/// assert_eq!((k.n_points, k.tau_min, k.tau_max), (8, 1.0, 128.0));
+/// assert_eq!((k.unit.as_str(), k.ieee[0].unit.as_str()), ("°/s/√s", "°/h/√h"));
+/// assert!((k.value / 1e-4 - 1.0).abs() < 1e-13); // a mean of 8 logs: rounding only
+/// assert!((k.mean_slope - 0.5).abs() < 1e-12);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct IeeeEstimate {
     /// Which term.
@@ -70,12 +91,36 @@ pub struct IeeeReadOff {
 
 impl IeeeReadOff {
     /// The estimate of `term`, if its region was found.
+    ///
+    /// ```
+    /// use gmwm_prep::{ieee::{bias_instability_factor, read_off_adev}, units::IeeeTerm};
+    /// // A flat Allan deviation: bias instability only, B = σ / 0.6643.
+    /// let r = read_off_adev(&[1.0, 2.0, 4.0], &[1e-3; 3], &processes::Unit::Unitless)?;
+    /// assert_eq!(r.get(IeeeTerm::B).unwrap().value, 1e-3 / bias_instability_factor());
+    /// assert!(r.get(IeeeTerm::N).is_none());
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn get(&self, term: IeeeTerm) -> Option<&IeeeEstimate> {
         self.terms.iter().find(|e| e.term == term)
     }
 }
 
 /// Reads N, B, K, Q, R off the curve's Allan deviation (see module doc). Needs ≥ 2 scales.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, ieee::{read_off, read_off_adev}};
+/// use processes::Unit;
+/// let m = [1u64, 2, 4, 8];
+/// let av: Vec<f64> = m.iter().map(|&m| 1e-4 / m as f64).collect(); // white noise
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?;
+/// // the same as reading the (τ, √AV) pairs
+/// let adev: Vec<f64> = av.iter().map(|a| a.sqrt()).collect();
+/// let r = read_off(&curve, &Unit::DegPerSec)?;
+/// assert_eq!(r, read_off_adev(&curve.tau(), &adev, &Unit::DegPerSec)?);
+/// // one scale shows no slope
+/// assert!(read_off(&curve.slice(0..1)?, &Unit::DegPerSec).is_err());
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 pub fn read_off(curve: &AvCurve, unit: &Unit) -> Result<IeeeReadOff> {
     curve.validate()?;
     let tau = curve.tau();
@@ -84,6 +129,20 @@ pub fn read_off(curve: &AvCurve, unit: &Unit) -> Result<IeeeReadOff> {
 }
 
 /// Same as [`read_off`] from raw (τ in s, σ) pairs, τ strictly increasing.
+///
+/// ```
+/// use gmwm_prep::{ieee::read_off_adev, units::IeeeTerm};
+/// use processes::Unit;
+/// // Pure quantization noise, σ(τ) = √3 Q / τ with Q = 2e-4 u·s.
+/// let tau = [0.1, 0.2, 0.4, 0.8];
+/// let adev: Vec<f64> = tau.iter().map(|t| 3f64.sqrt() * 2e-4 / t).collect();
+/// let r = read_off_adev(&tau, &adev, &Unit::Unitless)?;
+/// let q = r.get(IeeeTerm::Q).unwrap();
+/// assert!((q.value / 2e-4 - 1.0).abs() < 1e-13); // a mean of 4 logs: rounding only
+/// assert!(q.ieee.is_empty()); // no IEEE unit for a unitless channel
+/// assert!(read_off_adev(&[2.0, 1.0], &[1.0, 1.0], &Unit::Unitless).is_err()); // τ decreasing
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 pub fn read_off_adev(tau: &[f64], adev: &[f64], unit: &Unit) -> Result<IeeeReadOff> {
     if tau.len() != adev.len() {
         return Err(FitError::InvalidCurve(format!(

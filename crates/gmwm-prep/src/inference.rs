@@ -18,6 +18,24 @@ use processes::{Component, Model, ProcessKind};
 use serde::{Deserialize, Serialize};
 
 /// The J test of over-identifying restrictions.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, stats::chi2_sf};
+/// use gmwm_prep::inference::{delta_method, fit_covariance};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let template: processes::Model = "WN + RW".parse()?;
+/// let f = fit(&curve, &template, &GmwmOptions::default())?;
+/// let j = delta_method(&f, &fit_covariance(&f)?, 0.05)?.j_test.unwrap();
+/// assert_eq!(j.dof, 10 - 2); // scales − parameters
+/// assert_eq!(j.p_value, chi2_sf(j.statistic, 8.0));
+/// // as many scales as parameters: nothing to test
+/// let f2 = fit(&curve.slice(0..2)?, &template, &GmwmOptions::default())?;
+/// assert!(delta_method(&f2, &fit_covariance(&f2)?, 0.05)?.j_test.is_none());
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct JTest {
     /// J = eᵀ S⁺ e with e = ν̂ − ν(θ̂) and S = (I − AB) V (I − AB)ᵀ its asymptotic covariance
@@ -30,6 +48,27 @@ pub struct JTest {
 }
 
 /// Delta-method inference for a fit.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}};
+/// use gmwm_prep::inference::{delta_method, fit_covariance};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let inf = delta_method(&f, &fit_covariance(&f)?, 0.05)?;
+/// assert_eq!(inf.alpha, 0.05);
+/// for k in 0..2 {
+///     // se is the root of the diagonal of B V Bᵀ
+///     assert_eq!(inf.se[k], inf.cov_theta.get(k, k).sqrt());
+///     // variances: CI = θ̂ e^{∓z se/θ̂}, so lo · hi = θ̂² (to rounding)
+///     let (lo, hi) = inf.ci[k];
+///     assert!(0.0 < lo && lo < f.theta[k] && f.theta[k] < hi);
+///     assert!((lo * hi / (f.theta[k] * f.theta[k]) - 1.0).abs() < 1e-14);
+/// }
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Inference {
     /// Significance level: intervals have coverage 1 − alpha.
@@ -340,6 +379,25 @@ pub fn delta_method(fit: &GmwmFit, v: &CovMatrix, alpha: f64) -> Result<Inferenc
 }
 
 /// One candidate of a model selection.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::GmwmOptions};
+/// use gmwm_prep::inference::{diagonal_covariance, select_by_wic};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let v = diagonal_covariance(&curve);
+/// let c = select_by_wic(&curve, &"WN + RW".parse()?, &GmwmOptions::default(), &v)?;
+/// for c in &c {
+///     let template: processes::Model = c.template.parse()?;
+///     assert_eq!(c.n_params, template.n_params());
+///     // the fitted model is its template with values
+///     assert_eq!(c.model.parse::<processes::Model>()?.template(), template);
+/// }
+/// assert!(c.windows(2).all(|w| w[0].wic <= w[1].wic)); // best first
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
     /// The fitted sub-model (text form, per-sample values).
@@ -378,6 +436,22 @@ fn largest_fitting_submodel(curve: &AvCurve, full: &Model, opts: &GmwmOptions) -
 /// with the moments' covariance `v` (best first). Sub-models with more parameters than
 /// scales, and those that fail to converge or are not identifiable from these scales
 /// (singular AᵀΩA at their estimate), are skipped; an empty list means none could be fitted.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::GmwmOptions};
+/// use gmwm_prep::inference::{diagonal_covariance, select_by_wic};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let v = diagonal_covariance(&curve);
+/// let c = select_by_wic(&curve, &"WN + RW".parse()?, &GmwmOptions::default(), &v)?;
+/// // the sub-models WN, RW and WN + RW; on this exact curve each smaller one misses a
+/// // component that dominates some scales, so the true model ranks first
+/// assert_eq!(c.len(), 3);
+/// assert_eq!(c[0].template, "WN + RW");
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 pub fn select_by_wic(
     curve: &AvCurve,
     full: &Model,

@@ -29,6 +29,22 @@ use processes::{Model, ProcessKind};
 use serde::{Deserialize, Serialize};
 
 /// A χ² test.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::GmwmOptions, multi::fit_joint, stats::chi2_sf};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let a = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let b = a.slice(0..8)?.with_n(50_000); // a shorter record: its first 8 scales
+/// let j = fit_joint(&[a, b], &"WN + RW".parse()?, &GmwmOptions::default(), 0.05)?;
+/// // (R − 1)·p and (R − 1)·J degrees of freedom: R = 2, p = 2, J = 8 common scales
+/// assert_eq!((j.wald.dof, j.moments.dof), (2, 8));
+/// for t in [j.wald, j.moments] {
+///     assert_eq!(t.p_value, chi2_sf(t.statistic, t.dof as f64));
+/// }
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ChiSquareTest {
     /// The statistic.
@@ -40,6 +56,23 @@ pub struct ChiSquareTest {
 }
 
 /// One recording fitted alone.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::GmwmOptions, multi::fit_joint};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let a = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let b = a.slice(0..8)?.with_n(50_000); // a shorter record: its first 8 scales
+/// let j = fit_joint(&[a, b], &"WN + RW".parse()?, &GmwmOptions::default(), 0.05)?;
+/// assert_eq!(j.single.len(), 2);
+/// assert_eq!(j.single[1].fit.n, Some(50_000));
+/// for s in &j.single {
+///     assert_eq!(s.fit.m, m[..8]); // on the common scales
+///     assert_eq!(s.inference.se.len(), s.fit.n_params());
+/// }
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SingleFit {
     /// The fit (on the common scales).
@@ -49,6 +82,22 @@ pub struct SingleFit {
 }
 
 /// The result of [`fit_joint`].
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::GmwmOptions, multi::fit_joint};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let a = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let b = a.slice(0..8)?.with_n(50_000); // a shorter record: its first 8 scales
+/// let j = fit_joint(&[a, b], &"WN + RW".parse()?, &GmwmOptions::default(), 0.05)?;
+/// assert_eq!(j.pooled.m(), m[..8]);
+/// assert_eq!(j.fit.observed, j.pooled.avar()); // the joint fit is made on ν̄
+/// for (k, p) in j.pooled.points.iter().enumerate() {
+///     assert_eq!(p.var, Some(j.pooled_cov.get(k, k)));
+/// }
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JointFit {
     /// The joint fit (on the pooled curve ν̄, Ω = V̄⁻¹).

@@ -21,6 +21,21 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// One parameter of a fitted model.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, report::FitReport};
+/// use processes::Unit;
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let curve = AvCurve::from_m(&m, &gmwm_prep::theory::model_avar(&truth, &m, 100.0)?, 100.0)?;
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let r = FitReport::from_gmwm(&f, None, &Unit::DegPerSec);
+/// let p = &r.parameters[1];
+/// assert_eq!((p.process.as_str(), p.component, p.name.as_str()), ("RW", 1, "gamma2"));
+/// assert_eq!(p.value, f.theta[1]);
+/// assert!(p.se.is_none() && p.ci_lo.is_none() && p.ci_hi.is_none()); // no inference given
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ParameterReport {
     /// Process code, e.g. `"AR1"`.
@@ -40,6 +55,23 @@ pub struct ParameterReport {
 }
 
 /// Per-second form of one component.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, report::FitReport};
+/// use processes::Unit;
+/// use gmwm_prep::units::per_second;
+/// use processes::ProcessKind;
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let curve = AvCurve::from_m(&m, &gmwm_prep::theory::model_avar(&truth, &m, 100.0)?, 100.0)?;
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let r = FitReport::from_gmwm(&f, None, &Unit::DegPerSec);
+/// let c = &r.per_second[0];
+/// assert_eq!((c.process.as_str(), c.component), ("WN", 0));
+/// let q = per_second(ProcessKind::WhiteNoise, &f.theta[..1], 100.0, &Unit::DegPerSec);
+/// assert_eq!(c.quantities, q);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ComponentPerSecond {
     /// Process code.
@@ -51,6 +83,27 @@ pub struct ComponentPerSecond {
 }
 
 /// An IEEE-unit value with its CI.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, report::FitReport, units::process_ieee};
+/// use gmwm_prep::inference::{delta_method, fit_covariance};
+/// use processes::{ProcessKind, Unit};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let av = gmwm_prep::theory::model_avar(&truth, &m, 100.0)?;
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(100_000);
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let inf = delta_method(&f, &fit_covariance(&f)?, 0.05)?;
+/// let r = FitReport::from_gmwm(&f, Some(&inf), &Unit::DegPerSec);
+/// let n = &r.ieee["N"];
+/// let to_n = |s2: f64| {
+///     process_ieee(ProcessKind::WhiteNoise, &[s2], 100.0, &Unit::DegPerSec)[0].value
+/// };
+/// assert_eq!((n.unit.as_str(), n.value), ("°/√h", to_n(f.theta[0])));
+/// // the CI of σ² mapped through the increasing N = 60 √(σ² Δt)
+/// assert_eq!((n.ci_lo, n.ci_hi), (Some(to_n(inf.ci[0].0)), Some(to_n(inf.ci[0].1))));
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct IeeeValue {
     /// Value in `unit`.
@@ -64,6 +117,22 @@ pub struct IeeeValue {
 }
 
 /// One scale of the fitted curve.
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, report::FitReport};
+/// use processes::Unit;
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let curve = AvCurve::from_m(&m, &gmwm_prep::theory::model_avar(&truth, &m, 100.0)?, 100.0)?;
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let r = FitReport::from_gmwm(&f, None, &Unit::DegPerSec);
+/// for (j, p) in r.fitted.iter().enumerate() {
+///     assert_eq!((p.m, p.tau), (f.m[j], f.tau[j]));
+///     assert_eq!((p.observed, p.avar), (f.observed[j], f.fitted[j]));
+///     assert_eq!(p.components, vec![f.components[0][j], f.components[1][j]]);
+/// }
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FittedPoint {
     /// Cluster size (samples).
@@ -79,6 +148,21 @@ pub struct FittedPoint {
 }
 
 /// A serializable fit report (see module doc).
+///
+/// ```
+/// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, report::FitReport};
+/// use processes::Unit;
+/// let truth: processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-10)".parse()?;
+/// let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+/// let curve = AvCurve::from_m(&m, &gmwm_prep::theory::model_avar(&truth, &m, 100.0)?, 100.0)?;
+/// let f = fit(&curve, &"WN + RW".parse()?, &GmwmOptions::default())?;
+/// let r = FitReport::from_gmwm(&f, None, &Unit::DegPerSec);
+/// let v = serde_json::to_value(&r)?;
+/// assert_eq!((&v["method"], &v["unit"]), (&"gmwm".into(), &"deg/s".into()));
+/// assert_eq!(v["parameters"][0]["name"], "sigma2");
+/// assert!(v["j_test"].is_null()); // no inference given
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FitReport {
     /// `"gmwm"` or `"avlr"`.
@@ -219,6 +303,23 @@ impl FitReport {
     }
 
     /// Report of an AVLR fit on a curve with cluster sizes `m`.
+    ///
+    /// ```
+    /// use gmwm_prep::{AvCurve, avlr::{avlr, AvlrWindows}, report::FitReport};
+    /// let m = [1u64, 2, 4, 8];
+    /// let av: Vec<f64> = m.iter().map(|&m| 1e-4 / m as f64).collect();
+    /// let w = AvlrWindows { wn: Some((0, 3)), ..Default::default() };
+    /// let f = avlr(&AvCurve::from_m(&m, &av, 100.0)?, &w)?;
+    /// let r = FitReport::from_avlr(&f, &m, &processes::Unit::DegPerSec);
+    /// assert_eq!((r.method.as_str(), r.converged), ("avlr", true));
+    /// let s2 = f.estimates[0].per_sample;
+    /// assert_eq!(r.parameters[0].value, s2);
+    /// // the implied curve is the white-noise AV σ²/m; nothing observed is carried
+    /// for (p, &m) in r.fitted.iter().zip(&m) {
+    ///     assert!((p.avar * m as f64 / s2 - 1.0).abs() < 1e-14 && p.observed.is_nan());
+    /// }
+    /// # Ok::<(), gmwm_prep::FitError>(())
+    /// ```
     pub fn from_avlr(fit: &AvlrFit, m: &[u64], unit: &Unit) -> Self {
         let mut parameters = Vec::new();
         let mut per = Vec::new();

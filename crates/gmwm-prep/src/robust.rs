@@ -72,6 +72,20 @@ pub fn robust_curve(
 }
 
 /// A robust fit with the curves it came from.
+///
+/// ```
+/// use gmwm_prep::{gmwm::GmwmOptions, robust::fit_robust};
+/// let m: processes::Model = "WN(sigma2=1)".parse()?;
+/// let x = m.simulate(4096, 1.0, 3)?.into_values();
+/// let cfg = avar::AvarConfig::default();
+/// let r = fit_robust(&x, 1.0, &cfg, &"WN".parse()?, &GmwmOptions::default())?;
+/// // opts.robust = None: the default efficiency
+/// assert_eq!(r.fit.robust, Some(avar::robust::DEFAULT_EFFICIENCY));
+/// assert_eq!(r.fit.observed, r.curve.avar());
+/// let robust: Vec<f64> = r.avar.robust.points.iter().map(|p| p.avar).collect();
+/// assert_eq!(r.curve.avar(), robust);
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobustFit {
     /// The fit on the robust AV (`fit.robust` = Some(e)).
@@ -121,6 +135,20 @@ pub fn fit_robust(
 }
 
 /// Classical against robust AV at one scale.
+///
+/// ```
+/// use avar::{AvarConfig, robust::robust_allan_variance};
+/// let m: processes::Model = "WN(sigma2=1)".parse()?;
+/// let x = m.simulate(4096, 100.0, 5)?.into_values();
+/// let r = robust_allan_variance(&x, 100.0, &AvarConfig::default(), 0.6)?;
+/// let c = gmwm_prep::robust::contamination_check(&x, &r, 0.01, 3)?;
+/// for (s, p) in c.scales.iter().zip(&r.classical.points) {
+///     assert_eq!((s.m, s.tau, s.classical), (p.m, p.tau, p.avar));
+///     assert_eq!(s.ratio, s.classical / s.robust);
+///     assert_eq!(s.z > 0.0, s.classical > s.robust); // z has the sign of the difference
+/// }
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ScaleComparison {
     /// Cluster size m (samples).
@@ -141,6 +169,22 @@ pub struct ScaleComparison {
 }
 
 /// The outcome of [`contamination_check`].
+///
+/// ```
+/// use avar::{AvarConfig, robust::robust_allan_variance};
+/// let m: processes::Model = "WN(sigma2=1)".parse()?;
+/// let x = m.simulate(4096, 100.0, 5)?.into_values();
+/// let r = robust_allan_variance(&x, 100.0, &AvarConfig::default(), 0.6)?;
+/// let c = gmwm_prep::robust::contamination_check(&x, &r, 0.01, 3)?;
+/// let j = c.scales.len();
+/// assert_eq!((j, c.alpha), (r.robust.points.len(), 0.01));
+/// // one-sided z_{1−α/J} is the two-sided quantile at level 2α/J
+/// assert_eq!(c.threshold, gmwm_prep::stats::z_two_sided(2.0 * 0.01 / j as f64));
+/// // flagged exactly when some scale exceeds it; windows are located only then
+/// assert_eq!(c.contaminated, c.scales.iter().any(|s| s.z > c.threshold));
+/// assert_eq!(c.contaminated, c.window_m.is_some());
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ContaminationCheck {
     /// True when some scale has z above `threshold`.

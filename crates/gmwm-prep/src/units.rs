@@ -30,6 +30,11 @@ pub struct Quantity {
 
 impl Quantity {
     /// Builds a quantity.
+    ///
+    /// ```
+    /// let q = gmwm_prep::units::Quantity::new("B", 3.6, "°/h");
+    /// assert_eq!((q.name.as_str(), q.value, q.unit.as_str()), ("B", 3.6, "°/h"));
+    /// ```
     pub fn new(name: impl Into<String>, value: f64, unit: impl Into<String>) -> Self {
         Self {
             name: name.into(),
@@ -46,6 +51,12 @@ impl std::fmt::Display for Quantity {
 }
 
 /// The five IEEE 952 terms read off an Allan deviation plot.
+///
+/// ```
+/// use gmwm_prep::units::IeeeTerm;
+/// let symbols: String = IeeeTerm::ALL.iter().map(|t| t.symbol()).collect();
+/// assert_eq!(symbols, "QNBKR");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum IeeeTerm {
     /// Quantization noise Q (slope −1).
@@ -70,6 +81,12 @@ impl IeeeTerm {
         IeeeTerm::R,
     ];
     /// The log-log slope of the Allan deviation in the term's region.
+    ///
+    /// ```
+    /// use gmwm_prep::units::IeeeTerm;
+    /// assert_eq!(IeeeTerm::N.slope(), -0.5); // σ(τ) = N/√τ
+    /// assert!(IeeeTerm::ALL.windows(2).all(|w| w[0].slope() < w[1].slope()));
+    /// ```
     pub fn slope(self) -> f64 {
         match self {
             IeeeTerm::Q => -1.0,
@@ -80,6 +97,10 @@ impl IeeeTerm {
         }
     }
     /// Symbol as text.
+    ///
+    /// ```
+    /// assert_eq!(gmwm_prep::units::IeeeTerm::K.symbol(), "K");
+    /// ```
     pub fn symbol(self) -> &'static str {
         match self {
             IeeeTerm::Q => "Q",
@@ -90,6 +111,13 @@ impl IeeeTerm {
         }
     }
     /// The unit of the per-second value in terms of the channel unit `u`.
+    ///
+    /// ```
+    /// use gmwm_prep::units::IeeeTerm;
+    /// use processes::Unit;
+    /// assert_eq!(IeeeTerm::N.per_second_unit(&Unit::DegPerSec), "°/s·√s");
+    /// assert_eq!(IeeeTerm::R.per_second_unit(&Unit::Unitless), "u/s"); // no unit: `u`
+    /// ```
     pub fn per_second_unit(self, unit: &Unit) -> String {
         let u = unit.symbol();
         let u = if u.is_empty() { "u" } else { u };
@@ -214,6 +242,13 @@ pub fn per_second(kind: ProcessKind, params: &[f64], rate_hz: f64, unit: &Unit) 
 }
 
 /// The IEEE term a process maps to (WN → N, QN → Q, RW → K, DR → R), if any.
+///
+/// ```
+/// use gmwm_prep::units::{ieee_term_of, IeeeTerm};
+/// use processes::ProcessKind;
+/// assert_eq!(ieee_term_of(ProcessKind::RandomWalk), Some(IeeeTerm::K));
+/// assert_eq!(ieee_term_of(ProcessKind::Ar1), None);
+/// ```
 pub fn ieee_term_of(kind: ProcessKind) -> Option<IeeeTerm> {
     match kind {
         ProcessKind::WhiteNoise => Some(IeeeTerm::N),

@@ -191,6 +191,16 @@ pub fn autocorrelation(x: &[f64], max_lag: usize) -> Result<Vec<f64>> {
 }
 
 /// Data taper of the Welch estimator.
+///
+/// ```
+/// use spectral::empirical::{periodogram, welch, WelchConfig, Window};
+/// let x: Vec<f64> = (0..200).map(|t| ((t * 7919) % 101) as f64).collect();
+/// // one untapered segment of the whole series is the periodogram
+/// let one = WelchConfig { segment_len: x.len(), overlap: 0, window: Window::Rectangular };
+/// assert_eq!(welch(&x, 5.0, &one)?, periodogram(&x, 5.0)?);
+/// assert_eq!(WelchConfig::default().window, Window::Hann);
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Window {
     /// w_t = 1.
@@ -213,6 +223,19 @@ impl Window {
 
 /// Settings of [`welch`]: segment length L (samples, ≥ 2), overlap (samples, < L) and
 /// window. The default is L = 4096, 50 % overlap, Hann.
+///
+/// ```
+/// use spectral::empirical::{welch, WelchConfig, Window};
+/// let d = WelchConfig::default();
+/// assert_eq!((d.segment_len, d.overlap, d.window), (4096, 2048, Window::Hann));
+/// let x: Vec<f64> = (0..1000).map(|t| ((t * 7919) % 101) as f64).collect();
+/// let cfg = WelchConfig { segment_len: 200, overlap: 100, ..d };
+/// let est = welch(&x, 50.0, &cfg)?;
+/// assert_eq!(est.segments, 9); // (N − L)/(L − overlap) + 1
+/// assert_eq!(est.frequencies_hz.len(), 101); // L/2 + 1
+/// assert_eq!(est.frequencies_hz[1], 0.25); // rate/L
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WelchConfig {
     /// Segment length L in samples.
@@ -235,6 +258,20 @@ impl Default for WelchConfig {
 
 /// A PSD estimate: two-sided density values (unit²/Hz) at frequencies 0 … rate/2 (Hz),
 /// with the equivalent degrees of freedom of the interior bins.
+///
+/// ```
+/// use spectral::empirical::periodogram;
+/// let x: Vec<f64> = (0..16).map(|t| ((t * 7) % 5) as f64).collect();
+/// let p = periodogram(&x, 4.0)?;
+/// assert_eq!(p.segments, 1);
+/// assert_eq!(p.edf, 2.0); // one segment: ν = 2
+/// // f_k = k·rate/N for k = 0..=N/2: 0, 0.25, …, 2 Hz
+/// let f: Vec<f64> = (0..=8).map(|k| k as f64 * 0.25).collect();
+/// assert_eq!(p.frequencies_hz, f);
+/// assert_eq!(p.psd.len(), f.len());
+/// assert!(p.psd[0].abs() < 1e-12); // the mean is removed
+/// # Ok::<(), spectral::SpectralError>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct PsdEstimate {
     /// Frequencies f_k = k·rate/L, k = 0..=L/2, in Hz.
@@ -251,6 +288,18 @@ pub struct PsdEstimate {
 
 impl PsdEstimate {
     /// EDF of bin `k`: ν, or ν/2 at f = 0 and (for even L) at the Nyquist frequency.
+    ///
+    /// ```
+    /// use spectral::empirical::periodogram;
+    /// let x = [1.0, 3.0, -2.0, 0.5, 4.0, -1.0, 2.0, 0.0];
+    /// // N = 8: bins 0..=4, bin 4 is the Nyquist frequency
+    /// let p = periodogram(&x, 1.0)?;
+    /// assert_eq!((p.edf_at(0), p.edf_at(2), p.edf_at(4)), (1.0, 2.0, 1.0));
+    /// // N = 7: bins 0..=3, the last (3/7 Hz) lies below the Nyquist frequency
+    /// let q = periodogram(&x[..7], 1.0)?;
+    /// assert_eq!((q.edf_at(0), q.edf_at(3)), (1.0, 2.0));
+    /// # Ok::<(), spectral::SpectralError>(())
+    /// ```
     pub fn edf_at(&self, k: usize) -> f64 {
         let last = self.psd.len() - 1;
         if k == 0 || (k == last && self.even_length) {

@@ -157,6 +157,16 @@ impl Statistic {
     }
 
     /// Order d of the phase differences (2 for the Allan family and TOTVAR, 3 for Hadamard).
+    ///
+    /// ```
+    /// use avar::stability::Statistic;
+    /// assert_eq!(Statistic::Oadev.diff_order(), 2);
+    /// assert_eq!(Statistic::Ohdev.diff_order(), 3);
+    /// // a d-th difference at lag m spans d·m + 1 of the N = T + 1 phase points: N − d·m terms
+    /// for st in [Statistic::Oadev, Statistic::Ohdev] {
+    ///     assert_eq!(st.n_terms(100, 7), 101 - st.diff_order() as u64 * 7);
+    /// }
+    /// ```
     pub fn diff_order(self) -> u32 {
         match self {
             Statistic::Hdev | Statistic::Ohdev => 3,
@@ -165,11 +175,32 @@ impl Statistic {
     }
 
     /// True for the overlapping estimators (stride 1 in the phase index).
+    ///
+    /// ```
+    /// use avar::stability::Statistic;
+    /// let non: Vec<Statistic> = Statistic::ALL.into_iter().filter(|s| !s.overlapping()).collect();
+    /// assert_eq!(non, [Statistic::Adev, Statistic::Hdev]);
+    /// // stride m instead of 1: ⌊T/m⌋ − 1 terms instead of T − 2m + 1
+    /// assert_eq!((Statistic::Adev.n_terms(100, 10), Statistic::Oadev.n_terms(100, 10)), (9, 81));
+    /// ```
     pub fn overlapping(self) -> bool {
         !matches!(self, Statistic::Adev | Statistic::Hdev)
     }
 
     /// True for the modified variances (MVAR, TVAR): phase averaged over m before differencing.
+    ///
+    /// ```
+    /// use avar::stability::{stability, Statistic};
+    /// use avar::{AvarConfig, CiMethod, Scales};
+    /// let modified: Vec<Statistic> = Statistic::ALL.into_iter().filter(|s| s.modified()).collect();
+    /// assert_eq!(modified, [Statistic::Mdev, Statistic::Tdev]);
+    /// // at m = 1 there is nothing to average: MVAR = AVAR, both over the T − 1 second differences
+    /// let y: Vec<f64> = (0..200).map(|i| ((i * 7919) % 101) as f64).collect();
+    /// let cfg = AvarConfig { scales: Scales::Explicit(vec![1]), ci: CiMethod::None, ..Default::default() };
+    /// let mvar = stability(&y, 1.0, Statistic::Mdev, &cfg).unwrap().points[0].var;
+    /// let avar = stability(&y, 1.0, Statistic::Oadev, &cfg).unwrap().points[0].var;
+    /// assert!((mvar - avar).abs() <= 1e-12 * avar); // two routes, rounding only
+    /// ```
     pub fn modified(self) -> bool {
         matches!(self, Statistic::Mdev | Statistic::Tdev)
     }
@@ -177,6 +208,18 @@ impl Statistic {
     /// Stable32's stop ratio of the octave grid: m runs over powers of two up to T/ratio
     /// (5 for ADEV and HDEV, 4 for OADEV, MDEV, TDEV and OHDEV, 2 for TOTDEV; W. J. Riley,
     /// "The evolution of frequency stability analysis", table III).
+    ///
+    /// ```
+    /// use avar::{stability::Statistic, Scales};
+    /// assert_eq!(Statistic::Hdev.octave_stop_ratio(), 5);
+    /// assert_eq!(Statistic::Totdev.octave_stop_ratio(), 2);
+    /// for st in Statistic::ALL {
+    ///     let ms = st.cluster_sizes(&Scales::Octave, 100).unwrap();
+    ///     assert!(*ms.last().unwrap() <= 100 / st.octave_stop_ratio());
+    /// }
+    /// // TOTDEV's octave grid at T = 100 stops at T/2 = 50: the last power of two is 32
+    /// assert_eq!(Statistic::Totdev.cluster_sizes(&Scales::Octave, 100).unwrap().last(), Some(&32));
+    /// ```
     pub fn octave_stop_ratio(self) -> u64 {
         match self {
             Statistic::Adev | Statistic::Hdev => 5,
@@ -254,6 +297,25 @@ impl std::str::FromStr for Statistic {
 ///
 /// Units: `tau` in seconds; `var` in rate unit² (for TDEV: phase unit², e.g. s² for clock phase
 /// or rad² for angle), `dev` = √var. The interval fields are `None` without a chi-square CI.
+///
+/// ```
+/// use avar::stability::{stability, Statistic};
+/// use avar::{AvarConfig, Scales};
+/// let y: Vec<f64> = (0..600).map(|i| ((i * 7919) % 101) as f64).collect();
+/// // chi-square intervals (the default CI)
+/// let cfg = AvarConfig { scales: Scales::Explicit(vec![4, 16]), ..Default::default() };
+/// let mdev = stability(&y, 2.0, Statistic::Mdev, &cfg).unwrap();
+/// let tdev = stability(&y, 2.0, Statistic::Tdev, &cfg).unwrap();
+/// for (p, q) in mdev.points.iter().zip(&tdev.points) {
+///     assert_eq!(p.tau, p.m as f64 / 2.0);
+///     assert_eq!(p.dev, p.var.sqrt());
+///     assert_eq!(p.n_terms, Statistic::Mdev.n_terms(600, p.m));
+///     assert_eq!(q.var, q.tau * q.tau / 3.0 * p.var); // TVAR = τ²/3 · MVAR
+///     let (lo, hi) = (p.var_lo.unwrap(), p.var_hi.unwrap());
+///     assert!(lo <= p.var && p.var <= hi);
+///     assert_eq!(p.dev_lo, Some(lo.sqrt()));
+/// }
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StabilityPoint {
     /// Cluster size (averaging factor, samples).
@@ -282,6 +344,20 @@ pub struct StabilityPoint {
 }
 
 /// A stability curve: one [`StabilityPoint`] per cluster size, ascending in m.
+///
+/// ```
+/// use avar::stability::{stability, Statistic};
+/// use avar::{allan_variance, AvarConfig, CiMethod, InputKind};
+/// let y: Vec<f64> = (0..500).map(|i| ((i * 7919) % 101) as f64).collect();
+/// let cfg = AvarConfig { ci: CiMethod::None, ..Default::default() };
+/// let s = stability(&y, 10.0, Statistic::Oadev, &cfg).unwrap();
+/// assert_eq!((s.statistic, s.rate_hz, s.n, s.input), (Statistic::Oadev, 10.0, 500, InputKind::Rate));
+/// assert!(s.points.windows(2).all(|w| w[0].m < w[1].m));
+/// // OADEV is the crate's overlapping AV, scale by scale
+/// let av = allan_variance(&y, 10.0, &cfg).unwrap();
+/// let vars: Vec<f64> = s.points.iter().map(|p| p.var).collect();
+/// assert_eq!(vars, av.avars());
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Stability {
     /// The statistic.
