@@ -65,6 +65,15 @@ pub enum Error {
 
 impl Error {
     /// True for errors caused by the user's input or flags (exit code 2).
+    ///
+    /// ```
+    /// use imunoise::Error;
+    /// use std::io::ErrorKind;
+    /// assert!(Error::Usage("--rate must be positive".into()).is_user_error());
+    /// assert!(Error::io("imu.csv", ErrorKind::NotFound.into()).is_user_error());
+    /// // the machine's doing: a full disk
+    /// assert!(!Error::write("report", ErrorKind::StorageFull.into()).is_user_error());
+    /// ```
     pub fn is_user_error(&self) -> bool {
         match self {
             Error::Located { .. } | Error::File { .. } | Error::Usage(_) => true,
@@ -90,11 +99,26 @@ impl Error {
     }
 
     /// The process exit code for this error: 2 for user errors, 1 otherwise.
+    ///
+    /// ```
+    /// use imunoise::Error;
+    /// let e = Error::File { file: "imu.csv".into(), message: "the file is empty".into() };
+    /// assert_eq!(e.exit_code(), 2);
+    /// let w = Error::write("<stdout>", std::io::ErrorKind::PermissionDenied.into());
+    /// assert_eq!(w.exit_code(), 1);
+    /// ```
     pub fn exit_code(&self) -> i32 {
         if self.is_user_error() { 2 } else { 1 }
     }
 
     /// Shorthand for an [`Error::Io`] (reading an input).
+    ///
+    /// ```
+    /// use imunoise::Error;
+    /// let e = Error::io("imu.csv", std::io::ErrorKind::NotFound.into());
+    /// assert!(matches!(&e, Error::Io { path, .. } if path == "imu.csv"));
+    /// assert_eq!(e.to_string(), "imu.csv: no such file or directory");
+    /// ```
     pub fn io(path: impl Into<String>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
@@ -103,6 +127,13 @@ impl Error {
     }
 
     /// Shorthand for an [`Error::Write`] (writing an output).
+    ///
+    /// ```
+    /// use imunoise::Error;
+    /// let e = Error::write("report/imu.yaml", std::io::ErrorKind::StorageFull.into());
+    /// assert!(matches!(&e, Error::Write { path, .. } if path == "report/imu.yaml"));
+    /// assert_eq!(e.to_string(), "cannot write report/imu.yaml: no space left on the device");
+    /// ```
     pub fn write(path: impl Into<String>, source: std::io::Error) -> Self {
         Error::Write {
             path: path.into(),
@@ -112,6 +143,14 @@ impl Error {
 
     /// True when standard output was closed by its reader (`imunoise avar … | head`): not an
     /// error of ours, the command stops quietly.
+    ///
+    /// ```
+    /// use imunoise::Error;
+    /// use std::io::ErrorKind;
+    /// assert!(Error::write("<stdout>", ErrorKind::BrokenPipe.into()).is_broken_pipe());
+    /// assert!(!Error::write("<stdout>", ErrorKind::StorageFull.into()).is_broken_pipe());
+    /// assert!(!Error::Usage("x".into()).is_broken_pipe());
+    /// ```
     pub fn is_broken_pipe(&self) -> bool {
         matches!(self, Error::Io { source, .. } | Error::Write { source, .. }
             if source.kind() == std::io::ErrorKind::BrokenPipe)

@@ -25,6 +25,13 @@ use std::fmt::Write as _;
 pub const BIAS_INSTABILITY_FACTOR: f64 = 0.664_282_470_2;
 
 /// How one value per sensor is made from its axes (`--aggregate`).
+///
+/// ```
+/// use clap::ValueEnum;
+/// use imunoise::export::{Aggregate, ExportOptions};
+/// assert_eq!(ExportOptions::default().aggregate, Aggregate::Max);
+/// assert_eq!(Aggregate::from_str("rms", false), Ok(Aggregate::Rms));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Aggregate {
     /// The largest axis (conservative; what Kalibr users are told to take).
@@ -64,6 +71,13 @@ impl Aggregate {
 }
 
 /// A config file format.
+///
+/// ```
+/// use imunoise::export::Target;
+/// assert_eq!(Target::parse_list("openvins")?, [Target::Openvins]);
+/// assert_eq!(Target::Openvins.file_name(), "kalibr_imu_chain.yaml");
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Target {
     /// Kalibr `imu.yaml`.
@@ -89,6 +103,17 @@ impl Target {
     ];
 
     /// The file name written for this target.
+    ///
+    /// ```
+    /// use imunoise::export::Target;
+    /// assert_eq!(Target::Kalibr.file_name(), "imu.yaml");
+    /// assert_eq!(Target::Basalt.file_name(), "basalt_imu.json");
+    /// // every target has a file of its own
+    /// let mut names: Vec<&str> = Target::ALL.iter().map(|t| t.file_name()).collect();
+    /// names.sort();
+    /// names.dedup();
+    /// assert_eq!(names.len(), Target::ALL.len());
+    /// ```
     pub fn file_name(self) -> &'static str {
         match self {
             Target::Kalibr => "imu.yaml",
@@ -134,6 +159,17 @@ impl Target {
 }
 
 /// The options shared by `imunoise export` and `analyze --export`.
+///
+/// ```
+/// use imunoise::export::{Aggregate, ExportOptions};
+/// let o = ExportOptions::default();
+/// assert_eq!(o.aggregate, Aggregate::Max);
+/// assert_eq!((o.inflate_noise, o.inflate_walk), (1.0, 1.0));
+/// assert!(o.rostopic.is_none());
+/// // a VIO's usual inflation
+/// let vio = ExportOptions { inflate_noise: 2.0, inflate_walk: 10.0, ..Default::default() };
+/// assert_eq!(vio.aggregate, Aggregate::Max);
+/// ```
 #[derive(Debug, Clone, clap::Args)]
 pub struct ExportOptions {
     /// How one value per sensor is made from its axes (Basalt keeps the axes).
@@ -162,6 +198,32 @@ impl Default for ExportOptions {
 }
 
 /// One axis: its N and K (SI, continuous, before inflation), bias instability and GM term.
+///
+/// ```
+/// use imunoise::export::{BIAS_INSTABILITY_FACTOR, ImuNoise};
+/// // one gyro axis in rad/s at 100 Hz: WN, RW and an AR1 (φ = 0.5, innovation σ² = 0.75),
+/// // with its Allan deviation (minimum 0.1 at τ = 0.1 s)
+/// let doc = serde_json::json!({
+///     "rate_hz": 100.0,
+///     "channels": [{ "name": "gyro_x", "unit": "rad/s",
+///         "avar": [ { "tau": 0.01, "adev": 0.3 }, { "tau": 0.1, "adev": 0.1 },
+///                   { "tau": 1.0, "adev": 0.2 } ],
+///         "fit": { "model": "WN+RW+AR1", "parameters": [
+///             { "process": "WN", "name": "sigma2", "value": 4e-6 },
+///             { "process": "RW", "name": "gamma2", "value": 1e-10 },
+///             { "process": "AR1", "name": "phi", "value": 0.5 },
+///             { "process": "AR1", "name": "sigma2", "value": 0.75 } ] } }]
+/// });
+/// let ax = &ImuNoise::from_results(&doc, "results.json")?.gyro[0];
+/// assert_eq!(ax.name, "gyro_x");
+/// assert_eq!(ax.n, Some((4e-6f64 / 100.0).sqrt())); // N = √(σ²/f)
+/// assert_eq!(ax.k, Some((1e-10f64 * 100.0).sqrt())); // K = √(γ²·f)
+/// assert_eq!(ax.source, "fit WN+RW+AR1");
+/// assert_eq!(ax.bias_instability, Some((0.1 / BIAS_INSTABILITY_FACTOR, 0.1)));
+/// // the AR1 as a Gauss-Markov bias: stationary σ = √(0.75 / (1 − 0.5²)) = 1, τc = −Δt / ln φ
+/// assert_eq!(ax.gauss_markov, [(1.0, -1.0 / (100.0 * 0.5f64.ln()))]);
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisNoise {
     /// Channel name.
@@ -179,6 +241,28 @@ pub struct AxisNoise {
 }
 
 /// The noise of an IMU read from `results.json`: gyroscope and accelerometer axes.
+///
+/// ```
+/// use imunoise::export::{ExportOptions, ImuNoise, Target};
+/// // a results.json with a gyro and an accelerometer axis (per-sample values at 100 Hz)
+/// let doc = serde_json::json!({
+///     "source": "imu.csv",
+///     "rate_hz": 100.0,
+///     "channels": [
+///         { "name": "gyro_x", "unit": "rad/s", "fit": { "model": "WN+RW", "parameters": [
+///             { "process": "WN", "name": "sigma2", "value": 4e-6 },
+///             { "process": "RW", "name": "gamma2", "value": 1e-10 } ] } },
+///         { "name": "acc_x", "unit": "m/s^2", "fit": { "model": "WN", "parameters": [
+///             { "process": "WN", "name": "sigma2", "value": 1e-4 } ] } }
+///     ]
+/// });
+/// let noise = ImuNoise::from_results(&doc, "results.json")?;
+/// assert_eq!((noise.source.as_str(), noise.rate_hz), ("imu.csv", 100.0));
+/// assert_eq!(noise.gyro.len(), 1);
+/// assert_eq!(noise.acc[0].name, "acc_x");
+/// assert!(noise.topic.is_none() && noise.skipped.is_empty());
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImuNoise {
     /// Source of the data.
@@ -201,6 +285,40 @@ fn get_f64(v: &Value, key: &str) -> Option<f64> {
 
 impl ImuNoise {
     /// Reads `results.json` (as written by `imunoise analyze`).
+    ///
+    /// ```
+    /// use imunoise::export::{ExportOptions, ImuNoise, Target};
+    /// // a results.json with a gyro and an accelerometer axis (per-sample values at 100 Hz)
+    /// let doc = serde_json::json!({
+    ///     "source": "imu.csv",
+    ///     "rate_hz": 100.0,
+    ///     "channels": [
+    ///         { "name": "gyro_x", "unit": "rad/s", "fit": { "model": "WN+RW", "parameters": [
+    ///             { "process": "WN", "name": "sigma2", "value": 4e-6 },
+    ///             { "process": "RW", "name": "gamma2", "value": 1e-10 } ] } },
+    ///         { "name": "acc_x", "unit": "m/s^2", "fit": { "model": "WN", "parameters": [
+    ///             { "process": "WN", "name": "sigma2", "value": 1e-4 } ] } }
+    ///     ]
+    /// });
+    /// let noise = ImuNoise::from_results(&doc, "results.json")?;
+    /// // N = √(σ²/f) and K = √(γ²·f), in SI units already
+    /// assert_eq!(noise.gyro[0].n, Some((4e-6f64 / 100.0).sqrt()));
+    /// assert_eq!(noise.gyro[0].k, Some((1e-10f64 * 100.0).sqrt()));
+    /// // no RW and no curve to read K off: not estimated
+    /// assert_eq!(noise.acc[0].k, None);
+    /// // °/s is converted to rad/s; a channel of another unit is left out
+    /// let doc = serde_json::json!({ "rate_hz": 100.0, "channels": [
+    ///     { "name": "gx", "unit": "deg/s", "fit": { "parameters": [
+    ///         { "process": "WN", "name": "sigma2", "value": 4e-6 } ] } },
+    ///     { "name": "temp", "unit": "none" } ] });
+    /// let noise = ImuNoise::from_results(&doc, "results.json")?;
+    /// let to_rad = std::f64::consts::PI / 180.0;
+    /// assert_eq!(noise.gyro[0].n, Some((4e-6f64 / 100.0).sqrt() * to_rad));
+    /// assert!(noise.skipped[0].starts_with("temp: unit"));
+    /// // not a results.json
+    /// assert!(ImuNoise::from_results(&serde_json::json!({}), "x.json").is_err());
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
     pub fn from_results(doc: &Value, file: &str) -> Result<Self> {
         let bad = |m: String| Error::File {
             file: file.to_string(),
@@ -377,6 +495,30 @@ fn rate_str(r: f64) -> String {
 }
 
 /// The four aggregated numbers (after inflation): gyro N, gyro K, acc N, acc K.
+///
+/// ```
+/// # use imunoise::export::{ExportOptions, ImuNoise, Target};
+/// # // a results.json with a gyro and an accelerometer axis (per-sample values at 100 Hz)
+/// # let doc = serde_json::json!({
+/// #     "source": "imu.csv",
+/// #     "rate_hz": 100.0,
+/// #     "channels": [
+/// #         { "name": "gyro_x", "unit": "rad/s", "fit": { "model": "WN+RW", "parameters": [
+/// #             { "process": "WN", "name": "sigma2", "value": 4e-6 },
+/// #             { "process": "RW", "name": "gamma2", "value": 1e-10 } ] } },
+/// #         { "name": "acc_x", "unit": "m/s^2", "fit": { "model": "WN", "parameters": [
+/// #             { "process": "WN", "name": "sigma2", "value": 1e-4 } ] } }
+/// #     ]
+/// # });
+/// // `noise`: at 100 Hz, a gyro axis with WN σ² = 4e-6 and RW γ² = 1e-10, an accelerometer
+/// // axis with WN σ² = 1e-4
+/// let noise = ImuNoise::from_results(&doc, "results.json")?;
+/// let a = noise.aggregate(&ExportOptions::default());
+/// assert_eq!(a.gyro_n, noise.gyro[0].n);
+/// assert_eq!(a.acc_n, noise.acc[0].n);
+/// assert_eq!(a.acc_k, None); // no accelerometer random walk
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Aggregated {
     /// Gyroscope white-noise density (rad/s/√Hz).
@@ -391,6 +533,28 @@ pub struct Aggregated {
 
 impl ImuNoise {
     /// Aggregates each sensor's axes and applies the inflation factors.
+    ///
+    /// ```
+    /// use imunoise::export::{Aggregate, ExportOptions, ImuNoise};
+    /// // two gyro axes with N = √(σ²/f) = 1e-3 and 2e-3 (σ² = 1e-4 and 4e-4 at 100 Hz)
+    /// let doc = serde_json::json!({ "rate_hz": 100.0, "channels": [
+    ///     { "name": "gx", "unit": "rad/s", "fit": { "parameters": [
+    ///         { "process": "WN", "name": "sigma2", "value": 1e-4 } ] } },
+    ///     { "name": "gy", "unit": "rad/s", "fit": { "parameters": [
+    ///         { "process": "WN", "name": "sigma2", "value": 4e-4 } ] } } ] });
+    /// let noise = ImuNoise::from_results(&doc, "results.json")?;
+    /// let (n1, n2) = (noise.gyro[0].n.unwrap(), noise.gyro[1].n.unwrap());
+    /// let max = noise.aggregate(&ExportOptions::default());
+    /// assert_eq!(max.gyro_n, Some(n2));
+    /// let o = ExportOptions {
+    ///     aggregate: Aggregate::Mean,
+    ///     inflate_noise: 2.0,
+    ///     ..Default::default()
+    /// };
+    /// assert_eq!(noise.aggregate(&o).gyro_n, Some((n1 + n2) / 2.0 * 2.0));
+    /// assert_eq!(max.acc_n, None); // no accelerometer
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
     pub fn aggregate(&self, o: &ExportOptions) -> Aggregated {
         let agg = |axes: &[AxisNoise], f: fn(&AxisNoise) -> Option<f64>, infl: f64| {
             let v: Vec<f64> = axes.iter().filter_map(f).collect();
@@ -506,6 +670,41 @@ impl ImuNoise {
     }
 
     /// The text of one config file.
+    ///
+    /// ```
+    /// # use imunoise::export::{ExportOptions, ImuNoise, Target};
+    /// # // a results.json with a gyro and an accelerometer axis (per-sample values at 100 Hz)
+    /// # let doc = serde_json::json!({
+    /// #     "source": "imu.csv",
+    /// #     "rate_hz": 100.0,
+    /// #     "channels": [
+    /// #         { "name": "gyro_x", "unit": "rad/s", "fit": { "model": "WN+RW", "parameters": [
+    /// #             { "process": "WN", "name": "sigma2", "value": 4e-6 },
+    /// #             { "process": "RW", "name": "gamma2", "value": 1e-10 } ] } },
+    /// #         { "name": "acc_x", "unit": "m/s^2", "fit": { "model": "WN", "parameters": [
+    /// #             { "process": "WN", "name": "sigma2", "value": 1e-4 } ] } }
+    /// #     ]
+    /// # });
+    /// // `noise`: at 100 Hz, a gyro axis with WN σ² = 4e-6 and RW γ² = 1e-10, an accelerometer
+    /// // axis with WN σ² = 1e-4
+    /// let noise = ImuNoise::from_results(&doc, "results.json")?;
+    /// use imunoise::export::num;
+    /// let o = ExportOptions::default();
+    /// let (n, k) = (noise.gyro[0].n.unwrap(), noise.gyro[0].k.unwrap());
+    /// let kalibr = noise.render(Target::Kalibr, &o);
+    /// assert!(kalibr.contains(&format!("gyroscope_noise_density: {}", num(n))));
+    /// assert!(kalibr.contains(&format!("gyroscope_random_walk: {}", num(k))));
+    /// assert!(kalibr.contains("rostopic: /imu0\nupdate_rate: 100.0"));
+    /// assert!(kalibr.contains("# accelerometer_random_walk: not estimated"));
+    /// let vins = noise.render(Target::Vins, &ExportOptions { inflate_noise: 2.0, ..o.clone() });
+    /// assert!(vins.contains(&format!("gyr_n: {}", num(2.0 * n))));
+    /// // Basalt's file is JSON, one value per axis of three
+    /// let basalt: serde_json::Value =
+    ///     serde_json::from_str(&noise.render(Target::Basalt, &o)).unwrap();
+    /// assert_eq!(basalt["imu_update_rate"], 100.0);
+    /// assert!(basalt["gyro_noise_std"].is_null()); // one gyro axis, not three
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
     pub fn render(&self, target: Target, o: &ExportOptions) -> String {
         let a = self.aggregate(o);
         let topic = o
@@ -622,6 +821,32 @@ impl ImuNoise {
 }
 
 /// Writes the files of `targets` into `dir`; returns their paths.
+///
+/// ```
+/// # use imunoise::export::{ExportOptions, ImuNoise, Target};
+/// # // a results.json with a gyro and an accelerometer axis (per-sample values at 100 Hz)
+/// # let doc = serde_json::json!({
+/// #     "source": "imu.csv",
+/// #     "rate_hz": 100.0,
+/// #     "channels": [
+/// #         { "name": "gyro_x", "unit": "rad/s", "fit": { "model": "WN+RW", "parameters": [
+/// #             { "process": "WN", "name": "sigma2", "value": 4e-6 },
+/// #             { "process": "RW", "name": "gamma2", "value": 1e-10 } ] } },
+/// #         { "name": "acc_x", "unit": "m/s^2", "fit": { "model": "WN", "parameters": [
+/// #             { "process": "WN", "name": "sigma2", "value": 1e-4 } ] } }
+/// #     ]
+/// # });
+/// // `noise`: at 100 Hz, a gyro axis with WN σ² = 4e-6 and RW γ² = 1e-10, an accelerometer
+/// // axis with WN σ² = 1e-4
+/// let noise = ImuNoise::from_results(&doc, "results.json")?;
+/// let dir = tempfile::tempdir().unwrap();
+/// let o = ExportOptions::default();
+/// let targets = [Target::Kalibr, Target::Vins];
+/// let paths = imunoise::export::write_all(&noise, &targets, &o, dir.path())?;
+/// assert_eq!(paths, [dir.path().join("imu.yaml"), dir.path().join("vins_imu.yaml")]);
+/// assert_eq!(std::fs::read_to_string(&paths[1]).unwrap(), noise.render(Target::Vins, &o));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn write_all(
     noise: &ImuNoise,
     targets: &[Target],
@@ -641,6 +866,30 @@ pub fn write_all(
 }
 
 /// Reads a results.json (or DIR/results.json) into an [`ImuNoise`].
+///
+/// ```
+/// use imunoise::export::{ExportOptions, ImuNoise, Target};
+/// // a results.json with a gyro and an accelerometer axis (per-sample values at 100 Hz)
+/// let doc = serde_json::json!({
+///     "source": "imu.csv",
+///     "rate_hz": 100.0,
+///     "channels": [
+///         { "name": "gyro_x", "unit": "rad/s", "fit": { "model": "WN+RW", "parameters": [
+///             { "process": "WN", "name": "sigma2", "value": 4e-6 },
+///             { "process": "RW", "name": "gamma2", "value": 1e-10 } ] } },
+///         { "name": "acc_x", "unit": "m/s^2", "fit": { "model": "WN", "parameters": [
+///             { "process": "WN", "name": "sigma2", "value": 1e-4 } ] } }
+///     ]
+/// });
+/// let dir = tempfile::tempdir().unwrap();
+/// std::fs::write(dir.path().join("results.json"), doc.to_string()).unwrap();
+/// // the folder of a report, or the file itself
+/// let noise = imunoise::export::load(dir.path())?;
+/// assert_eq!(noise, imunoise::export::load(&dir.path().join("results.json"))?);
+/// assert_eq!(noise, ImuNoise::from_results(&doc, "results.json")?);
+/// assert!(imunoise::export::load(&dir.path().join("missing.json")).is_err());
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn load(path: &std::path::Path) -> Result<ImuNoise> {
     let p = if path.is_dir() {
         path.join("results.json")

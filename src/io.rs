@@ -26,6 +26,14 @@ use std::io::Read;
 use std::path::Path;
 
 /// The element type of raw binary input (`--binary`).
+///
+/// ```
+/// use imunoise::io::BinaryType;
+/// // the names `--binary` takes
+/// assert_eq!("f32".parse::<BinaryType>(), Ok(BinaryType::F32));
+/// assert_eq!("int16".parse::<BinaryType>(), Ok(BinaryType::I16));
+/// assert!("u8".parse::<BinaryType>().is_err());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BinaryType {
     /// Little-endian IEEE 754 double.
@@ -40,6 +48,12 @@ pub enum BinaryType {
 
 impl BinaryType {
     /// Bytes per value.
+    ///
+    /// ```
+    /// use imunoise::io::BinaryType;
+    /// assert_eq!(BinaryType::F64.size(), std::mem::size_of::<f64>());
+    /// assert_eq!(BinaryType::I16.size(), std::mem::size_of::<i16>());
+    /// ```
     pub fn size(self) -> usize {
         match self {
             BinaryType::F64 => 8,
@@ -74,6 +88,15 @@ impl std::str::FromStr for BinaryType {
 }
 
 /// Which columns to keep (`--columns`): names or 1-based indices, and index ranges `a-b`.
+///
+/// ```
+/// use imunoise::io::{ColumnSpec, parse_columns, resolve_columns};
+/// let spec = vec![ColumnSpec::Name("acc_z".into()), ColumnSpec::Range(1, 2)];
+/// let names: Vec<String> = ["gyro_x", "gyro_y", "acc_z"].map(String::from).to_vec();
+/// assert_eq!(resolve_columns(&spec, &names)?, [2, 0, 1]);
+/// assert_eq!(parse_columns("acc_z,1-2")?, spec);
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum ColumnSpec {
     /// A 1-based column index.
@@ -85,6 +108,18 @@ pub enum ColumnSpec {
 }
 
 /// Parses a `--columns` list such as `gyro_x,gyro_y` or `1,3-5`.
+///
+/// ```
+/// use imunoise::io::{ColumnSpec, parse_columns};
+/// assert_eq!(
+///     parse_columns("gyro_x, 3, 4-6")?,
+///     [ColumnSpec::Name("gyro_x".into()), ColumnSpec::Index(3), ColumnSpec::Range(4, 6)]
+/// );
+/// assert!(parse_columns("0").is_err()); // indices count from 1
+/// assert!(parse_columns("5-2").is_err());
+/// assert!(parse_columns("a,,b").is_err());
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn parse_columns(list: &str) -> Result<Vec<ColumnSpec>> {
     let mut out = Vec::new();
     for item in list.split(',').map(str::trim) {
@@ -113,6 +148,30 @@ pub fn parse_columns(list: &str) -> Result<Vec<ColumnSpec>> {
 }
 
 /// How to read an input file.
+///
+/// ```
+/// use imunoise::io::{BinaryType, ReadOptions, parse_columns, read_bytes};
+/// // the second and first columns, times 2, renamed
+/// let opts = ReadOptions {
+///     columns: Some(parse_columns("b,a")?),
+///     scale: Some(2.0),
+///     names: Some(vec!["y".into(), "x".into()]),
+///     ..Default::default()
+/// };
+/// let t = read_bytes(b"a,b\n1,2\n3,4\n", "mem.csv", &opts)?;
+/// assert_eq!(t.names, ["y", "x"]);
+/// assert_eq!(t.columns, [vec![4.0, 8.0], vec![2.0, 6.0]]);
+/// // raw binary: two i16 channels per row
+/// let opts = ReadOptions {
+///     binary: Some(BinaryType::I16),
+///     channels: Some(2),
+///     ..Default::default()
+/// };
+/// let bytes: Vec<u8> = [1i16, -1, 2, -2].iter().flat_map(|v| v.to_le_bytes()).collect();
+/// let t = read_bytes(&bytes, "mem.i16", &opts)?;
+/// assert_eq!(t.columns, [vec![1.0, 2.0], vec![-1.0, -2.0]]);
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, Default)]
 pub struct ReadOptions {
     /// Raw binary element type; `None` for text.
@@ -147,6 +206,21 @@ pub enum Column {
 
 impl Column {
     /// The samples as a vector to change, copying mapped ones first.
+    ///
+    /// ```
+    /// use imunoise::io::Column;
+    /// use imunoise::source::MappedSamples;
+    /// let dir = tempfile::tempdir()?;
+    /// let p = dir.path().join("x.f64");
+    /// let bytes: Vec<u8> = [1.0f64, 2.0].iter().flat_map(|v| v.to_le_bytes()).collect();
+    /// std::fs::write(&p, bytes)?;
+    /// let mut c = Column::Mapped(std::sync::Arc::new(MappedSamples::map_f64(&p, "x.f64", 0)?));
+    /// c.to_mut()[0] = 5.0;
+    /// assert!(matches!(c, Column::Owned(_))); // a copy was made to change...
+    /// assert_eq!(c, vec![5.0, 2.0]);
+    /// assert_eq!(std::fs::read(&p)?[..8], 1.0f64.to_le_bytes()); // ...the file is untouched
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn to_mut(&mut self) -> &mut Vec<f64> {
         if let Column::Mapped(m) = self {
             *self = Column::Owned(avar::SampleSource::samples(&**m).to_vec());
@@ -158,6 +232,19 @@ impl Column {
     }
 
     /// The samples as a vector (a copy of mapped ones).
+    ///
+    /// ```
+    /// use imunoise::io::Column;
+    /// use imunoise::source::MappedSamples;
+    /// assert_eq!(Column::from(vec![1.0, 2.0]).into_vec(), [1.0, 2.0]);
+    /// let dir = tempfile::tempdir()?;
+    /// let p = dir.path().join("x.f64");
+    /// let bytes: Vec<u8> = [3.0f64, 4.0].iter().flat_map(|v| v.to_le_bytes()).collect();
+    /// std::fs::write(&p, bytes)?;
+    /// let c = Column::Mapped(std::sync::Arc::new(MappedSamples::map_f64(&p, "x.f64", 0)?));
+    /// assert_eq!(c.into_vec(), [3.0, 4.0]);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn into_vec(self) -> Vec<f64> {
         match self {
             Column::Owned(v) => v,
@@ -201,6 +288,25 @@ impl PartialEq<Vec<f64>> for Column {
 }
 
 /// A table of channels read from a file: one column of samples per channel.
+///
+/// ```
+/// use imunoise::io::Table;
+/// let t = Table {
+///     file: "<array>".into(),
+///     names: vec!["gx".into(), "gy".into()],
+///     columns: vec![vec![0.1, 0.2, 0.3].into(), vec![1.0, 2.0, 3.0].into()],
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// assert_eq!(t.n_rows(), 3);
+/// assert_eq!(t.columns[1][2], 3.0);
+/// // what a CSV of the same values reads to, but for the file name and the rate
+/// let text = b"gx,gy\n0.1,1\n0.2,2\n0.3,3\n";
+/// let csv = imunoise::io::read_bytes(text, "<array>", &Default::default())?;
+/// assert_eq!(Table { rate_hz: Some(100.0), ..csv }, t);
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
     /// The file as the user named it (for messages).
@@ -220,11 +326,28 @@ pub struct Table {
 
 impl Table {
     /// Samples per channel.
+    ///
+    /// ```
+    /// let t = imunoise::io::read_bytes(b"a,b\n1,2\n3,4\n5,6\n", "mem.csv", &Default::default())?;
+    /// assert_eq!(t.n_rows(), 3);
+    /// assert_eq!(t.n_rows(), t.columns[1].len());
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
     pub fn n_rows(&self) -> usize {
         self.columns.first().map_or(0, |c| c.len())
     }
 
     /// The sampling rate (Hz), or a usage error saying that `--rate` is needed.
+    ///
+    /// ```
+    /// let mut t = imunoise::io::read_bytes(b"a\n1\n2\n", "mem.csv", &Default::default())?;
+    /// // text has no time stamps: no rate until one is given
+    /// let e = t.rate().unwrap_err();
+    /// assert!(e.to_string().starts_with("mem.csv: --rate is required"));
+    /// t.rate_hz = Some(400.0);
+    /// assert_eq!(t.rate()?, 400.0);
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
     pub fn rate(&self) -> Result<f64> {
         self.rate_hz.ok_or_else(|| rate_required(&self.file))
     }
@@ -356,6 +479,26 @@ fn gunzip<'a>(map: &'a [u8], file: &str) -> Result<std::borrow::Cow<'a, [u8]>> {
 }
 
 /// Reads a file into a [`Table`] as `opts` says. `file` is the name used in messages.
+///
+/// ```
+/// use imunoise::io::{ReadOptions, read_bytes, read_table};
+/// use std::io::Write;
+/// let dir = tempfile::tempdir()?;
+/// let text = b"gx,gy\n1,2\n3,4\n";
+/// let p = dir.path().join("x.csv");
+/// std::fs::write(&p, text)?;
+/// let t = read_table(&p, &ReadOptions::default())?;
+/// assert_eq!(t.file, p.display().to_string());
+/// // the same table as from the bytes
+/// assert_eq!(t, read_bytes(text, &t.file, &ReadOptions::default())?);
+/// // gzip is decompressed transparently
+/// let gz = dir.path().join("x.csv.gz");
+/// let mut enc = flate2::write::GzEncoder::new(std::fs::File::create(&gz)?, Default::default());
+/// enc.write_all(text)?;
+/// enc.finish()?;
+/// assert_eq!(read_table(&gz, &ReadOptions::default())?.columns, t.columns);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn read_table(path: &Path, opts: &ReadOptions) -> Result<Table> {
     let file = path.display().to_string();
     let bytes = load(path, &file)?;
@@ -443,6 +586,16 @@ pub fn read_bytes(bytes: &[u8], file: &str, opts: &ReadOptions) -> Result<Table>
 }
 
 /// Resolves a column selection against the header names; returns 0-based indices.
+///
+/// ```
+/// use imunoise::io::{parse_columns, resolve_columns};
+/// let names: Vec<String> = ["t", "gx", "gy", "gz"].map(String::from).to_vec();
+/// assert_eq!(resolve_columns(&parse_columns("gz,2-3")?, &names)?, [3, 1, 2]);
+/// assert!(resolve_columns(&parse_columns("5")?, &names).is_err()); // no such column
+/// assert!(resolve_columns(&parse_columns("gx,2")?, &names).is_err()); // column 2 twice
+/// assert!(resolve_columns(&parse_columns("ax")?, &names).is_err());
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn resolve_columns(spec: &[ColumnSpec], names: &[String]) -> Result<Vec<usize>> {
     let n = names.len();
     let mut out = Vec::new();
@@ -488,6 +641,17 @@ pub fn resolve_columns(spec: &[ColumnSpec], names: &[String]) -> Result<Vec<usiz
 }
 
 /// Parses raw little-endian binary, row-major with `channels` values per row.
+///
+/// ```
+/// use imunoise::io::{BinaryType, parse_binary};
+/// let bytes: Vec<u8> = [1.5f32, -2.0, 3.0, 4.25].iter().flat_map(|v| v.to_le_bytes()).collect();
+/// let t = parse_binary(&bytes, "x.f32", BinaryType::F32, 2)?;
+/// assert_eq!(t.names, ["ch1", "ch2"]);
+/// assert_eq!(t.columns, [vec![1.5, 3.0], vec![-2.0, 4.25]]);
+/// // 16 bytes are not a whole number of 12-byte rows
+/// assert!(parse_binary(&bytes, "x.f32", BinaryType::F32, 3).is_err());
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn parse_binary(bytes: &[u8], file: &str, kind: BinaryType, channels: usize) -> Result<Table> {
     if channels == 0 {
         return Err(Error::Usage("--channels must be at least 1".to_string()));
@@ -981,6 +1145,23 @@ fn no_rows(file: &str) -> Error {
 
 /// Parses delimited text (see the module docs) into a [`Table`], keeping the columns of
 /// `select` (all when `None`).
+///
+/// ```
+/// use imunoise::io::{parse_columns, parse_text};
+/// // a comment, no header: the channels are named col1, col2, …; whitespace-separated
+/// let t = parse_text(b"# imu log\n1 2 3\n4 5 6\n", "x.txt", None)?;
+/// assert_eq!(t.names, ["col1", "col2", "col3"]);
+/// assert_eq!(t.columns[2], vec![3.0, 6.0]);
+/// assert!(t.rate_hz.is_none());
+/// // with a header (tab-separated), selecting columns
+/// let t = parse_text(b"gx\tgy\tgz\n1\t2\t3\n", "x.tsv", Some(&parse_columns("gz,gx")?))?;
+/// assert_eq!(t.names, ["gz", "gx"]);
+/// assert_eq!(t.columns, [vec![3.0], vec![1.0]]);
+/// // a bad cell is located by line and column
+/// let e = parse_text(b"1,2\n3,x\n", "x.csv", None).unwrap_err();
+/// assert!(e.to_string().starts_with("x.csv:2:3:"));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn parse_text(bytes: &[u8], file: &str, select: Option<&[ColumnSpec]>) -> Result<Table> {
     let layout = TextLayout::new(bytes, file, select)?;
     let cols = layout.parse_span(bytes, file, layout.data_start, bytes.len())?;

@@ -36,6 +36,16 @@ pub fn create_dir(dir: &Path, option: &str) -> Result<()> {
 }
 
 /// Checks that `path`, named by the option `option`, can be an output file: not a directory.
+///
+/// ```
+/// use imunoise::output::check_file;
+/// let tmp = tempfile::tempdir().unwrap();
+/// check_file(&tmp.path().join("fit.json"), "--output")?; // need not exist
+/// let e = check_file(tmp.path(), "--output").unwrap_err();
+/// assert!(e.to_string().ends_with("is a directory; name a file to write"));
+/// assert_eq!(e.exit_code(), 2);
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn check_file(path: &Path, option: &str) -> Result<()> {
     if path.is_dir() {
         return Err(Error::Usage(format!(
@@ -47,6 +57,19 @@ pub fn check_file(path: &Path, option: &str) -> Result<()> {
 }
 
 /// Writes `bytes` to the file `path` (created or replaced).
+///
+/// ```
+/// use imunoise::output::write_file;
+/// let tmp = tempfile::tempdir().unwrap();
+/// let p = tmp.path().join("out.txt");
+/// write_file(&p, b"first")?;
+/// write_file(&p, b"second")?; // replaced
+/// assert_eq!(std::fs::read(&p).unwrap(), b"second");
+/// // a path through a missing folder: a write error naming the file
+/// let e = write_file(&tmp.path().join("no/such/dir/out.txt"), b"x").unwrap_err();
+/// assert!(e.to_string().starts_with("cannot write "));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     std::fs::write(path, bytes).map_err(|e| Error::write(path.display().to_string(), e))
 }

@@ -27,6 +27,18 @@ fn esc(s: &str) -> String {
 }
 
 /// A curve on the AD plot.
+///
+/// ```
+/// use imunoise::plot::{AdevPlot, Series, adev_svg};
+/// let fit = Series { label: "fitted model (gmwm)".into(), points: vec![(0.1, 1.0), (10.0, 0.1)] };
+/// let plot = AdevPlot {
+///     observed: vec![(0.1, 1.0, f64::NAN, f64::NAN), (10.0, 0.1, f64::NAN, f64::NAN)],
+///     fitted: Some(fit),
+///     ..Default::default()
+/// };
+/// // the label goes into the legend
+/// assert!(adev_svg(&plot, "a").contains("fitted model (gmwm)"));
+/// ```
 #[derive(Debug, Clone)]
 pub struct Series {
     /// Legend text.
@@ -36,6 +48,39 @@ pub struct Series {
 }
 
 /// Everything drawn on an Allan-deviation plot.
+///
+/// ```
+/// use imunoise::plot::{AdevPlot, Mark, Series, adev_svg};
+/// // white noise: σ(τ) = 0.01/√τ, with a ±10 % band, and a fitted line on it
+/// let taus = [0.01, 0.1, 1.0, 10.0];
+/// let plot = AdevPlot {
+///     title: "gyro x: Allan deviation".into(),
+///     unit: "rad/s".into(),
+///     observed: taus.iter().map(|&t| {
+///         let s = 0.01 / f64::sqrt(t);
+///         (t, s, 0.9 * s, 1.1 * s)
+///     }).collect(),
+///     fitted: Some(Series {
+///         label: "fitted model (gmwm)".into(),
+///         points: taus.iter().map(|&t| (t, 0.01 / f64::sqrt(t))).collect(),
+///     }),
+///     components: vec![Series {
+///         label: "WN".into(),
+///         points: vec![(0.01, 0.1), (10.0, 0.01 / 10f64.sqrt())],
+///     }],
+///     marks: vec![
+///         Mark { label: "N = 0.0100".into(), tau: 1.0, sigma: 0.01 },
+///         Mark { label: "far away".into(), tau: 1e6, sigma: 1e-5 },
+///     ],
+/// };
+/// let svg = adev_svg(&plot, "gx");
+/// assert!(svg.contains("gyro x: Allan deviation"));
+/// assert!(svg.contains("Allan deviation σ(τ) [rad/s]"));
+/// assert!(svg.contains("fitted model (gmwm)") && svg.contains(">WN<"));
+/// // nothing observed: an empty plot
+/// let empty = adev_svg(&AdevPlot::default(), "e");
+/// assert!(empty.ends_with("</svg>\n") && !empty.contains("<circle"));
+/// ```
 #[derive(Debug, Clone, Default)]
 pub struct AdevPlot {
     /// Title.
@@ -53,6 +98,38 @@ pub struct AdevPlot {
 }
 
 /// A point marked and labelled on an Allan-deviation plot.
+///
+/// ```
+/// # use imunoise::plot::{AdevPlot, Mark, Series, adev_svg};
+/// # // white noise: σ(τ) = 0.01/√τ, with a ±10 % band, and a fitted line on it
+/// # let taus = [0.01, 0.1, 1.0, 10.0];
+/// # let plot = AdevPlot {
+/// #     title: "gyro x: Allan deviation".into(),
+/// #     unit: "rad/s".into(),
+/// #     observed: taus.iter().map(|&t| {
+/// #         let s = 0.01 / f64::sqrt(t);
+/// #         (t, s, 0.9 * s, 1.1 * s)
+/// #     }).collect(),
+/// #     fitted: Some(Series {
+/// #         label: "fitted model (gmwm)".into(),
+/// #         points: taus.iter().map(|&t| (t, 0.01 / f64::sqrt(t))).collect(),
+/// #     }),
+/// #     components: vec![Series {
+/// #         label: "WN".into(),
+/// #         points: vec![(0.01, 0.1), (10.0, 0.01 / 10f64.sqrt())],
+/// #     }],
+/// #     marks: vec![
+/// #         Mark { label: "N = 0.0100".into(), tau: 1.0, sigma: 0.01 },
+/// #         Mark { label: "far away".into(), tau: 1e6, sigma: 1e-5 },
+/// #     ],
+/// # };
+/// // `plot`: a white-noise curve with its CI band, a fit, a WN component and two marks
+/// let svg = adev_svg(&plot, "gx");
+/// // a mark inside the frame is drawn and labelled; one outside it is left out
+/// assert!(svg.contains(">N = 0.0100</text>"));
+/// assert!(!svg.contains("far away"));
+/// assert_eq!(svg.matches("rotate(45").count(), 1);
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mark {
     /// Short label, e.g. `N = 3.1e-3`.
@@ -276,6 +353,41 @@ fn legend(s: &mut String, items: &[(String, String)]) {
 }
 
 /// The log-log Allan deviation plot as an SVG document.
+///
+/// ```
+/// # use imunoise::plot::{AdevPlot, Mark, Series, adev_svg};
+/// # // white noise: σ(τ) = 0.01/√τ, with a ±10 % band, and a fitted line on it
+/// # let taus = [0.01, 0.1, 1.0, 10.0];
+/// # let plot = AdevPlot {
+/// #     title: "gyro x: Allan deviation".into(),
+/// #     unit: "rad/s".into(),
+/// #     observed: taus.iter().map(|&t| {
+/// #         let s = 0.01 / f64::sqrt(t);
+/// #         (t, s, 0.9 * s, 1.1 * s)
+/// #     }).collect(),
+/// #     fitted: Some(Series {
+/// #         label: "fitted model (gmwm)".into(),
+/// #         points: taus.iter().map(|&t| (t, 0.01 / f64::sqrt(t))).collect(),
+/// #     }),
+/// #     components: vec![Series {
+/// #         label: "WN".into(),
+/// #         points: vec![(0.01, 0.1), (10.0, 0.01 / 10f64.sqrt())],
+/// #     }],
+/// #     marks: vec![
+/// #         Mark { label: "N = 0.0100".into(), tau: 1.0, sigma: 0.01 },
+/// #         Mark { label: "far away".into(), tau: 1e6, sigma: 1e-5 },
+/// #     ],
+/// # };
+/// // `plot`: a white-noise curve with its CI band, a fit, a WN component and two marks
+/// let svg = adev_svg(&plot, "gx");
+/// assert!(svg.starts_with("<svg") && svg.ends_with("</svg>\n"));
+/// // one dot per observed point, one CI band, the four IEEE 952 slope guides
+/// assert_eq!(svg.matches("<circle").count(), 4);
+/// assert_eq!(svg.matches("<polygon").count(), 1);
+/// assert_eq!(svg.matches(r#"stroke-dasharray="2 4""#).count(), 4);
+/// // the id keeps the clip paths of several plots in one page apart
+/// assert!(svg.contains(r#"<clipPath id="clip-gx">"#));
+/// ```
 pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
     let mut s = String::new();
     header(&mut s, &p.title, id);
@@ -443,6 +555,17 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
 
 /// One curve of the stability overlay: (τ in s, deviation, lower, upper bound); bounds may be
 /// NaN when absent.
+///
+/// ```
+/// use imunoise::plot::{StabilitySeries, stability_svg};
+/// let mdev = StabilitySeries {
+///     label: "MDEV".into(),
+///     points: vec![(1.0, 1.0, 0.8, 1.2), (2.0, 0.7, 0.5, 0.9), (4.0, 0.5, 0.4, 0.6)],
+/// };
+/// let svg = stability_svg("clock", std::slice::from_ref(&mdev), "m");
+/// assert!(svg.contains("MDEV"));
+/// assert_eq!(svg.matches("<polygon").count(), 1); // its CI band
+/// ```
 #[derive(Debug, Clone)]
 pub struct StabilitySeries {
     /// Legend text (e.g. `MDEV`).
@@ -537,6 +660,17 @@ pub fn stability_svg(title: &str, series: &[StabilitySeries], id: &str) -> Strin
 
 /// A time-series plot (hours on the x axis when longer than 2 h) as SVG: the min/max
 /// envelope of the samples in each of ~700 columns, so every sample is represented.
+///
+/// ```
+/// use imunoise::plot::timeseries_svg;
+/// let x: Vec<f64> = (0..10_000).map(|i| (i as f64 * 0.01).sin()).collect();
+/// // 10 000 samples at 1 Hz: 2.8 h, in hours; at 100 Hz: 100 s, in seconds
+/// let long = timeseries_svg("gyro x", "rad/s", &x, 1.0, "ts");
+/// assert!(long.contains("time [h]") && long.contains("value [rad/s]"));
+/// assert!(timeseries_svg("gyro x", "rad/s", &x, 100.0, "ts").contains("time [s]"));
+/// // many samples per column: the envelope is drawn as one filled path
+/// assert_eq!(long.matches("<path").count(), 1);
+/// ```
 pub fn timeseries_svg(title: &str, unit: &str, x: &[f64], rate_hz: f64, id: &str) -> String {
     let mut s = String::new();
     header(&mut s, title, id);
@@ -626,6 +760,16 @@ pub fn timeseries_svg(title: &str, unit: &str, x: &[f64], rate_hz: f64, id: &str
 }
 
 /// An ACF plot (stems) with the ±1.96/√n band of a white noise, as SVG.
+///
+/// ```
+/// use imunoise::plot::acf_svg;
+/// // an AR(1)-like ACF, 0.9^h, of a series of 10 000 samples at 100 Hz
+/// let acf: Vec<f64> = (0..50).map(|h| 0.9f64.powi(h)).collect();
+/// let svg = acf_svg("gyro x: sample ACF", &acf, 10_000, 100.0, "acf");
+/// assert!(svg.contains("gyro x: sample ACF") && svg.contains("lag [s]"));
+/// // the two lines of the white-noise band at ±1.96/√n
+/// assert_eq!(svg.matches(r##"stroke="#C00000" stroke-dasharray="5 4""##).count(), 2);
+/// ```
 pub fn acf_svg(title: &str, acf: &[f64], n: usize, rate_hz: f64, id: &str) -> String {
     let mut s = String::new();
     header(&mut s, title, id);
@@ -681,6 +825,19 @@ pub fn acf_svg(title: &str, acf: &[f64], n: usize, rate_hz: f64, id: &str) -> St
 
 /// Renders an SVG document to PNG bytes with the embedded DejaVu Sans font (no system
 /// fonts are consulted), at `zoom` × the SVG's size.
+///
+/// ```
+/// use imunoise::plot::{HEIGHT, WIDTH, svg_to_png, timeseries_svg};
+/// let x: Vec<f64> = (0..1000).map(|i| (i as f64 * 0.05).sin()).collect();
+/// let svg = timeseries_svg("gyro x", "rad/s", &x, 100.0, "ts");
+/// let png = svg_to_png(&svg, 0.5)?;
+/// assert_eq!(png[..8], *b"\x89PNG\r\n\x1a\n");
+/// // width and height in the IHDR chunk, big-endian: the SVG's, times the zoom
+/// let dim = |at: usize| u32::from_be_bytes(png[at..at + 4].try_into().unwrap());
+/// assert_eq!((dim(16), dim(20)), ((WIDTH * 0.5) as u32, (HEIGHT * 0.5) as u32));
+/// assert!(svg_to_png("not svg", 1.0).is_err());
+/// # Ok::<(), String>(())
+/// ```
 #[cfg(feature = "png")]
 pub fn svg_to_png(svg: &str, zoom: f32) -> Result<Vec<u8>, String> {
     use resvg::{tiny_skia, usvg};

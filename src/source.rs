@@ -51,6 +51,14 @@ pub struct BinaryLayout {
 
 impl BinaryLayout {
     /// `channels` values of type `kind` per row, no padding, no header, no scale.
+    ///
+    /// ```
+    /// use imunoise::io::BinaryType;
+    /// use imunoise::source::BinaryLayout;
+    /// let l = BinaryLayout::new(BinaryType::F32, 6);
+    /// assert_eq!((l.kind, l.channels), (BinaryType::F32, 6));
+    /// assert_eq!((l.stride, l.header, l.scale), (None, 0, None));
+    /// ```
     pub fn new(kind: BinaryType, channels: usize) -> Self {
         BinaryLayout {
             kind,
@@ -62,6 +70,15 @@ impl BinaryLayout {
     }
 
     /// Bytes per row.
+    ///
+    /// ```
+    /// use imunoise::io::BinaryType;
+    /// use imunoise::source::BinaryLayout;
+    /// let l = BinaryLayout::new(BinaryType::F64, 3);
+    /// assert_eq!(l.row_bytes(), 3 * 8);
+    /// // a stride, when given, includes any padding
+    /// assert_eq!(BinaryLayout { stride: Some(32), ..l }.row_bytes(), 32);
+    /// ```
     pub fn row_bytes(&self) -> usize {
         self.stride.unwrap_or(self.channels * self.kind.size())
     }
@@ -92,6 +109,22 @@ impl BinaryLayout {
 /// A memory-mapped file of little-endian f64 samples used in place as a [`SampleSource`]
 /// (the map starts at `offset` bytes and holds `len` samples); released ranges drop their
 /// resident pages. When it maps a temporary file, the file is deleted on drop.
+///
+/// ```
+/// use imunoise::avar::SampleSource;
+/// use imunoise::source::MappedSamples;
+/// let dir = tempfile::tempdir().unwrap();
+/// let p = dir.path().join("x.f64");
+/// let x: Vec<f64> = (0..1000).map(|i| (i % 10) as f64).collect();
+/// std::fs::write(&p, x.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
+/// let s = MappedSamples::map_f64(&p, "x.f64", 0)?;
+/// assert_eq!(s.samples(), &x[..]);
+/// // a source for the streamed Allan variance: the same curve as from the slice
+/// let cfg = imunoise::avar::AvarConfig::default();
+/// let av = imunoise::avar::allan_variance_source(&s, 10.0, &cfg)?;
+/// assert_eq!(av, imunoise::avar::allan_variance(&x, 10.0, &cfg)?);
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub struct MappedSamples {
     backing: Backing,
     offset: usize,

@@ -5,6 +5,17 @@ use processes::{Sensor, Unit};
 
 /// Parses one unit as `--unit` accepts it: `deg/s`, `rad/s`, `g`, `m/s^2` (and the
 /// spellings [`Unit`]'s parser knows), or `none`.
+///
+/// ```
+/// use imunoise::processes::Unit;
+/// use imunoise::units::parse_unit;
+/// assert_eq!(parse_unit("deg/s")?, Unit::DegPerSec);
+/// assert_eq!(parse_unit("m/s^2")?, Unit::MetrePerSec2);
+/// assert_eq!(parse_unit("none")?, Unit::Unitless);
+/// let e = parse_unit("furlong").unwrap_err();
+/// assert!(e.to_string().starts_with("--unit: "));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn parse_unit(s: &str) -> Result<Unit> {
     s.parse::<Unit>()
         .map_err(|e| Error::Usage(format!("--unit: {e}")))
@@ -38,6 +49,18 @@ pub fn infer_unit(name: &str) -> Unit {
 
 /// The units of `names`: from `--unit` (one unit for all channels, or a comma list with
 /// one per channel), else inferred from the names ([`infer_unit`]).
+///
+/// ```
+/// use imunoise::processes::Unit;
+/// use imunoise::units::channel_units;
+/// let names: Vec<String> = ["gyro_x_dps", "acc_z_g"].map(String::from).to_vec();
+/// assert_eq!(channel_units(&names, None)?, [Unit::DegPerSec, Unit::G]);
+/// // one unit for all, or one per channel
+/// assert_eq!(channel_units(&names, Some("rad/s"))?, [Unit::RadPerSec, Unit::RadPerSec]);
+/// assert_eq!(channel_units(&names, Some("rad/s,m/s^2"))?, [Unit::RadPerSec, Unit::MetrePerSec2]);
+/// assert!(channel_units(&names, Some("g,g,g")).is_err());
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn channel_units(names: &[String], arg: Option<&str>) -> Result<Vec<Unit>> {
     match arg {
         None => Ok(names.iter().map(|n| infer_unit(n)).collect()),
@@ -56,6 +79,15 @@ pub fn channel_units(names: &[String], arg: Option<&str>) -> Result<Vec<Unit>> {
 }
 
 /// The sensor kind of a channel: from its unit, else from its name (`gyro…`, `acc…`).
+///
+/// ```
+/// use imunoise::processes::{Sensor, Unit};
+/// use imunoise::units::sensor_of;
+/// assert_eq!(sensor_of("x", &Unit::G), Sensor::Accelerometer); // the unit decides
+/// assert_eq!(sensor_of("gyro_x", &Unit::Unitless), Sensor::Gyroscope);
+/// assert_eq!(sensor_of("ax", &Unit::Unitless), Sensor::Accelerometer);
+/// assert_eq!(sensor_of("temperature", &Unit::Unitless), Sensor::Other);
+/// ```
 pub fn sensor_of(name: &str, unit: &Unit) -> Sensor {
     if unit.is_angular_rate() {
         return Sensor::Gyroscope;

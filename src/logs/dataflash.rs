@@ -19,6 +19,38 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// A mapped DataFlash log.
+///
+/// ```
+/// // an ArduPilot DataFlash log: a FMT message describing IMU, then IMU messages
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("ap.bin");
+/// let pad = |s: &str, n: usize| {
+///     let mut v = s.as_bytes().to_vec();
+///     v.resize(n, 0);
+///     v
+/// };
+/// let mut log = vec![0xA3, 0x95, 0x80, 0x40, 36]; // FMT of type 0x40, 36 bytes
+/// log.extend(pad("IMU", 4));
+/// log.extend(pad("QBffffff", 16));
+/// log.extend(pad("TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ", 64));
+/// for i in 0..100u64 {
+///     log.extend_from_slice(&[0xA3, 0x95, 0x40]);
+///     log.extend_from_slice(&(2500 * i).to_le_bytes()); // µs: 400 Hz
+///     log.push(0); // instance
+///     for v in [0.25f32, 0.0, 0.0, 0.0, 0.0, -9.75] {
+///         log.extend_from_slice(&v.to_le_bytes());
+///     }
+/// }
+/// std::fs::write(&path, log)?;
+/// use imunoise::logs::{LogReader, dataflash::DataflashReader};
+/// let reader = DataflashReader::open(&path)?;
+/// let t = &reader.topics()?[0];
+/// assert_eq!((t.name.as_str(), t.msg_type.as_str(), t.count), ("IMU[0]", "IMU", 100));
+/// let s = reader.read_imu("IMU[0]")?;
+/// assert_eq!(s.stamps_ns[1], 2_500_000); // µs × 1000
+/// assert_eq!((s.columns[0][0], s.columns[5][0]), (0.25, -9.75));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct DataflashReader {
     file: String,
     map: memmap2::Mmap,
@@ -103,6 +135,37 @@ fn parse_fmt(p: &[u8]) -> Option<(u8, Fmt)> {
 
 impl DataflashReader {
     /// Maps `path` and checks that it starts with a DataFlash message header.
+    ///
+    /// ```
+    /// # let dir = tempfile::tempdir()?;
+    /// # let path = dir.path().join("ap.bin");
+    /// # let pad = |s: &str, n: usize| {
+    /// #     let mut v = s.as_bytes().to_vec();
+    /// #     v.resize(n, 0);
+    /// #     v
+    /// # };
+    /// # let mut log = vec![0xA3, 0x95, 0x80, 0x40, 36]; // FMT of type 0x40, 36 bytes
+    /// # log.extend(pad("IMU", 4));
+    /// # log.extend(pad("QBffffff", 16));
+    /// # log.extend(pad("TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ", 64));
+    /// # for i in 0..100u64 {
+    /// #     log.extend_from_slice(&[0xA3, 0x95, 0x40]);
+    /// #     log.extend_from_slice(&(2500 * i).to_le_bytes()); // µs: 400 Hz
+    /// #     log.push(0); // instance
+    /// #     for v in [0.25f32, 0.0, 0.0, 0.0, 0.0, -9.75] {
+    /// #         log.extend_from_slice(&v.to_le_bytes());
+    /// #     }
+    /// # }
+    /// # std::fs::write(&path, log)?;
+    /// // `path`: a DataFlash log with 100 IMU messages of instance 0 at 400 Hz
+    /// use imunoise::logs::dataflash::DataflashReader;
+    /// assert!(DataflashReader::open(&path).is_ok());
+    /// let raw = dir.path().join("raw.bin");
+    /// std::fs::write(&raw, [0u8; 64])?;
+    /// let e = DataflashReader::open(&raw).err().unwrap();
+    /// assert!(e.to_string().contains("not an ArduPilot DataFlash log"));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn open(path: &Path) -> Result<Self> {
         let file = path.display().to_string();
         let map = map_file(path)?;

@@ -11,6 +11,38 @@ use rusqlite::{Connection, OpenFlags};
 use std::path::Path;
 
 /// An open `.db3` bag.
+///
+/// ```
+/// use imunoise::logs::imu_msg::{ImuSample, encode_cdr};
+/// // a rosbag2 SQLite file (written with `rusqlite`): /imu0 with 100 messages at 100 Hz
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("run.db3");
+/// let db = rusqlite::Connection::open(&path)?;
+/// db.execute_batch(
+///     "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL,
+///        serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);
+///      CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL,
+///        timestamp INTEGER NOT NULL, data BLOB NOT NULL);
+///      INSERT INTO topics VALUES (1, '/imu0', 'sensor_msgs/msg/Imu', 'cdr', '');",
+/// )?;
+/// for i in 0..100i64 {
+///     let (gyro, acc) = ([0.0, 0.0, 0.125], [0.0, 0.0, 9.81]);
+///     let s = ImuSample { stamp_ns: 10_000_000 * i, gyro, acc };
+///     db.execute(
+///         "INSERT INTO messages (topic_id, timestamp, data) VALUES (1, ?1, ?2)",
+///         rusqlite::params![s.stamp_ns, encode_cdr(&s, "imu_link")],
+///     )?;
+/// }
+/// drop(db);
+/// use imunoise::logs::{LogReader, db3::Db3Reader};
+/// let reader = Db3Reader::open(&path)?;
+/// let t = &reader.topics()?[0];
+/// assert_eq!((t.name.as_str(), t.count, t.is_imu), ("/imu0", 100, true));
+/// let s = reader.read_imu("/imu0")?;
+/// assert_eq!(imunoise::logs::rate_from_stamps(&s.stamps_ns), Some(100.0));
+/// assert_eq!(s.columns[2][99], 0.125); // gyro_z_rads
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Db3Reader {
     file: String,
     conn: Connection,
@@ -18,6 +50,37 @@ pub struct Db3Reader {
 
 impl Db3Reader {
     /// Opens `path` read-only and checks that it is an SQLite rosbag2 file.
+    ///
+    /// ```
+    /// # use imunoise::logs::imu_msg::{ImuSample, encode_cdr};
+    /// # let dir = tempfile::tempdir()?;
+    /// # let path = dir.path().join("run.db3");
+    /// # let db = rusqlite::Connection::open(&path)?;
+    /// # db.execute_batch(
+    /// #     "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL,
+    /// #        serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);
+    /// #      CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL,
+    /// #        timestamp INTEGER NOT NULL, data BLOB NOT NULL);
+    /// #      INSERT INTO topics VALUES (1, '/imu0', 'sensor_msgs/msg/Imu', 'cdr', '');",
+    /// # )?;
+    /// # for i in 0..100i64 {
+    /// #     let (gyro, acc) = ([0.0, 0.0, 0.125], [0.0, 0.0, 9.81]);
+    /// #     let s = ImuSample { stamp_ns: 10_000_000 * i, gyro, acc };
+    /// #     db.execute(
+    /// #         "INSERT INTO messages (topic_id, timestamp, data) VALUES (1, ?1, ?2)",
+    /// #         rusqlite::params![s.stamp_ns, encode_cdr(&s, "imu_link")],
+    /// #     )?;
+    /// # }
+    /// # drop(db);
+    /// // `path`: a rosbag2 SQLite file with 100 IMU messages at 100 Hz on /imu0
+    /// use imunoise::logs::db3::Db3Reader;
+    /// assert!(Db3Reader::open(&path).is_ok());
+    /// let csv = dir.path().join("imu.db3");
+    /// std::fs::write(&csv, "gx,gy\n1,2\n")?;
+    /// let e = Db3Reader::open(&csv).err().unwrap();
+    /// assert!(e.to_string().ends_with("not an SQLite (.db3) file"));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn open(path: &Path) -> Result<Self> {
         let file = path.display().to_string();
         // Opening does not read the file; check the magic so that a missing or foreign file

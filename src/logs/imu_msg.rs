@@ -12,6 +12,17 @@
 
 /// One decoded IMU message: header stamp (ns since the epoch), angular velocity (rad/s)
 /// and linear acceleration (m/s²).
+///
+/// ```
+/// use imunoise::logs::imu_msg::{ImuSample, decode_cdr, encode_cdr};
+/// let (gyro, acc) = ([1e-3, 0.0, -1e-3], [0.0, 0.0, 9.81]);
+/// let s = ImuSample { stamp_ns: 1_700_000_000_250_000_000, gyro, acc };
+/// // a ROS 2 message carries the stamp as seconds and nanoseconds
+/// let msg = encode_cdr(&s, "imu_link");
+/// assert_eq!(msg[4..8], 1_700_000_000i32.to_le_bytes());
+/// assert_eq!(msg[8..12], 250_000_000u32.to_le_bytes());
+/// assert_eq!(decode_cdr(&msg).unwrap(), s);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImuSample {
     /// Header stamp in nanoseconds.
@@ -165,6 +176,19 @@ fn body(s: &ImuSample) -> Vec<u8> {
 
 /// Serializes a sample as a ROS 1 `sensor_msgs/Imu` (for writing test fixtures and
 /// benchmarks); the covariances are zero and the orientation is the identity.
+///
+/// ```
+/// use imunoise::logs::imu_msg::{ImuSample, decode_ros1, encode_ros1};
+/// let s = ImuSample { stamp_ns: 3_000_000_007, gyro: [0.1, 0.2, 0.3], acc: [0.0, 0.0, 9.81] };
+/// let msg = encode_ros1(&s, 42, "imu");
+/// // seq, sec, nsec, then frame_id with its length; 37 f64 after the header
+/// assert_eq!(msg[..4], 42u32.to_le_bytes());
+/// assert_eq!(msg[4..8], 3u32.to_le_bytes());
+/// assert_eq!(msg[8..12], 7u32.to_le_bytes());
+/// assert_eq!(&msg[16..19], b"imu");
+/// assert_eq!(msg.len(), 16 + 3 + 37 * 8);
+/// assert_eq!(decode_ros1(&msg).unwrap(), s);
+/// ```
 pub fn encode_ros1(s: &ImuSample, seq: u32, frame_id: &str) -> Vec<u8> {
     let mut v = Vec::with_capacity(16 + frame_id.len() + BODY);
     v.extend_from_slice(&seq.to_le_bytes());
@@ -178,6 +202,18 @@ pub fn encode_ros1(s: &ImuSample, seq: u32, frame_id: &str) -> Vec<u8> {
 
 /// Serializes a sample as a little-endian CDR `sensor_msgs/msg/Imu` (for writing test
 /// fixtures and benchmarks).
+///
+/// ```
+/// use imunoise::logs::imu_msg::{ImuSample, decode_cdr, encode_cdr};
+/// let s = ImuSample { stamp_ns: 1_500_000_000, gyro: [0.1, 0.2, 0.3], acc: [0.0, 0.0, 9.81] };
+/// let msg = encode_cdr(&s, "imu");
+/// assert_eq!(msg[..4], [0, 1, 0, 0]); // little-endian CDR
+/// // the frame_id's length counts its NUL; the f64 start 8-aligned after the 4-byte header
+/// assert_eq!(msg[12..16], 4u32.to_le_bytes());
+/// assert_eq!(&msg[16..20], b"imu\0");
+/// assert_eq!(msg.len(), 4 + 16 + 37 * 8);
+/// assert_eq!(decode_cdr(&msg).unwrap(), s);
+/// ```
 pub fn encode_cdr(s: &ImuSample, frame_id: &str) -> Vec<u8> {
     let mut v = vec![0u8, 1, 0, 0];
     v.extend_from_slice(&(s.stamp_ns.div_euclid(1_000_000_000) as i32).to_le_bytes());

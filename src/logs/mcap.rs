@@ -12,6 +12,39 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// A mapped MCAP file.
+///
+/// ```
+/// use imunoise::logs::imu_msg::{ImuSample, encode_cdr};
+/// // an MCAP file with 200 IMU messages at 200 Hz on /imu0 (written with the `mcap` crate)
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("run.mcap");
+/// let file = std::io::BufWriter::new(std::fs::File::create(&path)?);
+/// let mut w = mcap::WriteOptions::new().profile("ros2").create(file)?;
+/// let schema = w.add_schema("sensor_msgs/msg/Imu", "ros2msg", b"(definition omitted)")?;
+/// let channel = w.add_channel(schema, "/imu0", "cdr", &Default::default())?;
+/// for i in 0..200 {
+///     let stamp_ns = 1_700_000_000_000_000_000 + 5_000_000 * i as i64;
+///     let (gyro, acc) = ([1e-3 * i as f64, 0.0, 0.0], [0.0, 0.0, 9.81]);
+///     let s = ImuSample { stamp_ns, gyro, acc };
+///     let header = mcap::records::MessageHeader {
+///         channel_id: channel,
+///         sequence: i,
+///         log_time: stamp_ns as u64,
+///         publish_time: stamp_ns as u64,
+///     };
+///     w.write_to_known_channel(&header, &encode_cdr(&s, "imu_link"))?;
+/// }
+/// w.finish()?;
+/// use imunoise::logs::{LogReader, mcap::McapReader};
+/// let reader = McapReader::open(&path)?;
+/// let topics = reader.topics()?;
+/// assert_eq!((topics[0].name.as_str(), topics[0].count, topics[0].is_imu), ("/imu0", 200, true));
+/// let s = reader.read_imu("/imu0")?;
+/// assert_eq!(s.stamps_ns[1] - s.stamps_ns[0], 5_000_000);
+/// assert_eq!(s.columns[0][199], 1e-3 * 199.0); // gyro_x_rads, as written
+/// assert_eq!(s.columns[5][0], 9.81); // acc_z_mps2
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct McapReader {
     file: String,
     map: memmap2::Mmap,
@@ -220,6 +253,37 @@ fn decoder(schema: Option<&str>, encoding: &str) -> Option<Decoder> {
 
 impl McapReader {
     /// Maps `path`; the header magic is checked here, everything else while reading.
+    ///
+    /// ```
+    /// # use imunoise::logs::imu_msg::{ImuSample, encode_cdr};
+    /// # let dir = tempfile::tempdir()?;
+    /// # let path = dir.path().join("run.mcap");
+    /// # let file = std::io::BufWriter::new(std::fs::File::create(&path)?);
+    /// # let mut w = mcap::WriteOptions::new().profile("ros2").create(file)?;
+    /// # let schema = w.add_schema("sensor_msgs/msg/Imu", "ros2msg", b"(definition omitted)")?;
+    /// # let channel = w.add_channel(schema, "/imu0", "cdr", &Default::default())?;
+    /// # for i in 0..200 {
+    /// #     let stamp_ns = 1_700_000_000_000_000_000 + 5_000_000 * i as i64;
+    /// #     let (gyro, acc) = ([1e-3 * i as f64, 0.0, 0.0], [0.0, 0.0, 9.81]);
+    /// #     let s = ImuSample { stamp_ns, gyro, acc };
+    /// #     let header = mcap::records::MessageHeader {
+    /// #         channel_id: channel,
+    /// #         sequence: i,
+    /// #         log_time: stamp_ns as u64,
+    /// #         publish_time: stamp_ns as u64,
+    /// #     };
+    /// #     w.write_to_known_channel(&header, &encode_cdr(&s, "imu_link"))?;
+    /// # }
+    /// # w.finish()?;
+    /// // `path`: an MCAP file with 200 IMU messages at 200 Hz on /imu0 (written by the `mcap` crate)
+    /// use imunoise::logs::mcap::McapReader;
+    /// assert!(McapReader::open(&path).is_ok());
+    /// // not an MCAP file: refused at once, as an input error
+    /// let other = dir.path().join("other.mcap");
+    /// std::fs::write(&other, b"#ROSBAG V2.0\n")?;
+    /// assert_eq!(McapReader::open(&other).err().map(|e| e.exit_code()), Some(2));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn open(path: &Path) -> Result<Self> {
         let file = path.display().to_string();
         let map = map_file(path)?;

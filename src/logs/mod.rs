@@ -34,6 +34,14 @@ pub mod ulog;
 pub use timing::{GapPolicy, Timing};
 
 /// A log file format.
+///
+/// ```
+/// use clap::ValueEnum;
+/// use imunoise::logs::LogFormat;
+/// // `--log-format` and the JSON output spell it in lower case
+/// assert_eq!(LogFormat::from_str("ulog", false), Ok(LogFormat::Ulog));
+/// assert_eq!(serde_json::to_string(&LogFormat::Dataflash).unwrap(), "\"dataflash\"");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LogFormat {
@@ -70,6 +78,12 @@ impl LogFormat {
     }
 
     /// The cargo feature that builds this format's reader.
+    ///
+    /// ```
+    /// use imunoise::logs::LogFormat;
+    /// assert_eq!(LogFormat::Bag.feature(), "rosbag");
+    /// assert_eq!(LogFormat::Mcap.feature(), "mcap");
+    /// ```
     pub fn feature(self) -> &'static str {
         match self {
             LogFormat::Mcap => "mcap",
@@ -81,7 +95,22 @@ impl LogFormat {
     }
 }
 
-/// A topic (bags) or message/instance (ULog, DataFlash) of a log.
+/// A topic (bags) or message/instance (ULog, DataFlash) of a log, as
+/// [`LogReader::topics`] lists it ([`open`] shows one read from an MCAP file).
+///
+/// ```
+/// use imunoise::logs::TopicInfo;
+/// let t = TopicInfo {
+///     name: "/imu0".into(),
+///     msg_type: "sensor_msgs/msg/Imu".into(),
+///     count: 720_000,
+///     is_imu: true,
+/// };
+/// // plain data, serializable
+/// let v = serde_json::to_value(&t)?;
+/// assert_eq!((v["name"].as_str(), v["count"].as_u64()), (Some("/imu0"), Some(720_000)));
+/// # Ok::<(), serde_json::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TopicInfo {
     /// Topic name (`/imu0`), or message name and instance (`sensor_combined`, `IMU[1]`).
@@ -95,6 +124,19 @@ pub struct TopicInfo {
 }
 
 /// The samples of one IMU topic in recording order, with their stamps.
+///
+/// ```
+/// use imunoise::logs::{IMU_NAMES, ImuSeries, imu_msg::ImuSample};
+/// let mut s = ImuSeries::with_capacity(2);
+/// for (i, g) in [0.5, -0.5].into_iter().enumerate() {
+///     let (gyro, acc) = ([g, 0.0, 0.0], [0.0, 0.0, 9.81]);
+///     s.push(&ImuSample { stamp_ns: 1_000 * i as i64, gyro, acc });
+/// }
+/// assert_eq!(s.names, IMU_NAMES);
+/// assert_eq!(s.stamps_ns, [0, 1_000]);
+/// assert_eq!(s.columns[0], [0.5, -0.5]); // gyro_x_rads
+/// assert_eq!(s.columns[5], [9.81, 9.81]); // acc_z_mps2
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImuSeries {
     /// Stamps (ns; header stamps for bags, the log's microseconds × 1000 otherwise).
@@ -235,6 +277,15 @@ pub const IMU_NAMES: [&str; 6] = [
 
 impl ImuSeries {
     /// An empty series with the six [`IMU_NAMES`] channels and room for `n` samples.
+    ///
+    /// ```
+    /// use imunoise::logs::{IMU_NAMES, ImuSeries};
+    /// let s = ImuSeries::with_capacity(1000);
+    /// assert_eq!(s.names, IMU_NAMES);
+    /// assert_eq!(s.columns.len(), 6);
+    /// assert!(s.stamps_ns.is_empty());
+    /// assert!(s.columns.iter().all(|c| c.is_empty() && c.capacity() >= 1000));
+    /// ```
     pub fn with_capacity(n: usize) -> Self {
         ImuSeries {
             stamps_ns: Vec::with_capacity(n),
@@ -244,6 +295,15 @@ impl ImuSeries {
     }
 
     /// Appends one sample (stamp in ns, gyro in rad/s, acc in m/s²).
+    ///
+    /// ```
+    /// use imunoise::logs::{ImuSeries, imu_msg::ImuSample};
+    /// let mut s = ImuSeries::with_capacity(1);
+    /// s.push(&ImuSample { stamp_ns: 7, gyro: [1.0, 2.0, 3.0], acc: [4.0, 5.0, 6.0] });
+    /// assert_eq!(s.stamps_ns, [7]);
+    /// let row: Vec<f64> = s.columns.iter().map(|c| c[0]).collect();
+    /// assert_eq!(row, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]); // gyro x, y, z, then acc x, y, z
+    /// ```
     #[inline]
     pub fn push(&mut self, s: &imu_msg::ImuSample) {
         self.stamps_ns.push(s.stamp_ns);
@@ -254,6 +314,19 @@ impl ImuSeries {
     }
 
     /// Errors on non-finite values, naming the message (1-based) and channel.
+    ///
+    /// ```
+    /// use imunoise::logs::{ImuSeries, imu_msg::ImuSample};
+    /// let mut s = ImuSeries::with_capacity(2);
+    /// s.push(&ImuSample { stamp_ns: 0, gyro: [0.0; 3], acc: [0.0; 3] });
+    /// assert!(s.check_finite("run.mcap (/imu0)").is_ok());
+    /// s.push(&ImuSample { stamp_ns: 1, gyro: [0.0, f64::NAN, 0.0], acc: [0.0; 3] });
+    /// let e = s.check_finite("run.mcap (/imu0)").unwrap_err();
+    /// assert_eq!(
+    ///     e.to_string(),
+    ///     "run.mcap (/imu0): message 2 has gyro_y_rads = NaN: values must be finite"
+    /// );
+    /// ```
     pub fn check_finite(&self, what: &str) -> Result<()> {
         for (c, col) in self.columns.iter().enumerate() {
             if let Some(i) = col.iter().position(|v| !v.is_finite()) {
@@ -273,6 +346,45 @@ impl ImuSeries {
 }
 
 /// What every log reader offers.
+///
+/// ```
+/// use imunoise::logs::imu_msg::ImuSample;
+/// use imunoise::logs::{ImuSeries, LogFormat, LogReader, TopicInfo};
+/// /// A log in memory: /imu0 with three messages at 200 Hz, and a camera topic.
+/// struct Fake;
+/// impl LogReader for Fake {
+///     fn format(&self) -> LogFormat {
+///         LogFormat::Mcap
+///     }
+///     fn topics(&self) -> imunoise::Result<Vec<TopicInfo>> {
+///         let topic = |name: &str, msg_type: &str, count, is_imu| TopicInfo {
+///             name: name.into(),
+///             msg_type: msg_type.into(),
+///             count,
+///             is_imu,
+///         };
+///         Ok(vec![
+///             topic("/imu0", "sensor_msgs/msg/Imu", 3, true),
+///             topic("/cam", "sensor_msgs/msg/Image", 1, false),
+///         ])
+///     }
+///     fn read_imu(&self, _topic: &str) -> imunoise::Result<ImuSeries> {
+///         let mut s = ImuSeries::with_capacity(3);
+///         for i in 0..3 {
+///             let (gyro, acc) = ([0.0; 3], [0.0, 0.0, 9.81]);
+///             s.push(&ImuSample { stamp_ns: 5_000_000 * i, gyro, acc });
+///         }
+///         Ok(s)
+///     }
+/// }
+/// let topics = Fake.topics()?;
+/// assert_eq!(topics.iter().filter(|t| t.is_imu).count(), 1);
+/// let s = Fake.read_imu("/imu0")?;
+/// assert_eq!(s.stamps_ns.len(), topics[0].count as usize);
+/// // the library's functions take any reader
+/// assert_eq!(imunoise::logs::select_topics(&Fake, "fake", &[])?, ["/imu0"]);
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub trait LogReader {
     /// The file's format.
     fn format(&self) -> LogFormat;
@@ -284,6 +396,42 @@ pub trait LogReader {
 }
 
 /// Opens a log with the reader of `format`; the file is mapped, not read.
+///
+/// ```
+/// # #[cfg(feature = "mcap")] {
+/// use imunoise::logs::imu_msg::{ImuSample, encode_cdr};
+/// // an MCAP file with 200 IMU messages at 200 Hz on /imu0 (written with the `mcap` crate)
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("run.mcap");
+/// let file = std::io::BufWriter::new(std::fs::File::create(&path)?);
+/// let mut w = mcap::WriteOptions::new().profile("ros2").create(file)?;
+/// let schema = w.add_schema("sensor_msgs/msg/Imu", "ros2msg", b"(definition omitted)")?;
+/// let channel = w.add_channel(schema, "/imu0", "cdr", &Default::default())?;
+/// for i in 0..200 {
+///     let stamp_ns = 1_700_000_000_000_000_000 + 5_000_000 * i as i64;
+///     let (gyro, acc) = ([1e-3 * i as f64, 0.0, 0.0], [0.0, 0.0, 9.81]);
+///     let s = ImuSample { stamp_ns, gyro, acc };
+///     let header = mcap::records::MessageHeader {
+///         channel_id: channel,
+///         sequence: i,
+///         log_time: stamp_ns as u64,
+///         publish_time: stamp_ns as u64,
+///     };
+///     w.write_to_known_channel(&header, &encode_cdr(&s, "imu_link"))?;
+/// }
+/// w.finish()?;
+/// use imunoise::logs::{LogFormat, open};
+/// let reader = open(&path, LogFormat::Mcap)?;
+/// assert_eq!(reader.format(), LogFormat::Mcap);
+/// let s = reader.read_imu("/imu0")?;
+/// assert_eq!(s.stamps_ns.len(), 200);
+/// assert_eq!(s.columns[0][10], 1e-3 * 10.0); // CDR stores the f64 as it is
+/// assert_eq!(imunoise::logs::rate_from_stamps(&s.stamps_ns), Some(200.0));
+/// // the wrong reader for the file is an input error
+/// assert_eq!(open(&path, LogFormat::Ulog).err().map(|e| e.exit_code()), Some(2));
+/// # }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn open(path: &Path, format: LogFormat) -> Result<Box<dyn LogReader>> {
     let file = path.display().to_string();
     match format {
@@ -372,6 +520,45 @@ pub(crate) fn map_file(path: &Path) -> Result<memmap2::Mmap> {
 
 /// A topic with the rate from its stamps (for `imunoise topics` and the messages of
 /// [`select_topics`]).
+///
+/// ```
+/// # use imunoise::logs::imu_msg::ImuSample;
+/// # use imunoise::logs::{ImuSeries, LogFormat, LogReader, TopicInfo};
+/// # /// A log in memory: /imu0 with three messages at 200 Hz, and a camera topic.
+/// # struct Fake;
+/// # impl LogReader for Fake {
+/// #     fn format(&self) -> LogFormat {
+/// #         LogFormat::Mcap
+/// #     }
+/// #     fn topics(&self) -> imunoise::Result<Vec<TopicInfo>> {
+/// #         let topic = |name: &str, msg_type: &str, count, is_imu| TopicInfo {
+/// #             name: name.into(),
+/// #             msg_type: msg_type.into(),
+/// #             count,
+/// #             is_imu,
+/// #         };
+/// #         Ok(vec![
+/// #             topic("/imu0", "sensor_msgs/msg/Imu", 3, true),
+/// #             topic("/cam", "sensor_msgs/msg/Image", 1, false),
+/// #         ])
+/// #     }
+/// #     fn read_imu(&self, _topic: &str) -> imunoise::Result<ImuSeries> {
+/// #         let mut s = ImuSeries::with_capacity(3);
+/// #         for i in 0..3 {
+/// #             let (gyro, acc) = ([0.0; 3], [0.0, 0.0, 9.81]);
+/// #             s.push(&ImuSample { stamp_ns: 5_000_000 * i, gyro, acc });
+/// #         }
+/// #         Ok(s)
+/// #     }
+/// # }
+/// // `Fake`: a LogReader of a log in memory: /imu0 (3 messages at 200 Hz) and /cam (an image)
+/// let all = imunoise::logs::summarize(&Fake)?;
+/// assert_eq!(all[0].to_string(), "/imu0 (sensor_msgs/msg/Imu, 3 messages, 200.0 Hz)");
+/// assert_eq!(all[1].to_string(), "/cam (sensor_msgs/msg/Image, 1 messages)");
+/// let json = serde_json::to_value(&all[0]).unwrap();
+/// assert_eq!((json["name"].as_str(), json["rate_hz"].as_f64()), (Some("/imu0"), Some(200.0)));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TopicSummary {
     /// Name, type, count.
@@ -419,6 +606,45 @@ pub fn rate_from_stamps(stamps_ns: &[i64]) -> Option<f64> {
 }
 
 /// Every topic with its rate (IMU topics are read to get it).
+///
+/// ```
+/// # use imunoise::logs::imu_msg::ImuSample;
+/// # use imunoise::logs::{ImuSeries, LogFormat, LogReader, TopicInfo};
+/// # /// A log in memory: /imu0 with three messages at 200 Hz, and a camera topic.
+/// # struct Fake;
+/// # impl LogReader for Fake {
+/// #     fn format(&self) -> LogFormat {
+/// #         LogFormat::Mcap
+/// #     }
+/// #     fn topics(&self) -> imunoise::Result<Vec<TopicInfo>> {
+/// #         let topic = |name: &str, msg_type: &str, count, is_imu| TopicInfo {
+/// #             name: name.into(),
+/// #             msg_type: msg_type.into(),
+/// #             count,
+/// #             is_imu,
+/// #         };
+/// #         Ok(vec![
+/// #             topic("/imu0", "sensor_msgs/msg/Imu", 3, true),
+/// #             topic("/cam", "sensor_msgs/msg/Image", 1, false),
+/// #         ])
+/// #     }
+/// #     fn read_imu(&self, _topic: &str) -> imunoise::Result<ImuSeries> {
+/// #         let mut s = ImuSeries::with_capacity(3);
+/// #         for i in 0..3 {
+/// #             let (gyro, acc) = ([0.0; 3], [0.0, 0.0, 9.81]);
+/// #             s.push(&ImuSample { stamp_ns: 5_000_000 * i, gyro, acc });
+/// #         }
+/// #         Ok(s)
+/// #     }
+/// # }
+/// // `Fake`: a LogReader of a log in memory: /imu0 (3 messages at 200 Hz) and /cam (an image)
+/// let all = imunoise::logs::summarize(&Fake)?;
+/// assert_eq!(all.len(), 2);
+/// assert_eq!(all[0].info, Fake.topics()?[0]);
+/// assert_eq!(all[0].rate_hz, Some(200.0)); // 5 ms between stamps
+/// assert_eq!(all[1].rate_hz, None); // not an IMU topic
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn summarize(reader: &dyn LogReader) -> Result<Vec<TopicSummary>> {
     summarize_some(reader, reader.topics()?.iter())
 }
@@ -435,6 +661,48 @@ fn list(items: &[TopicSummary]) -> String {
 /// given and several, an error listing them; a given topic must exist, be an IMU topic
 /// and hold messages. Every refusal is an [`Error::Usage`] (exit 2) whose message lists
 /// the IMU topics with type, count and rate.
+///
+/// ```
+/// # use imunoise::logs::imu_msg::ImuSample;
+/// # use imunoise::logs::{ImuSeries, LogFormat, LogReader, TopicInfo};
+/// # /// A log in memory: /imu0 with three messages at 200 Hz, and a camera topic.
+/// # struct Fake;
+/// # impl LogReader for Fake {
+/// #     fn format(&self) -> LogFormat {
+/// #         LogFormat::Mcap
+/// #     }
+/// #     fn topics(&self) -> imunoise::Result<Vec<TopicInfo>> {
+/// #         let topic = |name: &str, msg_type: &str, count, is_imu| TopicInfo {
+/// #             name: name.into(),
+/// #             msg_type: msg_type.into(),
+/// #             count,
+/// #             is_imu,
+/// #         };
+/// #         Ok(vec![
+/// #             topic("/imu0", "sensor_msgs/msg/Imu", 3, true),
+/// #             topic("/cam", "sensor_msgs/msg/Image", 1, false),
+/// #         ])
+/// #     }
+/// #     fn read_imu(&self, _topic: &str) -> imunoise::Result<ImuSeries> {
+/// #         let mut s = ImuSeries::with_capacity(3);
+/// #         for i in 0..3 {
+/// #             let (gyro, acc) = ([0.0; 3], [0.0, 0.0, 9.81]);
+/// #             s.push(&ImuSample { stamp_ns: 5_000_000 * i, gyro, acc });
+/// #         }
+/// #         Ok(s)
+/// #     }
+/// # }
+/// // `Fake`: a LogReader of a log in memory: /imu0 (3 messages at 200 Hz) and /cam (an image)
+/// use imunoise::logs::select_topics;
+/// // none asked for: the only IMU topic
+/// assert_eq!(select_topics(&Fake, "run.mcap", &[])?, ["/imu0"]);
+/// assert_eq!(select_topics(&Fake, "run.mcap", &["/imu0".into()])?, ["/imu0"]);
+/// // not an IMU topic: refused, with the IMU topics listed
+/// let e = select_topics(&Fake, "run.mcap", &["/cam".into()]).unwrap_err();
+/// assert!(e.to_string().contains("not sensor_msgs/Imu; IMU topics in run.mcap: /imu0"));
+/// assert!(select_topics(&Fake, "run.mcap", &["/imu1".into()]).is_err());
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn select_topics(
     reader: &dyn LogReader,
     file: &str,

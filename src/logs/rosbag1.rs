@@ -18,6 +18,80 @@ use std::path::Path;
 type Connections = BTreeMap<u32, (String, String)>;
 
 /// An open ROS 1 bag.
+///
+/// ```
+/// use imunoise::logs::imu_msg::{ImuSample, encode_ros1};
+/// // a ROS 1 bag: records of a header (`name=value` fields, each after its u32 length) and
+/// // data, each after its u32 length; here one uncompressed chunk of 100 IMU messages at
+/// // 100 Hz on /imu0, and the index
+/// let field = |name: &str, val: &[u8]| {
+///     let mut v = ((name.len() + 1 + val.len()) as u32).to_le_bytes().to_vec();
+///     v.extend([name.as_bytes(), b"=", val].concat());
+///     v
+/// };
+/// let record = |fields: &[Vec<u8>], data: &[u8]| {
+///     let h = fields.concat();
+///     let mut v = (h.len() as u32).to_le_bytes().to_vec();
+///     v.extend([&h[..], &(data.len() as u32).to_le_bytes(), data].concat());
+///     v
+/// };
+/// let time = |ns: i64| [(ns / 1_000_000_000) as u32, (ns % 1_000_000_000) as u32]
+///     .map(u32::to_le_bytes)
+///     .concat();
+/// let u32le = |x: u32| x.to_le_bytes();
+/// let conn = record(
+///     &[field("op", &[7]), field("conn", &u32le(0)), field("topic", b"/imu0")],
+///     &[field("topic", b"/imu0"), field("type", b"sensor_msgs/Imu"),
+///         field("md5sum", b"6a62c6daae103f4ff57a132d6f95cec2"),
+///         field("message_definition", b"")]
+///         .concat(),
+/// );
+/// let (mut chunk, mut index) = (conn.clone(), Vec::new());
+/// let stamp = |i: i64| 1_000_000_000 + 10_000_000 * i;
+/// for i in 0..100 {
+///     let (gyro, acc) = ([0.0, 0.5, 0.0], [0.0, 0.0, 9.81]);
+///     let s = ImuSample { stamp_ns: stamp(i), gyro, acc };
+///     index.extend([time(s.stamp_ns), u32le(chunk.len() as u32).to_vec()].concat());
+///     let t = time(s.stamp_ns);
+///     let head = [field("op", &[2]), field("conn", &u32le(0)), field("time", &t)];
+///     chunk.extend(record(&head, &encode_ros1(&s, i as u32, "imu")));
+/// }
+/// let header = |index_pos: u64| {
+///     let fields = [field("op", &[3]), field("index_pos", &index_pos.to_le_bytes()),
+///         field("conn_count", &u32le(1)), field("chunk_count", &u32le(1))];
+///     record(&fields, &[b' '; 64])
+/// };
+/// let chunk_pos = 13 + header(0).len(); // after the version line and the header record
+/// let size = u32le(chunk.len() as u32);
+/// let chunk_head = [field("op", &[5]), field("compression", b"none"), field("size", &size)];
+/// let mut body = record(&chunk_head, &chunk);
+/// body.extend(record(
+///     &[field("op", &[4]), field("ver", &u32le(1)), field("conn", &u32le(0)),
+///         field("count", &u32le(100))],
+///     &index,
+/// ));
+/// let index_pos = (chunk_pos + body.len()) as u64;
+/// body.extend(conn);
+/// body.extend(record(
+///     &[field("op", &[6]), field("ver", &u32le(1)),
+///         field("chunk_pos", &(chunk_pos as u64).to_le_bytes()),
+///         field("start_time", &time(stamp(0))), field("end_time", &time(stamp(99))),
+///         field("count", &u32le(1))],
+///     &[u32le(0), u32le(100)].concat(),
+/// ));
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("run.bag");
+/// std::fs::write(&path, [&b"#ROSBAG V2.0\n"[..], &header(index_pos), &body].concat())?;
+/// use imunoise::logs::{LogReader, rosbag1::BagReader};
+/// let reader = BagReader::open(&path)?;
+/// let t = &reader.topics()?[0];
+/// assert_eq!((t.name.as_str(), t.msg_type.as_str()), ("/imu0", "sensor_msgs/Imu"));
+/// assert_eq!((t.count, t.is_imu), (100, true));
+/// let s = reader.read_imu("/imu0")?;
+/// assert_eq!(imunoise::logs::rate_from_stamps(&s.stamps_ns), Some(100.0));
+/// assert_eq!((s.columns[1][0], s.columns[5][99]), (0.5, 9.81));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct BagReader {
     file: String,
     bag: rosbag::RosBag,
@@ -92,6 +166,80 @@ fn check_header(b: &[u8], file: &str) -> Result<(usize, usize)> {
 
 impl BagReader {
     /// Opens and maps `path`, checking the bag header.
+    ///
+    /// ```
+    /// # use imunoise::logs::imu_msg::{ImuSample, encode_ros1};
+    /// # let field = |name: &str, val: &[u8]| {
+    /// #     let mut v = ((name.len() + 1 + val.len()) as u32).to_le_bytes().to_vec();
+    /// #     v.extend([name.as_bytes(), b"=", val].concat());
+    /// #     v
+    /// # };
+    /// # let record = |fields: &[Vec<u8>], data: &[u8]| {
+    /// #     let h = fields.concat();
+    /// #     let mut v = (h.len() as u32).to_le_bytes().to_vec();
+    /// #     v.extend([&h[..], &(data.len() as u32).to_le_bytes(), data].concat());
+    /// #     v
+    /// # };
+    /// # let time = |ns: i64| [(ns / 1_000_000_000) as u32, (ns % 1_000_000_000) as u32]
+    /// #     .map(u32::to_le_bytes)
+    /// #     .concat();
+    /// # let u32le = |x: u32| x.to_le_bytes();
+    /// # let conn = record(
+    /// #     &[field("op", &[7]), field("conn", &u32le(0)), field("topic", b"/imu0")],
+    /// #     &[field("topic", b"/imu0"), field("type", b"sensor_msgs/Imu"),
+    /// #         field("md5sum", b"6a62c6daae103f4ff57a132d6f95cec2"),
+    /// #         field("message_definition", b"")]
+    /// #         .concat(),
+    /// # );
+    /// # let (mut chunk, mut index) = (conn.clone(), Vec::new());
+    /// # let stamp = |i: i64| 1_000_000_000 + 10_000_000 * i;
+    /// # for i in 0..100 {
+    /// #     let (gyro, acc) = ([0.0, 0.5, 0.0], [0.0, 0.0, 9.81]);
+    /// #     let s = ImuSample { stamp_ns: stamp(i), gyro, acc };
+    /// #     index.extend([time(s.stamp_ns), u32le(chunk.len() as u32).to_vec()].concat());
+    /// #     let t = time(s.stamp_ns);
+    /// #     let head = [field("op", &[2]), field("conn", &u32le(0)), field("time", &t)];
+    /// #     chunk.extend(record(&head, &encode_ros1(&s, i as u32, "imu")));
+    /// # }
+    /// # let header = |index_pos: u64| {
+    /// #     let fields = [field("op", &[3]), field("index_pos", &index_pos.to_le_bytes()),
+    /// #         field("conn_count", &u32le(1)), field("chunk_count", &u32le(1))];
+    /// #     record(&fields, &[b' '; 64])
+    /// # };
+    /// # let chunk_pos = 13 + header(0).len(); // after the version line and the header record
+    /// # let size = u32le(chunk.len() as u32);
+    /// # let chunk_head = [field("op", &[5]), field("compression", b"none"), field("size", &size)];
+    /// # let mut body = record(&chunk_head, &chunk);
+    /// # body.extend(record(
+    /// #     &[field("op", &[4]), field("ver", &u32le(1)), field("conn", &u32le(0)),
+    /// #         field("count", &u32le(100))],
+    /// #     &index,
+    /// # ));
+    /// # let index_pos = (chunk_pos + body.len()) as u64;
+    /// # body.extend(conn);
+    /// # body.extend(record(
+    /// #     &[field("op", &[6]), field("ver", &u32le(1)),
+    /// #         field("chunk_pos", &(chunk_pos as u64).to_le_bytes()),
+    /// #         field("start_time", &time(stamp(0))), field("end_time", &time(stamp(99))),
+    /// #         field("count", &u32le(1))],
+    /// #     &[u32le(0), u32le(100)].concat(),
+    /// # ));
+    /// # let dir = tempfile::tempdir()?;
+    /// # let path = dir.path().join("run.bag");
+    /// # std::fs::write(&path, [&b"#ROSBAG V2.0\n"[..], &header(index_pos), &body].concat())?;
+    /// // `path`: a ROS 1 bag with 100 IMU messages at 100 Hz on /imu0 (one uncompressed chunk)
+    /// use imunoise::logs::rosbag1::BagReader;
+    /// assert!(BagReader::open(&path).is_ok());
+    /// // a bag whose recording was not closed has no index: refused, saying what to do
+    /// let open = dir.path().join("open.bag");
+    /// let mut bytes = std::fs::read(&path)?;
+    /// let at = bytes.windows(10).position(|w| w == b"index_pos=").unwrap() + 10;
+    /// bytes[at..at + 8].copy_from_slice(&0u64.to_le_bytes());
+    /// std::fs::write(&open, bytes)?;
+    /// let e = BagReader::open(&open).err().unwrap();
+    /// assert!(e.to_string().contains("run `rosbag reindex` on it first"));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn open(path: &Path) -> Result<Self> {
         let file = path.display().to_string();
         let map = super::map_file(path)?;

@@ -16,6 +16,23 @@ use crate::error::{Error, Result};
 use serde::Serialize;
 
 /// What to do with a record whose gaps exceed 0.1 % of its samples (`--gaps`).
+///
+/// ```
+/// use imunoise::logs::timing::{GapPolicy, prepare};
+/// // 1000 stamps at 200 Hz with samples 300..310 missing: 1 % of the record
+/// let mut stamps: Vec<i64> = (0..1000).map(|i| 5_000_000 * i).collect();
+/// stamps.drain(300..310);
+/// let x = vec![0.0; stamps.len()];
+/// let run = |p| prepare(stamps.clone(), vec![x.clone()], None, p, "run.mcap (/imu0)");
+/// let e = run(GapPolicy::Refuse).unwrap_err();
+/// assert!(e.to_string().contains("use --gaps longest"));
+/// // the longest gap-free segment: the 690 samples after the gap
+/// let (cols, t) = run(GapPolicy::Longest)?;
+/// assert_eq!((t.segment, cols[0].len()), (Some([300, 990]), 690));
+/// let (cols, t) = run(GapPolicy::Ignore)?;
+/// assert_eq!((cols[0].len(), t.gaps, t.missing_samples), (990, 1, 10));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum GapPolicy {
@@ -35,6 +52,25 @@ pub const MAX_MISSING_FRACTION: f64 = 1e-3;
 pub const GAP_FACTOR: f64 = 1.5;
 
 /// What the stamps of a record say (written to `results.json` as `timing`).
+///
+/// ```
+/// use imunoise::logs::timing::{GapPolicy, prepare};
+/// // 400 Hz stamps from t = 2 s, the 100th message recorded twice
+/// let mut stamps: Vec<i64> = (0..1000).map(|i| 2_000_000_000 + 2_500_000 * i).collect();
+/// stamps.insert(100, stamps[99]);
+/// let x = vec![0.0; stamps.len()];
+/// let (cols, t) = prepare(stamps, vec![x], None, GapPolicy::Refuse, "imu.csv")?;
+/// assert_eq!((t.messages, t.samples_used, t.duplicates), (1001, 1000, 1));
+/// assert_eq!((t.rate_hz, t.rate_source), (400.0, "stamps"));
+/// assert_eq!(t.median_dt_s, 1.0 / 400.0);
+/// assert_eq!(t.span_s, [2.0, 2.0 + 999.0 / 400.0]);
+/// assert_eq!((t.gaps, t.longest_gap_s, t.segment), (0, 0.0, None));
+/// assert_eq!(cols[0].len(), t.samples_used);
+/// // as written to results.json
+/// let json = serde_json::to_value(&t).unwrap();
+/// assert_eq!(json["gap_policy"], "refuse");
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Timing {
     /// Messages read.
@@ -71,6 +107,18 @@ pub struct Timing {
 
 impl Timing {
     /// One line for people: rate, counts and what was done.
+    ///
+    /// ```
+    /// use imunoise::logs::timing::{GapPolicy, prepare};
+    /// let stamps: Vec<i64> = (0..100).map(|i| 10_000_000 * i).collect();
+    /// let (_, t) = prepare(stamps, vec![vec![0.0; 100]], Some(100.0), GapPolicy::Refuse, "x")?;
+    /// assert_eq!(
+    ///     t.summary(),
+    ///     "100 messages, rate 100.000000 Hz (--rate; stamps say 100.000000 Hz), 0 reordered, \
+    ///      0 duplicates (removed), 0 gaps (0 samples missing, longest 0.000000 s)"
+    /// );
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
     pub fn summary(&self) -> String {
         let mut s = format!(
             "{} messages, rate {:.6} Hz ({}; stamps say {:.6} Hz), {} reordered, {} duplicates (removed), {} gaps ({} samples missing, longest {:.6} s)",

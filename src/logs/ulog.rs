@@ -19,6 +19,39 @@ use std::path::Path;
 const MAGIC: &[u8] = b"ULog\x01\x12\x35";
 
 /// A mapped ULog file.
+///
+/// ```
+/// // a PX4 ULog: the 16-byte header, then messages (u16 size, type, body)
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("px4.ulg");
+/// let mut log = b"ULog\x01\x12\x35\x01".to_vec();
+/// log.extend_from_slice(&0u64.to_le_bytes());
+/// let mut msg = |ty: u8, body: &[u8]| {
+///     log.extend_from_slice(&(body.len() as u16).to_le_bytes());
+///     log.push(ty);
+///     log.extend_from_slice(body);
+/// };
+/// let format = "sensor_combined:uint64_t timestamp;float[3] gyro_rad;float[3] accelerometer_m_s2;";
+/// msg(b'F', format.as_bytes());
+/// msg(b'A', b"\x00\x00\x00sensor_combined"); // instance 0, message id 0
+/// for i in 0..100u64 {
+///     let mut d = vec![0u8, 0]; // message id 0
+///     d.extend_from_slice(&(4000 * i).to_le_bytes()); // µs: 250 Hz
+///     for v in [0.5f32, 0.0, 0.0, 0.0, 0.0, -9.75] {
+///         d.extend_from_slice(&v.to_le_bytes());
+///     }
+///     msg(b'D', &d);
+/// }
+/// std::fs::write(&path, log)?;
+/// use imunoise::logs::{LogReader, ulog::UlogReader};
+/// let reader = UlogReader::open(&path)?;
+/// let t = &reader.topics()?[0];
+/// assert_eq!((t.name.as_str(), t.count, t.is_imu), ("sensor_combined", 100, true));
+/// let s = reader.read_imu("sensor_combined")?;
+/// assert_eq!(s.stamps_ns[1], 4_000_000); // µs × 1000
+/// assert_eq!((s.columns[0][0], s.columns[5][0]), (0.5, -9.75)); // f32 values, exact in f64
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct UlogReader {
     file: String,
     map: memmap2::Mmap,
@@ -81,6 +114,38 @@ struct Scan {
 
 impl UlogReader {
     /// Maps `path` and checks the ULog header.
+    ///
+    /// ```
+    /// # let dir = tempfile::tempdir()?;
+    /// # let path = dir.path().join("px4.ulg");
+    /// # let mut log = b"ULog\x01\x12\x35\x01".to_vec();
+    /// # log.extend_from_slice(&0u64.to_le_bytes());
+    /// # let mut msg = |ty: u8, body: &[u8]| {
+    /// #     log.extend_from_slice(&(body.len() as u16).to_le_bytes());
+    /// #     log.push(ty);
+    /// #     log.extend_from_slice(body);
+    /// # };
+    /// # let format = "sensor_combined:uint64_t timestamp;float[3] gyro_rad;float[3] accelerometer_m_s2;";
+    /// # msg(b'F', format.as_bytes());
+    /// # msg(b'A', b"\x00\x00\x00sensor_combined"); // instance 0, message id 0
+    /// # for i in 0..100u64 {
+    /// #     let mut d = vec![0u8, 0]; // message id 0
+    /// #     d.extend_from_slice(&(4000 * i).to_le_bytes()); // µs: 250 Hz
+    /// #     for v in [0.5f32, 0.0, 0.0, 0.0, 0.0, -9.75] {
+    /// #         d.extend_from_slice(&v.to_le_bytes());
+    /// #     }
+    /// #     msg(b'D', &d);
+    /// # }
+    /// # std::fs::write(&path, log)?;
+    /// // `path`: a PX4 ULog with 100 `sensor_combined` messages at 250 Hz
+    /// use imunoise::logs::ulog::UlogReader;
+    /// assert!(UlogReader::open(&path).is_ok());
+    /// let junk = dir.path().join("junk.ulg");
+    /// std::fs::write(&junk, b"not a ulog file at all")?;
+    /// let e = UlogReader::open(&junk).err().unwrap();
+    /// assert!(e.to_string().contains("not a PX4 ULog file"));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn open(path: &Path) -> Result<Self> {
         let file = path.display().to_string();
         let map = map_file(path)?;

@@ -58,6 +58,22 @@ impl Default for AnalyzeSettings {
 impl AnalyzeSettings {
     /// The fit settings `analyze` uses: selection on for GMWM (unless `select` is off), and
     /// the default model widened to [`ANALYZE_MODEL`] when selecting.
+    ///
+    /// ```
+    /// use imunoise::pipeline::analyze::{ANALYZE_MODEL, AnalyzeSettings};
+    /// use imunoise::pipeline::fit::{DEFAULT_MODEL, Method};
+    /// let s = AnalyzeSettings::default().effective_fit();
+    /// assert!(s.select);
+    /// assert_eq!(s.model, ANALYZE_MODEL);
+    /// // without selection the model is fitted as it is
+    /// let s = AnalyzeSettings { select: false, ..Default::default() }.effective_fit();
+    /// assert!(!s.select);
+    /// assert_eq!(s.model, DEFAULT_MODEL);
+    /// // selection is by WIC, a GMWM criterion: other methods do not select
+    /// let mut a = AnalyzeSettings::default();
+    /// a.fit.method = Method::Avlr;
+    /// assert!(!a.effective_fit().select);
+    /// ```
     pub fn effective_fit(&self) -> FitSettings {
         let mut s = self.fit.clone();
         s.select = self.select && s.method == Method::Gmwm;
@@ -70,6 +86,34 @@ impl AnalyzeSettings {
 
 /// The result of [`analyze`]: the data, the curves and the fits, all channels in the order of
 /// the table.
+///
+/// ```
+/// use imunoise::pipeline::{analyze, simulate};
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gyro_x_dps".into(), "gyro_y_dps".into()],
+///     columns: simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 2)?
+///         .into_iter()
+///         .map(Into::into)
+///         .collect(),
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let units = imunoise::units::channel_units(&table.names, None)?;
+/// let settings = analyze::AnalyzeSettings::default();
+/// let a = analyze::analyze(table, units, &settings, &imunoise::Ui::quiet())?;
+/// // one curve, fit, robust curve and contamination check per channel, in table order
+/// assert_eq!(a.curves.len(), 2);
+/// assert_eq!(a.fits[1].name, "gyro_y_dps");
+/// assert_eq!(a.robust_curves[0].0, a.curves[0].0);
+/// assert_eq!(a.checks.len(), 2);
+/// // the robust curves are fitted only with `robust`
+/// assert!(a.robust_fits.is_none());
+/// assert_eq!(a.efficiency, settings.efficiency);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug)]
 pub struct Analysis {
     /// The data analysed.
@@ -95,6 +139,39 @@ pub struct Analysis {
 }
 
 /// Analyses every channel of `table` (at its rate) with `units` as [`AnalyzeSettings`] say.
+///
+/// ```
+/// use imunoise::pipeline::{analyze, simulate};
+/// use imunoise::processes::Unit;
+/// // a gyro in °/s and an accelerometer in g, white noise and a random walk each, at 100 Hz
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gyro_x_dps".into(), "acc_x_g".into()],
+///     columns: simulate::simulate_channels(&model, 1 << 13, 100.0, 7, 2)?
+///         .into_iter()
+///         .map(Into::into)
+///         .collect(),
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let units = imunoise::units::channel_units(&table.names, None)?;
+/// let ui = imunoise::Ui::quiet();
+/// let settings = analyze::AnalyzeSettings { robust: true, ..Default::default() };
+/// let a = analyze::analyze(table.clone(), units.clone(), &settings, &ui)?;
+/// assert_eq!(a.units, [Unit::DegPerSec, Unit::G]);
+/// assert_eq!(a.fits.len(), 2);
+/// assert_eq!(a.robust_fits.as_ref().map(Vec::len), Some(2));
+/// // the sub-models are selected from ANALYZE_MODEL
+/// assert_eq!(a.settings.model, analyze::ANALYZE_MODEL);
+/// assert!(a.fits.iter().all(|f| f.wic.is_some()));
+/// // a target half-width outside (0, 1) is a usage error
+/// let bad = analyze::AnalyzeSettings { record_halfwidth: 1.5, ..Default::default() };
+/// let e = analyze::analyze(table, units, &bad, &ui).unwrap_err();
+/// assert_eq!(e.exit_code(), 2);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn analyze(
     table: Table,
     units: Vec<Unit>,
@@ -152,6 +229,30 @@ pub fn analyze(
 
 impl Analysis {
     /// Everything the report is made of.
+    ///
+    /// ```
+    /// # use imunoise::pipeline::{analyze, simulate};
+    /// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+    /// # let table = imunoise::io::Table {
+    /// #     file: "gyro.csv".into(),
+    /// #     names: vec!["gyro_x_rads".into()],
+    /// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+    /// #     rate_hz: Some(100.0),
+    /// #     timing: None,
+    /// #     topic: None,
+    /// # };
+    /// # let units = imunoise::units::channel_units(&table.names, None)?;
+    /// # let ui = imunoise::Ui::quiet();
+    /// // `a`: the analysis of one simulated gyro channel in rad/s at 100 Hz
+    /// let a = analyze::analyze(table, units, &analyze::AnalyzeSettings::default(), &ui)?;
+    /// let inp = a.report_input()?;
+    /// assert_eq!(inp.source, "gyro.csv");
+    /// assert_eq!(inp.rate_hz, 100.0);
+    /// assert_eq!(inp.fits.len(), a.fits.len());
+    /// // the contamination check is always part of it
+    /// assert_eq!(inp.robust.map(|r| r.checks.len()), Some(1));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn report_input(&self) -> Result<ReportInput<'_>> {
         Ok(ReportInput {
             source: &self.table.file,
@@ -175,11 +276,65 @@ impl Analysis {
     }
 
     /// The `results.json` document (see [`super::report::results_json`]).
+    ///
+    /// ```
+    /// # use imunoise::pipeline::{analyze, simulate};
+    /// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+    /// # let table = imunoise::io::Table {
+    /// #     file: "gyro.csv".into(),
+    /// #     names: vec!["gyro_x_rads".into()],
+    /// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+    /// #     rate_hz: Some(100.0),
+    /// #     timing: None,
+    /// #     topic: None,
+    /// # };
+    /// # let units = imunoise::units::channel_units(&table.names, None)?;
+    /// # let ui = imunoise::Ui::quiet();
+    /// // `a`: the analysis of one simulated gyro channel in rad/s at 100 Hz
+    /// let a = analyze::analyze(table, units, &analyze::AnalyzeSettings::default(), &ui)?;
+    /// let json = a.results_json()?;
+    /// assert_eq!(json["source"], "gyro.csv");
+    /// assert_eq!(json["rate_hz"], 100.0);
+    /// let ch = &json["channels"][0];
+    /// assert_eq!(ch["name"], "gyro_x_rads");
+    /// assert_eq!(ch["unit"], "rad/s");
+    /// assert_eq!(ch["fit"]["model"], a.fits[0].model.as_str());
+    /// assert_eq!(ch["avar"].as_array().unwrap().len(), a.curves[0].1.points.len());
+    /// assert!(ch["robust"]["check"].is_object());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn results_json(&self) -> Result<serde_json::Value> {
         super::report::results_json(&self.report_input()?)
     }
 
     /// Writes the report folder into `dir` (created if needed).
+    ///
+    /// ```
+    /// # use imunoise::pipeline::{analyze, simulate};
+    /// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+    /// # let table = imunoise::io::Table {
+    /// #     file: "gyro.csv".into(),
+    /// #     names: vec!["gyro_x_rads".into()],
+    /// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+    /// #     rate_hz: Some(100.0),
+    /// #     timing: None,
+    /// #     topic: None,
+    /// # };
+    /// # let units = imunoise::units::channel_units(&table.names, None)?;
+    /// # let ui = imunoise::Ui::quiet();
+    /// // `a`: the analysis of one simulated gyro channel in rad/s at 100 Hz
+    /// let a = analyze::analyze(table, units, &analyze::AnalyzeSettings::default(), &ui)?;
+    /// let dir = tempfile::tempdir()?;
+    /// let out = dir.path().join("report");
+    /// a.write_report(&out, &ui)?;
+    /// for f in ["report.html", "results.json", "avar.csv", "imu.yaml", "adev_gyro_x_rads.svg"] {
+    ///     assert!(out.join(f).is_file(), "{f}");
+    /// }
+    /// let json: serde_json::Value =
+    ///     serde_json::from_str(&std::fs::read_to_string(out.join("results.json"))?)?;
+    /// assert_eq!(json["channels"][0]["fit"]["model"], a.fits[0].model.as_str());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn write_report(&self, dir: &Path, ui: &Ui) -> Result<()> {
         super::report::write_report(dir, &self.report_input()?, ui)
     }

@@ -13,6 +13,15 @@ use serde::Serialize;
 use std::io::Write;
 
 /// Maps an `avar` error of one channel to a message naming the file and channel.
+///
+/// ```
+/// use imunoise::pipeline::estimate::avar_error;
+/// let cfg = imunoise::avar::AvarConfig::default();
+/// let e = imunoise::avar::allan_variance(&[], 100.0, &cfg).unwrap_err();
+/// let err = avar_error("imu.csv", "gyro_x", e);
+/// assert!(err.to_string().starts_with("imu.csv: channel \"gyro_x\": "));
+/// assert_eq!(err.exit_code(), 2);
+/// ```
 pub fn avar_error(file: &str, channel: &str, e: avar::AvarError) -> Error {
     let hint = match e {
         avar::AvarError::NotRepresentable { .. } => " (--scale F multiplies every sample by F)",
@@ -25,6 +34,18 @@ pub fn avar_error(file: &str, channel: &str, e: avar::AvarError) -> Error {
 }
 
 /// One point of the JSON output (exactly the documented keys).
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let json = imunoise::pipeline::estimate::to_json(&[("gx".to_string(), av)]);
+/// let p = serde_json::to_value(&json.channels[0].points[0])?;
+/// let keys: Vec<&str> = p.as_object().unwrap().keys().map(String::as_str).collect();
+/// // `alpha` is there only for `--statistic` curves
+/// assert_eq!(keys, ["adev", "avar", "avar_hi", "avar_lo", "edf", "m", "n_terms", "tau"]);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Serialize)]
 pub struct PointJson {
     /// Cluster size (samples).
@@ -50,6 +71,20 @@ pub struct PointJson {
 }
 
 /// One channel of the JSON output.
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let json = imunoise::pipeline::estimate::to_json(&[("gx".to_string(), av)]);
+/// let c = serde_json::to_value(&json.channels[0])?;
+/// assert_eq!(c["name"], "gx");
+/// assert_eq!(c["rate_hz"], 100.0);
+/// assert_eq!(c["n"], 4096);
+/// assert_eq!(c["estimator"], "overlapping");
+/// assert!(c.get("statistic").is_none()); // only with `--statistic`
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Serialize)]
 pub struct ChannelJson {
     /// Channel name.
@@ -68,6 +103,17 @@ pub struct ChannelJson {
 }
 
 /// The whole JSON document.
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let curves = vec![("gx".to_string(), av.clone()), ("gy".to_string(), av)];
+/// let doc = serde_json::to_value(imunoise::pipeline::estimate::to_json(&curves))?;
+/// assert_eq!(doc["channels"].as_array().unwrap().len(), 2);
+/// assert_eq!(doc["channels"][1]["name"], "gy");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Serialize)]
 pub struct AvarJson {
     /// One entry per channel, in the order of the input (or of --columns).
@@ -114,6 +160,21 @@ pub fn parse_scales(s: &str) -> std::result::Result<avar::Scales, String> {
 }
 
 /// Builds the JSON document of named curves.
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let json = imunoise::pipeline::estimate::to_json(&[("gx".to_string(), av.clone())]);
+/// let c = &json.channels[0];
+/// assert_eq!((c.name.as_str(), c.n, c.rate_hz), ("gx", av.n, av.rate_hz));
+/// // the points as they are, one for one
+/// assert_eq!(c.points.len(), av.points.len());
+/// for (q, p) in c.points.iter().zip(&av.points) {
+///     assert_eq!((q.m, q.avar, q.avar_lo, q.edf), (p.m, p.avar, p.avar_lo, p.edf));
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn to_json(curves: &[(String, AllanVariance)]) -> AvarJson {
     AvarJson {
         channels: curves
@@ -145,6 +206,19 @@ pub fn to_json(curves: &[(String, AllanVariance)]) -> AvarJson {
 }
 
 /// One channel's curve of one statistic (the `--statistic` output).
+///
+/// ```
+/// use imunoise::avar::stability::Statistic;
+/// use imunoise::pipeline::estimate::Curve;
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let c = Curve::from_av("gx", Statistic::Oadev, av.clone());
+/// assert_eq!(c.name, "gx");
+/// assert_eq!((c.estimator, c.ci), (av.estimator, av.ci));
+/// assert_eq!(c.stability.statistic, Statistic::Oadev);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct Curve {
     /// Channel name.
@@ -159,6 +233,21 @@ pub struct Curve {
 
 impl Curve {
     /// The curve of `statistic` (oadev or adev) from an Allan variance of channel `name`.
+    ///
+    /// ```
+    /// use imunoise::avar::stability::Statistic;
+    /// use imunoise::avar::{AvarConfig, allan_variance};
+    /// use imunoise::pipeline::estimate::Curve;
+    /// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+    /// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+    /// let c = Curve::from_av("gx", Statistic::Oadev, av.clone());
+    /// // the same numbers under the names of the stability family
+    /// assert_eq!(c.stability.n, av.n);
+    /// for (q, p) in c.stability.points.iter().zip(&av.points) {
+    ///     assert_eq!((q.m, q.var, q.dev, q.dev_lo), (p.m, p.avar, p.adev, p.adev_lo));
+    /// }
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn from_av(name: &str, statistic: Statistic, av: AllanVariance) -> Curve {
         Curve {
             name: name.to_string(),
@@ -194,6 +283,22 @@ impl Curve {
 }
 
 /// The JSON document of `--statistic` curves (one channel entry per channel and statistic).
+///
+/// ```
+/// use imunoise::avar::stability::Statistic;
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// use imunoise::pipeline::estimate::Curve;
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let curves = [Curve::from_av("gx", Statistic::Oadev, av.clone())];
+/// let doc = serde_json::to_value(imunoise::pipeline::estimate::curves_json(&curves))?;
+/// let c = &doc["channels"][0];
+/// assert_eq!(c["statistic"], "oadev");
+/// assert_eq!(c["points"].as_array().unwrap().len(), av.points.len());
+/// // each point says which power law was identified there (null without one)
+/// assert!(c["points"][0].get("alpha").is_some());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn curves_json(curves: &[Curve]) -> AvarJson {
     AvarJson {
         channels: curves
@@ -226,6 +331,24 @@ pub fn curves_json(curves: &[Curve]) -> AvarJson {
 }
 
 /// Writes `--statistic` curves as CSV: today's columns, then `statistic` and `alpha`.
+///
+/// ```
+/// use imunoise::avar::stability::Statistic;
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// use imunoise::pipeline::estimate::Curve;
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let curves = [Curve::from_av("gx", Statistic::Oadev, av.clone())];
+/// let mut out = Vec::new();
+/// imunoise::pipeline::estimate::write_curves_csv(&mut out, &curves)?;
+/// let text = String::from_utf8(out)?;
+/// let lines: Vec<&str> = text.lines().collect();
+/// assert!(lines[0].ends_with(",statistic,alpha"));
+/// assert_eq!(lines.len(), 1 + av.points.len());
+/// assert!(lines[1].starts_with("gx,2,")); // the first dyadic cluster size is m = 2
+/// assert_eq!(lines[1].split(',').nth(11), Some("oadev"));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn write_curves_csv(out: &mut impl Write, curves: &[Curve]) -> std::io::Result<()> {
     writeln!(
         out,
@@ -256,6 +379,22 @@ pub fn write_curves_csv(out: &mut impl Write, curves: &[Curve]) -> std::io::Resu
 }
 
 /// Writes `--statistic` curves as aligned text tables (one per channel and statistic).
+///
+/// ```
+/// use imunoise::avar::stability::Statistic;
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// use imunoise::pipeline::estimate::Curve;
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let curves = [Curve::from_av("gx", Statistic::Oadev, av.clone())];
+/// let mut out = Vec::new();
+/// imunoise::pipeline::estimate::write_curves_table(&mut out, &curves, 0.05)?;
+/// let text = String::from_utf8(out)?;
+/// assert!(text.starts_with("gx: OADEV, n = 4096, rate = 100 Hz, 95.0% chi-square CI"));
+/// // a title line, a header line and one line per point
+/// assert_eq!(text.lines().count(), 2 + av.points.len());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn write_curves_table(
     out: &mut impl Write,
     curves: &[Curve],
@@ -308,6 +447,31 @@ pub fn write_curves_table(
 /// `oadev` (overlapping) and `adev` (non-overlapping) are the AV with the configured CI exactly
 /// as in the default output (`config.estimator` is not used: the statistic names it); the other
 /// statistics come from [`avar::stability::stability`].
+///
+/// ```
+/// use imunoise::avar::AvarConfig;
+/// use imunoise::avar::stability::Statistic;
+/// use imunoise::pipeline::estimate::{compute, compute_statistics};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gx".into()],
+///     columns: vec![x.clone().into()],
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let (cfg, ui) = (AvarConfig::default(), imunoise::Ui::quiet());
+/// let stats = [Statistic::Oadev, Statistic::Mdev];
+/// let curves = compute_statistics(&table, 100.0, &cfg, &stats, &ui)?;
+/// assert_eq!(curves.len(), 2); // channels × statistics
+/// assert_eq!(curves[1].stability.statistic, Statistic::Mdev);
+/// // OADEV is the overlapping Allan variance, exactly as `compute` gives it
+/// let av = &compute(&table, 100.0, &cfg, &ui)?[0].1;
+/// let oadev: Vec<f64> = curves[0].stability.points.iter().map(|p| p.var).collect();
+/// assert_eq!(oadev, av.points.iter().map(|p| p.avar).collect::<Vec<_>>());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn compute_statistics(
     table: &Table,
     rate_hz: f64,
@@ -363,6 +527,20 @@ pub fn compute_statistics(
 }
 
 /// The overlay plot of curves: one line (with its CI band) per channel and statistic.
+///
+/// ```
+/// use imunoise::avar::stability::Statistic;
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// use imunoise::pipeline::estimate::Curve;
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let curves = [Curve::from_av("gx", Statistic::Oadev, av.clone())];
+/// let svg = imunoise::pipeline::estimate::plot_curves(&curves, "gyro x");
+/// assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+/// // one channel: each line is labelled by its statistic alone
+/// assert!(svg.contains("OADEV") && svg.contains("gyro x"));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn plot_curves(curves: &[Curve], title: &str) -> String {
     let series: Vec<crate::plot::StabilitySeries> = curves
         .iter()
@@ -395,6 +573,25 @@ fn opt(v: Option<f64>) -> String {
 }
 
 /// Writes the curves as CSV (long format, one row per channel and scale).
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let mut out = Vec::new();
+/// imunoise::pipeline::estimate::write_csv(&mut out, &[("gx".to_string(), av.clone())])?;
+/// let text = String::from_utf8(out)?;
+/// let mut lines = text.lines();
+/// let header = "channel,m,tau,avar,adev,avar_lo,avar_hi,adev_lo,adev_hi,edf,n_terms";
+/// assert_eq!(lines.next(), Some(header));
+/// // the AV is written in the shortest form that reads back to the same f64
+/// for (line, p) in lines.zip(&av.points) {
+///     let cells: Vec<&str> = line.split(',').collect();
+///     assert_eq!(cells[0], "gx");
+///     assert_eq!(cells[3].parse::<f64>()?, p.avar);
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn write_csv(out: &mut impl Write, curves: &[(String, AllanVariance)]) -> std::io::Result<()> {
     writeln!(
         out,
@@ -422,6 +619,20 @@ pub fn write_csv(out: &mut impl Write, curves: &[(String, AllanVariance)]) -> st
 }
 
 /// Writes the curves as aligned text tables (deviations with their CI).
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let mut out = Vec::new();
+/// imunoise::pipeline::estimate::write_table(&mut out, &[("gx".to_string(), av.clone())], 0.05)?;
+/// let text = String::from_utf8(out)?;
+/// assert!(text.starts_with("gx: n = 4096, rate = 100 Hz"));
+/// assert!(text.lines().next().unwrap().ends_with("95% chi-square CI"));
+/// // a title line, a header line and one line per point
+/// assert_eq!(text.lines().count(), 2 + av.points.len());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn write_table(
     out: &mut impl Write,
     curves: &[(String, AllanVariance)],
@@ -466,6 +677,26 @@ pub fn write_table(
 }
 
 /// Computes the Allan variance of every channel of `table` (in parallel).
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gx".into()],
+///     columns: vec![x.clone().into()],
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let cfg = AvarConfig::default();
+/// let ui = imunoise::Ui::quiet();
+/// let curves = imunoise::pipeline::estimate::compute(&table, 100.0, &cfg, &ui)?;
+/// assert_eq!(curves[0].0, "gx");
+/// // each channel's curve is the one `avar` computes for it
+/// assert_eq!(curves[0].1, allan_variance(&x, 100.0, &cfg)?);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn compute(
     table: &Table,
     rate_hz: f64,
@@ -521,6 +752,22 @@ pub type ChannelCurves = Vec<(String, AllanVariance)>;
 
 /// Reads the input of `fit`/`analyze`, resolves each channel's unit and computes its Allan
 /// variance on the default (dyadic) scales with chi-square CIs at level 1 − `alpha`.
+///
+/// ```
+/// use imunoise::pipeline::{estimate, read::Input};
+/// use imunoise::processes::Unit;
+/// let dir = tempfile::tempdir()?;
+/// let p = dir.path().join("imu.csv");
+/// let rows: String = (0..4096).map(|i| format!("{},{}\n", i % 7, i % 3)).collect();
+/// std::fs::write(&p, format!("gyro_x_dps,acc_x_g\n{rows}"))?;
+/// let ui = imunoise::Ui::quiet();
+/// let input = Input { rate: Some(100.0), ..Input::new(&p) };
+/// let (table, units, curves) = estimate::read_curves(&input, 0.05, &ui)?;
+/// assert_eq!(table.n_rows(), 4096);
+/// assert_eq!(units, [Unit::DegPerSec, Unit::G]); // from the names' suffixes
+/// assert_eq!(curves, estimate::fit_curves(&table, 0.05, &ui)?);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn read_curves(
     input: &super::read::Input,
     alpha: f64,
@@ -534,6 +781,29 @@ pub fn read_curves(
 
 /// The curves `fit` and `analyze` fit: each channel's Allan variance on the default (dyadic)
 /// scales with chi-square CIs at level 1 − `alpha`, at the table's rate.
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, CiMethod, Scales};
+/// use imunoise::pipeline::estimate::{compute, fit_curves};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gx".into()],
+///     columns: vec![x.clone().into()],
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let ui = imunoise::Ui::quiet();
+/// let curves = fit_curves(&table, 0.1, &ui)?;
+/// let av = &curves[0].1;
+/// assert_eq!((av.ci, av.alpha), (CiMethod::ChiSquare, 0.1));
+/// assert!(av.points.iter().all(|p| p.avar_lo.is_some()));
+/// // that is `compute` at the table's rate with the default configuration at level 0.9
+/// let cfg = AvarConfig { scales: Scales::Dyadic, alpha: 0.1, ..Default::default() };
+/// assert_eq!(curves, compute(&table, 100.0, &cfg, &ui)?);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn fit_curves(table: &Table, alpha: f64, ui: &Ui) -> Result<ChannelCurves> {
     let cfg = AvarConfig {
         alpha,
@@ -547,6 +817,32 @@ pub fn fit_curves(table: &Table, alpha: f64, ui: &Ui) -> Result<ChannelCurves> {
 /// it biases the AV), printed as notes before any fitting. Channels shorter than 64 samples are
 /// not examined. `classical`: the channels' classical curves from [`fit_curves`], whose AV at
 /// the pass's three scales is read instead of computed again (the same findings).
+///
+/// ```
+/// use imunoise::pipeline::estimate::{check_quality, fit_curves};
+/// // a fixed noise-like sequence with a level shift of 1.0 at sample 6000 (t = 60 s), and a
+/// // channel too short to be examined
+/// let x: Vec<f64> = (0..10_000)
+///     .map(|i| ((i as f64 * 0.7548776662).fract() - 0.5) * 0.1)
+///     .enumerate()
+///     .map(|(i, v)| if i >= 6000 { v + 1.0 } else { v })
+///     .collect();
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gx".into(), "short".into()],
+///     columns: vec![x.into(), vec![0.0; 10_000].into()],
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let ui = imunoise::Ui::quiet();
+/// let q = check_quality(&table, 100.0, None, &ui)?;
+/// assert!(q[0].iter().any(|f| f.starts_with("data quality: a level shift")));
+/// // the classical curves, when given, are read instead of recomputed: the same findings
+/// let curves = fit_curves(&table, 0.05, &ui)?;
+/// assert_eq!(check_quality(&table, 100.0, Some(&curves), &ui)?, q);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn check_quality(
     table: &Table,
     rate: f64,
@@ -582,6 +878,29 @@ pub fn check_quality(
 /// Each channel's robust AV (beside the classical one), on the default dyadic scales with
 /// chi-square CIs at level 1 − `alpha` and EDF × efficiency. `classical`: the channels'
 /// classical curves from [`fit_curves`] with the same `alpha`, reused instead of recomputed.
+///
+/// ```
+/// use imunoise::pipeline::estimate::{fit_curves, robust_curves};
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gx".into()],
+///     columns: vec![x.clone().into()],
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let curves = fit_curves(&table, 0.05, &imunoise::Ui::quiet())?;
+/// let r = robust_curves(&table, 100.0, 0.05, 0.6, Some(&curves))?;
+/// assert_eq!(r[0].0, "gx");
+/// assert!((r[0].1.efficiency - 0.6).abs() < 1e-9); // the biweight's c is solved for it
+/// // beside the robust curve, the classical one it was given
+/// assert_eq!(r[0].1.classical, curves[0].1);
+/// assert_eq!(r[0].1.robust.points.len(), curves[0].1.points.len());
+/// // computed afresh when not given: the same result
+/// assert_eq!(robust_curves(&table, 100.0, 0.05, 0.6, None)?, r);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn robust_curves(
     table: &Table,
     rate: f64,

@@ -18,6 +18,15 @@ use std::collections::BTreeMap;
 use std::io::Write;
 
 /// Fitting methods.
+///
+/// ```
+/// use clap::ValueEnum;
+/// use imunoise::pipeline::fit::{FitSettings, Method};
+/// // the names `--method` takes
+/// assert_eq!(Method::from_str("avlr", false), Ok(Method::Avlr));
+/// assert_eq!(Method::from_str("ieee952", false), Ok(Method::Ieee952));
+/// assert_eq!(FitSettings::default().method, Method::Gmwm);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Method {
     /// Generalized method of wavelet moments on the Allan variance (consistent).
@@ -29,6 +38,13 @@ pub enum Method {
 }
 
 /// The GMWM weighting matrix Ω (`--weighting`).
+///
+/// ```
+/// use clap::ValueEnum;
+/// use imunoise::pipeline::fit::FitWeighting;
+/// assert_eq!(FitWeighting::default(), FitWeighting::Diagonal);
+/// assert_eq!(FitWeighting::from_str("model-full", false), Ok(FitWeighting::ModelFull));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum FitWeighting {
     /// Ω = diag(1/Var(AV)) from the AV confidence intervals: fast (a few ms per fit).
@@ -44,6 +60,13 @@ pub enum FitWeighting {
 
 impl FitWeighting {
     /// The GMWM weighting this choice means.
+    ///
+    /// ```
+    /// use imunoise::gmwm_prep::gmwm::Weighting;
+    /// use imunoise::pipeline::fit::FitWeighting;
+    /// assert_eq!(FitWeighting::Diagonal.weighting(), Weighting::Diagonal);
+    /// assert_eq!(FitWeighting::ModelFull.weighting(), Weighting::ModelFull);
+    /// ```
     pub fn weighting(self) -> gmwm::Weighting {
         match self {
             Self::Diagonal => gmwm::Weighting::Diagonal,
@@ -81,6 +104,12 @@ pub enum CiMethod {
 
 impl CiMethod {
     /// A short phrase for table headers, e.g. "delta method, V = 40-replicate bootstrap covariance".
+    ///
+    /// ```
+    /// use imunoise::pipeline::fit::CiMethod;
+    /// assert!(CiMethod::DeltaBootstrapCov.describe(40).contains("40-replicate"));
+    /// assert_eq!(CiMethod::None.describe(0), "no CIs");
+    /// ```
     pub fn describe(self, bootstrap: usize) -> String {
         match self {
             CiMethod::DeltaModelCov => {
@@ -105,6 +134,24 @@ impl CiMethod {
 
 /// A GMWM fit with the moment covariance V its CIs came from: enough to recompute the
 /// delta-method intervals at another level (the demo's simultaneous intervals).
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// let g = f.inference.as_ref().expect("a GMWM fit keeps its inference");
+/// // V is the covariance of the AV estimates at the fitted scales
+/// assert_eq!(g.v.n, g.fit.m.len());
+/// assert_eq!(g.v.data.len(), g.v.n * g.v.n);
+/// assert_eq!(g.fit.theta.len(), f.parameters.len());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct GmwmInference {
     /// The fit.
@@ -114,6 +161,30 @@ pub struct GmwmInference {
 }
 
 /// Delta-method intervals of one fit at one level.
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// // at the fit's own level the intervals are the fit's
+/// let same = f.cis_at(settings.alpha)?.expect("GMWM");
+/// for (p, ci) in f.parameters.iter().zip(&same.parameters) {
+///     assert_eq!((p.ci_lo, p.ci_hi), (Some(ci.0), Some(ci.1)));
+/// }
+/// // a higher level widens every interval
+/// let wide = f.cis_at(settings.alpha / 10.0)?.expect("GMWM");
+/// for (w, n) in wide.parameters.iter().zip(&same.parameters) {
+///     assert!(w.0 < n.0 && n.1 < w.1);
+/// }
+/// assert_eq!(wide.ieee.keys().collect::<Vec<_>>(), same.ieee.keys().collect::<Vec<_>>());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct LevelCis {
     /// Per-sample parameter intervals, in the order of [`ChannelFit::parameters`].
@@ -168,6 +239,14 @@ impl Default for FitSettings {
 
 /// Checks a Gaussian efficiency of the robust AV and returns `Some(efficiency)` when
 /// `robust`, else `None`.
+///
+/// ```
+/// use imunoise::pipeline::fit::robust_efficiency;
+/// assert_eq!(robust_efficiency(true, 0.6)?, Some(0.6));
+/// assert_eq!(robust_efficiency(false, 0.6)?, None);
+/// assert!(robust_efficiency(true, 1.5).is_err()); // beyond [0.05, 0.99]
+/// # Ok::<(), imunoise::Error>(())
+/// ```
 pub fn robust_efficiency(robust: bool, efficiency: f64) -> Result<Option<f64>> {
     let (lo, hi) = avar::robust::EFFICIENCY_RANGE;
     if !(efficiency.is_finite() && (lo..=hi).contains(&efficiency)) {
@@ -179,6 +258,25 @@ pub fn robust_efficiency(robust: bool, efficiency: f64) -> Result<Option<f64>> {
 }
 
 /// One parameter in the JSON output.
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// let wn = &f.parameters[0];
+/// assert_eq!((wn.process.as_str(), wn.name.as_str()), ("WN", "sigma2"));
+/// // the delta-method interval, on the log scale of a variance, holds its estimate
+/// assert!(wn.ci_lo.unwrap() < wn.value && wn.value < wn.ci_hi.unwrap());
+/// let json = serde_json::to_value(wn)?;
+/// assert_eq!(json["value"], wn.value);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct ParamJson {
     /// Process code.
@@ -194,6 +292,22 @@ pub struct ParamJson {
 }
 
 /// The J test in the JSON output.
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// let j = f.j_test.as_ref().expect("GMWM has a J test");
+/// assert!((0.0..=1.0).contains(&j.p_value));
+/// assert!(j.statistic >= 0.0); // a quadratic form
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct JTestJson {
     /// J statistic.
@@ -203,6 +317,23 @@ pub struct JTestJson {
 }
 
 /// One fitted scale in the JSON output.
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// // one fitted AV per scale of the curve
+/// let m: Vec<u64> = f.fitted.iter().map(|p| p.m).collect();
+/// assert_eq!(m, av.points.iter().map(|p| p.m).collect::<Vec<_>>());
+/// assert!(f.fitted.iter().all(|p| p.avar > 0.0));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct FittedJson {
     /// Cluster size.
@@ -212,6 +343,28 @@ pub struct FittedJson {
 }
 
 /// One channel's fit in the JSON output.
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// assert_eq!((f.name.as_str(), f.method.as_str()), ("gyro_x", "gmwm"));
+/// assert_eq!(f.ci_method, fit::CiMethod::DeltaModelCov);
+/// assert_eq!(f.ci_level, Some(1.0 - settings.alpha));
+/// let json = serde_json::to_value(&f)?;
+/// assert_eq!(json["model"], f.model.as_str());
+/// assert_eq!(json["ci_method"], "delta_model_cov");
+/// // what is kept for plots and for other CI levels is not in the JSON
+/// assert!(json.get("components").is_none() && json.get("inference").is_none());
+/// assert_eq!(f.components.len(), 2); // one curve per component: WN, RW
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct ChannelFit {
     /// Channel name.
@@ -278,6 +431,21 @@ impl ChannelFit {
 }
 
 /// The JSON document of `imunoise fit`.
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// let doc = serde_json::to_value(fit::FitJson { channels: vec![f.clone()] })?;
+/// assert_eq!(doc["channels"][0]["name"], "gyro_x");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct FitJson {
     /// One entry per channel.
@@ -356,6 +524,31 @@ fn from_report(
 
 /// Fits one channel's Allan variance curve as `settings` say. `on_replicate` is called once
 /// per finished bootstrap replicate (for a progress bar; `&|| {}` for none).
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// use imunoise::pipeline::{fit, simulate};
+/// use imunoise::processes::Unit;
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// let names: Vec<(&str, &str)> =
+///     f.parameters.iter().map(|p| (p.process.as_str(), p.name.as_str())).collect();
+/// assert_eq!(names, [("WN", "sigma2"), ("RW", "gamma2")]);
+/// // 8192 samples: the white-noise variance is estimated to about 2 % (1 SD)
+/// assert!((f.parameters[0].value / 1e-4 - 1.0).abs() < 0.1);
+/// // each replicate of a parametric bootstrap calls back once
+/// let n = std::sync::atomic::AtomicUsize::new(0);
+/// let boot = fit::FitSettings { bootstrap: 5, ..settings };
+/// let fb = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &boot, &|| {
+///     n.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+/// })?;
+/// assert_eq!(n.into_inner(), 5);
+/// assert_eq!(fb.ci_method, fit::CiMethod::DeltaBootstrapCov);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn fit_channel(
     name: &str,
     av: &AllanVariance,
@@ -368,6 +561,29 @@ pub fn fit_channel(
 
 /// [`fit_channel`] on a robust AV curve of Gaussian efficiency `robust` (None: classical):
 /// the model covariance behind the CIs is inflated by 1/e. No bootstrap with a robust AV.
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// use imunoise::pipeline::{fit, simulate};
+/// use imunoise::processes::Unit;
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// let unit = Unit::RadPerSec;
+/// // classical (None): exactly `fit_channel`
+/// let a = fit::fit_channel_robust("gyro_x", &av, &unit, &settings, None, &|| {})?;
+/// let b = fit::fit_channel("gyro_x", &av, &unit, &settings, &|| {})?;
+/// assert_eq!(serde_json::to_value(&a)?, serde_json::to_value(&b)?);
+/// // a robust curve fitted at efficiency 0.6
+/// let r = imunoise::avar::robust::robust_allan_variance(&x, 100.0, &AvarConfig::default(), 0.6)?;
+/// let f = fit::fit_channel_robust("gyro_x", &r.robust, &unit, &settings, Some(0.6), &|| {})?;
+/// assert_eq!(f.parameters.len(), 2);
+/// // the bootstrap replicates would be classical: refused
+/// let boot = fit::FitSettings { bootstrap: 10, ..settings };
+/// assert!(fit::fit_channel_robust("gyro_x", &r.robust, &unit, &boot, Some(0.6), &|| {}).is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn fit_channel_robust(
     name: &str,
     av: &AllanVariance,
@@ -476,6 +692,25 @@ fn undetermined(f: &gmwm_prep::gmwm::GmwmFit) -> Vec<String> {
 /// The IEEE 952 read-off as a fit: N, K, Q, R mapped to per-sample WN, RW, QN, DR
 /// parameters (REFERENCES §5: σ² = N²/Δt, γ² = K²Δt, Q² = (Q/Δt)², ω = RΔt); B is reported
 /// in `ieee` only (it has no per-sample counterpart). No CIs.
+///
+/// ```
+/// use imunoise::avar::{AvarConfig, allan_variance};
+/// use imunoise::pipeline::{fit, simulate};
+/// use imunoise::processes::Unit;
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// use imunoise::gmwm_prep::{ieee::read_off_adev, units::IeeeTerm};
+/// let f = fit::ieee952("gyro_x", &av, &Unit::RadPerSec)?;
+/// assert_eq!((f.method.as_str(), f.ci_method), ("ieee952", fit::CiMethod::None));
+/// // WN's σ² is N²/Δt of the read-off of N
+/// let ro = read_off_adev(&av.taus(), &av.adevs(), &Unit::RadPerSec)?;
+/// let n = ro.get(IeeeTerm::N).expect("a −1/2 region").value;
+/// let wn = f.parameters.iter().find(|p| p.process == "WN").unwrap();
+/// assert_eq!(wn.value, n * n / (1.0 / av.rate_hz));
+/// assert!(f.ieee.contains_key("N"));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn ieee952(name: &str, av: &AllanVariance, unit: &Unit) -> Result<ChannelFit> {
     use gmwm_prep::units::IeeeTerm;
     let e = |x| fit_err(name, x);
@@ -560,6 +795,33 @@ pub fn ieee952(name: &str, av: &AllanVariance, unit: &Unit) -> Result<ChannelFit
 }
 
 /// Fits every channel (in parallel).
+///
+/// ```
+/// use imunoise::pipeline::{estimate, fit, simulate};
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gyro_x_rads".into(), "gyro_y_rads".into()],
+///     columns: simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 2)?
+///         .into_iter()
+///         .map(Into::into)
+///         .collect(),
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let units = imunoise::units::channel_units(&table.names, None)?;
+/// let ui = imunoise::Ui::quiet();
+/// let curves = estimate::fit_curves(&table, 0.05, &ui)?;
+/// let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// let fits = fit::fit_all(&curves, &units, &settings, &ui)?;
+/// assert_eq!(fits.len(), 2);
+/// assert_eq!(fits[1].name, "gyro_y_rads");
+/// // each is the fit of its channel alone
+/// let alone = fit::fit_channel(&curves[1].0, &curves[1].1, &units[1], &settings, &|| {})?;
+/// assert_eq!(serde_json::to_value(&fits[1])?, serde_json::to_value(&alone)?);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn fit_all(
     curves: &[(String, AllanVariance)],
     units: &[Unit],
@@ -570,6 +832,37 @@ pub fn fit_all(
 }
 
 /// [`fit_all`] on robust AV curves of Gaussian efficiency `robust` (None: classical).
+///
+/// ```
+/// use imunoise::pipeline::{estimate, fit, simulate};
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let table = imunoise::io::Table {
+///     file: "<array>".into(),
+///     names: vec!["gyro_x_rads".into(), "gyro_y_rads".into()],
+///     columns: simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 2)?
+///         .into_iter()
+///         .map(Into::into)
+///         .collect(),
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let units = imunoise::units::channel_units(&table.names, None)?;
+/// let ui = imunoise::Ui::quiet();
+/// let curves = estimate::fit_curves(&table, 0.05, &ui)?;
+/// let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// let a = fit::fit_all_robust(&curves, &units, &settings, None, &ui)?;
+/// let b = fit::fit_all(&curves, &units, &settings, &ui)?;
+/// assert_eq!(serde_json::to_value(&a)?, serde_json::to_value(&b)?);
+/// // the robust curves, fitted with the covariance inflated by 1/e
+/// let rc = estimate::robust_curves(&table, 100.0, 0.05, 0.6, Some(&curves))?;
+/// let rc: Vec<_> = rc.into_iter().map(|(n, r)| (n, r.robust)).collect();
+/// assert_eq!(fit::fit_all_robust(&rc, &units, &settings, Some(0.6), &ui)?.len(), 2);
+/// // a CI level outside (0, 1) is refused
+/// let bad = fit::FitSettings { alpha: 1.5, ..settings };
+/// assert!(fit::fit_all_robust(&curves, &units, &bad, None, &ui).is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn fit_all_robust(
     curves: &[(String, AllanVariance)],
     units: &[Unit],
@@ -649,6 +942,25 @@ fn write_param_row(out: &mut impl Write, indent: &str, p: &ParamJson) -> std::io
 
 /// Writes fits as text tables.
 /// `bootstrap` is the number of replicates, for the CI method's description.
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// let mut out = Vec::new();
+/// fit::write_table(&mut out, std::slice::from_ref(&f), 0.05, 0)?;
+/// let text = String::from_utf8(out)?;
+/// assert!(text.starts_with(&format!("gyro_x [rad/s]: gmwm fit: {}", f.model)));
+/// assert!(text.contains("95% CI (delta method"));
+/// assert!(text.contains("J-test: J = "));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn write_table(
     out: &mut impl Write,
     fits: &[ChannelFit],
@@ -720,6 +1032,30 @@ fn csv_field(s: &str) -> String {
 
 /// Writes fits as CSV: a header line, then one row per parameter (per sample) and per IEEE
 /// term (process `IEEE`), with empty CI cells where there is none.
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// let mut out = Vec::new();
+/// fit::write_csv(&mut out, std::slice::from_ref(&f))?;
+/// let text = String::from_utf8(out)?;
+/// let lines: Vec<&str> = text.lines().collect();
+/// assert_eq!(lines[0], "channel,process,name,value,ci_lo,ci_hi,unit,ci_method");
+/// assert_eq!(lines.len(), 1 + f.parameters.len() + f.ieee.len());
+/// // the values read back to the same f64
+/// let row: Vec<&str> = lines[1].split(',').collect();
+/// assert_eq!(row[..3], ["gyro_x", "WN", "sigma2"]);
+/// assert_eq!(row[3].parse::<f64>()?, f.parameters[0].value);
+/// assert_eq!(row[7], "delta_model_cov");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn write_csv(out: &mut impl Write, fits: &[ChannelFit]) -> std::io::Result<()> {
     writeln!(out, "channel,process,name,value,ci_lo,ci_hi,unit,ci_method")?;
     let o = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:e}"));
@@ -755,6 +1091,31 @@ pub fn write_csv(out: &mut impl Write, fits: &[ChannelFit]) -> std::io::Result<(
 }
 
 /// One channel of a joint fit of several recordings (`imunoise fit A B …`).
+///
+/// ```
+/// # use imunoise::pipeline::{fit, read::Input, simulate};
+/// # // two recordings of one gyro (the same noise, other seeds)
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let dir = tempfile::tempdir()?;
+/// # let mut inputs = Vec::new();
+/// # for seed in [1, 2] {
+/// #     let p = dir.path().join(format!("run{seed}.csv"));
+/// #     let cols = simulate::simulate_channels(&model, 1 << 13, 100.0, seed, 1)?;
+/// #     simulate::write_csv(&mut std::fs::File::create(&p)?, &["gyro_x_rads".into()], &cols)?;
+/// #     inputs.push(Input { rate: Some(100.0), ..Input::new(p) });
+/// # }
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// let joint = fit::fit_joint(&inputs, &settings, None, &imunoise::Ui::quiet())?;
+/// let j = &joint[0];
+/// assert_eq!(j.name, "gyro_x_rads");
+/// assert_eq!(j.files.len(), 2);
+/// assert_eq!(j.single.len(), 2);
+/// // the joint fit and each recording's own fit have the same parameters
+/// assert_eq!(j.fit.parameters.len(), j.single[1].parameters.len());
+/// assert!((0.0..=1.0).contains(&j.wald.p_value));
+/// assert!((0.0..=1.0).contains(&j.moment_test.p_value));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct JointChannel {
     /// Channel name.
@@ -772,6 +1133,28 @@ pub struct JointChannel {
 }
 
 /// The JSON document of `imunoise fit A B …`.
+///
+/// ```
+/// # use imunoise::pipeline::{fit, read::Input, simulate};
+/// # // two recordings of one gyro (the same noise, other seeds)
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let dir = tempfile::tempdir()?;
+/// # let mut inputs = Vec::new();
+/// # for seed in [1, 2] {
+/// #     let p = dir.path().join(format!("run{seed}.csv"));
+/// #     let cols = simulate::simulate_channels(&model, 1 << 13, 100.0, seed, 1)?;
+/// #     simulate::write_csv(&mut std::fs::File::create(&p)?, &["gyro_x_rads".into()], &cols)?;
+/// #     inputs.push(Input { rate: Some(100.0), ..Input::new(p) });
+/// # }
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// let joint = fit::fit_joint(&inputs, &settings, None, &imunoise::Ui::quiet())?;
+/// let doc = serde_json::to_value(fit::JointJson { joint })?;
+/// let j = &doc["joint"][0];
+/// for key in ["name", "files", "fit", "single", "wald", "moment_test"] {
+///     assert!(j.get(key).is_some(), "{key}");
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct JointJson {
     /// One entry per channel.
@@ -781,6 +1164,29 @@ pub struct JointJson {
 /// Fits one model to each channel of several recordings of one sensor (GMWM only; no
 /// selection, no bootstrap): the inputs are read alike (same channels), their Allan variances
 /// (robust ones with `robust = Some(efficiency)`) pooled with their covariances.
+///
+/// ```
+/// use imunoise::pipeline::{fit, read::Input, simulate};
+/// // two recordings of one gyro (the same noise, other seeds)
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let dir = tempfile::tempdir()?;
+/// let mut inputs = Vec::new();
+/// for seed in [1, 2] {
+///     let p = dir.path().join(format!("run{seed}.csv"));
+///     let cols = simulate::simulate_channels(&model, 1 << 13, 100.0, seed, 1)?;
+///     simulate::write_csv(&mut std::fs::File::create(&p)?, &["gyro_x_rads".into()], &cols)?;
+///     inputs.push(Input { rate: Some(100.0), ..Input::new(p) });
+/// }
+/// let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// let joint = fit::fit_joint(&inputs, &settings, None, &imunoise::Ui::quiet())?;
+/// assert_eq!(joint.len(), 1); // one entry per channel
+/// let files: Vec<String> = inputs.iter().map(|i| i.file.display().to_string()).collect();
+/// assert_eq!(joint[0].files, files);
+/// // selection, bootstrap and the other methods are refused
+/// let sel = fit::FitSettings { select: true, ..settings };
+/// assert!(fit::fit_joint(&inputs, &sel, None, &imunoise::Ui::quiet()).is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn fit_joint(
     inputs: &[Input],
     settings: &FitSettings,
@@ -875,6 +1281,24 @@ pub fn fit_joint(
 }
 
 /// Prepends each channel's data-quality findings to its fit's warnings.
+///
+/// ```
+/// # use imunoise::avar::{AvarConfig, allan_variance};
+/// # use imunoise::pipeline::{fit, simulate};
+/// # use imunoise::processes::Unit;
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+/// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// // `f`: a GMWM fit of WN+RW to a simulated gyro channel in rad/s
+/// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+/// let mut fits = vec![f];
+/// let before = fits[0].warnings.clone();
+/// fit::attach_quality(&mut fits, vec![vec!["data quality: a spike".to_string()]]);
+/// assert_eq!(fits[0].warnings[0], "data quality: a spike");
+/// assert_eq!(fits[0].warnings[1..], before[..]);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn attach_quality(fits: &mut [ChannelFit], quality: Vec<Vec<String>>) {
     for (f, mut q) in fits.iter_mut().zip(quality) {
         q.append(&mut f.warnings);
@@ -883,6 +1307,28 @@ pub fn attach_quality(fits: &mut [ChannelFit], quality: Vec<Vec<String>>) {
 }
 
 /// Writes joint fits as text tables.
+///
+/// ```
+/// # use imunoise::pipeline::{fit, read::Input, simulate};
+/// # // two recordings of one gyro (the same noise, other seeds)
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let dir = tempfile::tempdir()?;
+/// # let mut inputs = Vec::new();
+/// # for seed in [1, 2] {
+/// #     let p = dir.path().join(format!("run{seed}.csv"));
+/// #     let cols = simulate::simulate_channels(&model, 1 << 13, 100.0, seed, 1)?;
+/// #     simulate::write_csv(&mut std::fs::File::create(&p)?, &["gyro_x_rads".into()], &cols)?;
+/// #     inputs.push(Input { rate: Some(100.0), ..Input::new(p) });
+/// # }
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// let joint = fit::fit_joint(&inputs, &settings, None, &imunoise::Ui::quiet())?;
+/// let mut out = Vec::new();
+/// fit::write_joint_table(&mut out, &joint, 0.05)?;
+/// let text = String::from_utf8(out)?;
+/// assert!(text.starts_with("gyro_x_rads: one model for 2 recordings"));
+/// assert!(text.contains("equal parameters (Wald)") && text.contains("equal AV curves (J-type)"));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn write_joint_table(
     out: &mut impl Write,
     joint: &[JointChannel],

@@ -51,6 +51,15 @@ pub struct Input {
 
 impl Input {
     /// Reads `file` with every option at its default (text, gzip or a log by extension).
+    ///
+    /// ```
+    /// use imunoise::pipeline::read::{Input, TimeUnit};
+    /// let input = Input::new("imu.csv");
+    /// assert_eq!(input.file, std::path::Path::new("imu.csv"));
+    /// assert!(input.rate.is_none() && input.columns.is_none() && input.topic.is_empty());
+    /// assert_eq!(input.time_unit, TimeUnit::S);
+    /// assert_eq!(input.gaps, imunoise::logs::GapPolicy::Refuse);
+    /// ```
     pub fn new(file: impl Into<PathBuf>) -> Self {
         Input {
             file: file.into(),
@@ -71,12 +80,30 @@ impl Input {
 
     /// Each channel's unit: `unit` if given, else from the channel names (see
     /// [`crate::units::channel_units`]).
+    ///
+    /// ```
+    /// use imunoise::pipeline::read::Input;
+    /// use imunoise::processes::Unit;
+    /// let text = b"gyro_x_dps,acc_x_g\n1,2\n";
+    /// let t = imunoise::io::read_bytes(text, "mem.csv", &Default::default())?;
+    /// assert_eq!(Input::new("mem.csv").units(&t)?, [Unit::DegPerSec, Unit::G]);
+    /// let given = Input { unit: Some("rad/s,m/s^2".into()), ..Input::new("mem.csv") };
+    /// assert_eq!(given.units(&t)?, [Unit::RadPerSec, Unit::MetrePerSec2]);
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
     pub fn units(&self, table: &Table) -> Result<Vec<processes::Unit>> {
         crate::units::channel_units(&table.names, self.unit.as_deref())
     }
 }
 
 /// Unit of a text time column (`--time-unit`).
+///
+/// ```
+/// use clap::ValueEnum;
+/// use imunoise::pipeline::read::TimeUnit;
+/// assert_eq!(TimeUnit::from_str("us", false), Ok(TimeUnit::Us));
+/// assert_eq!(imunoise::pipeline::read::Input::new("x.csv").time_unit, TimeUnit::S);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum TimeUnit {
     /// Seconds.
@@ -91,6 +118,13 @@ pub enum TimeUnit {
 
 impl TimeUnit {
     /// Nanoseconds per unit.
+    ///
+    /// ```
+    /// use imunoise::pipeline::read::TimeUnit;
+    /// assert_eq!(TimeUnit::S.ns(), 1e9);
+    /// assert_eq!(TimeUnit::Ms.ns(), 1e3 * TimeUnit::Us.ns());
+    /// assert_eq!(TimeUnit::Ns.ns(), 1.0);
+    /// ```
     pub fn ns(self) -> f64 {
         match self {
             TimeUnit::S => 1e9,
@@ -105,6 +139,24 @@ impl Input {
     /// The log format of the input, if it is a log (a folder is a ROS 2 bag). With
     /// `--binary` the input is raw binary whatever its extension, and a `.bin` file is a
     /// DataFlash log only when it starts with a DataFlash message header (A3 95).
+    ///
+    /// ```
+    /// use imunoise::io::BinaryType;
+    /// use imunoise::logs::LogFormat;
+    /// use imunoise::pipeline::read::Input;
+    /// assert_eq!(Input::new("run.mcap").log_format(), Some(LogFormat::Mcap));
+    /// assert_eq!(Input::new("imu.csv").log_format(), None);
+    /// let raw = Input { binary: Some(BinaryType::F64), ..Input::new("run.mcap") };
+    /// assert_eq!(raw.log_format(), None);
+    /// // a .bin file: DataFlash only with the message header
+    /// let dir = tempfile::tempdir()?;
+    /// let (df, other) = (dir.path().join("ap.bin"), dir.path().join("raw.bin"));
+    /// std::fs::write(&df, [0xA3, 0x95, 0x80])?;
+    /// std::fs::write(&other, [0u8; 16])?;
+    /// assert_eq!(Input::new(&df).log_format(), Some(LogFormat::Dataflash));
+    /// assert_eq!(Input::new(&other).log_format(), None);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn log_format(&self) -> Option<logs::LogFormat> {
         self.log_format.or_else(|| {
             if self.binary.is_some() {
@@ -133,6 +185,25 @@ impl Input {
     /// Reads the file as the flags say (with a spinner on a terminal). The returned table
     /// has its rate set. Logs with several selected topics are an error here (see
     /// [`Input::read_all`]).
+    ///
+    /// ```
+    /// use imunoise::pipeline::{read::Input, simulate};
+    /// let model: imunoise::processes::Model = "WN(sigma2=1e-4)".parse()?;
+    /// let cols = simulate::simulate_channels(&model, 1000, 100.0, 1, 2)?;
+    /// let dir = tempfile::tempdir()?;
+    /// let p = dir.path().join("imu.csv");
+    /// let names = ["gx".to_string(), "gy".to_string()];
+    /// simulate::write_csv(&mut std::fs::File::create(&p)?, &names, &cols)?;
+    /// let input = Input { rate: Some(100.0), columns: Some("gy".into()), ..Input::new(&p) };
+    /// let t = input.read(&imunoise::Ui::quiet())?;
+    /// assert_eq!(t.names, ["gy"]);
+    /// assert_eq!(t.rate()?, 100.0);
+    /// // the CSV holds each value's shortest round-trip form: the values come back exactly
+    /// assert_eq!(t.columns[0], cols[1]);
+    /// // without time stamps, the rate must be given
+    /// assert!(Input::new(&p).read(&imunoise::Ui::quiet()).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn read(&self, ui: &Ui) -> Result<Table> {
         let mut all = self.read_all(ui)?;
         if all.len() > 1 {
@@ -149,6 +220,36 @@ impl Input {
     /// raw binary file (`binary` set, not gzip, no time column) comes through
     /// [`crate::source::decode_binary`]: its columns are [`io::Column::Mapped`] (one f64
     /// channel is the file itself), with the values the in-memory reader gives.
+    ///
+    /// ```
+    /// use imunoise::io::{BinaryType, Column};
+    /// use imunoise::pipeline::read::{Input, TimeUnit};
+    /// let ui = imunoise::Ui::quiet();
+    /// let dir = tempfile::tempdir()?;
+    /// // text with a time column in ms, 100 Hz stamps: the rate comes from them
+    /// let p = dir.path().join("stamped.csv");
+    /// let rows: String = (0..500).map(|i| format!("{},{}\n", 10 * i, i % 7)).collect();
+    /// std::fs::write(&p, format!("t,gx\n{rows}"))?;
+    /// let input = Input {
+    ///     time_column: Some("t".into()),
+    ///     time_unit: TimeUnit::Ms,
+    ///     ..Input::new(&p)
+    /// };
+    /// let tables = input.read_all(&ui)?;
+    /// assert_eq!(tables.len(), 1); // one table: not a log
+    /// assert_eq!(tables[0].names, ["gx"]); // the time column is taken out
+    /// assert_eq!(tables[0].rate_hz, Some(100.0));
+    /// assert_eq!(tables[0].timing.as_ref().map(|t| t.gaps), Some(0));
+    /// // one channel of raw f64 is used in place, mapped
+    /// let w = dir.path().join("w.f64");
+    /// let x: Vec<f64> = (0..256).map(|i| (i % 5) as f64).collect();
+    /// std::fs::write(&w, x.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())?;
+    /// let raw = Input { binary: Some(BinaryType::F64), rate: Some(10.0), ..Input::new(&w) };
+    /// let t = raw.read_all(&ui)?.remove(0);
+    /// assert!(matches!(t.columns[0], Column::Mapped(_)));
+    /// assert_eq!(t.columns[0], x);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn read_all(&self, ui: &Ui) -> Result<Vec<Table>> {
         // standard input, pipes and FIFOs cannot be read by position: say what that costs
         if !crate::source::is_regular(&self.file) {

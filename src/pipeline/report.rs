@@ -15,6 +15,46 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// One channel in `results.json`.
+///
+/// ```
+/// # use imunoise::pipeline::{estimate, fit, report, simulate};
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let table = imunoise::io::Table {
+/// #     file: "gyro.csv".into(),
+/// #     names: vec!["gyro_x_rads".into()],
+/// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+/// #     rate_hz: Some(100.0),
+/// #     timing: None,
+/// #     topic: None,
+/// # };
+/// # let units = imunoise::units::channel_units(&table.names, None)?;
+/// # let ui = imunoise::Ui::quiet();
+/// # let curves = estimate::fit_curves(&table, 0.05, &ui)?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// # let fits = fit::fit_all(&curves, &units, &settings, &ui)?;
+/// # let inp = report::ReportInput {
+/// #     source: &table.file,
+/// #     rate_hz: 100.0,
+/// #     names: &table.names,
+/// #     columns: &table.columns,
+/// #     units: &units,
+/// #     curves: &curves,
+/// #     fits: &fits,
+/// #     extra_html: String::new(),
+/// #     bootstrap: 0,
+/// #     topic: None,
+/// #     timing: None,
+/// #     robust: None,
+/// #     record_halfwidth: 0.1,
+/// # };
+/// // `inp`: the report input of a WN+RW fit to a simulated gyro channel in rad/s at 100 Hz
+/// let json = report::results_json(&inp)?;
+/// let ch = json["channels"][0].as_object().unwrap();
+/// let keys: Vec<&str> = ch.keys().map(String::as_str).collect();
+/// assert_eq!(keys, ["avar", "fit", "n", "name", "record_length", "sensor", "unit"]);
+/// assert_eq!(ch["n"], 8192);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Serialize)]
 pub struct ChannelResult<'a> {
     /// Channel name.
@@ -34,6 +74,22 @@ pub struct ChannelResult<'a> {
 }
 
 /// `results.json`.
+///
+/// ```
+/// use imunoise::pipeline::report::Results;
+/// let r = Results {
+///     source: "imu.csv",
+///     rate_hz: 100.0,
+///     topic: None,
+///     timing: None,
+///     channels: vec![],
+/// };
+/// let json = serde_json::to_value(&r)?;
+/// assert_eq!(json["source"], "imu.csv");
+/// // topic and timing are there for logs only
+/// assert!(json.get("topic").is_none() && json.get("timing").is_none());
+/// # Ok::<(), serde_json::Error>(())
+/// ```
 #[derive(Debug, Serialize)]
 pub struct Results<'a> {
     /// Source of the data.
@@ -52,6 +108,47 @@ pub struct Results<'a> {
 }
 
 /// Everything the report is made of.
+///
+/// [`crate::pipeline::analyze::Analysis::report_input`] makes one; here one is made from the
+/// fit of a single channel, without the robust part.
+///
+/// ```
+/// use imunoise::pipeline::{estimate, fit, report, simulate};
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let table = imunoise::io::Table {
+///     file: "gyro.csv".into(),
+///     names: vec!["gyro_x_rads".into()],
+///     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+///     rate_hz: Some(100.0),
+///     timing: None,
+///     topic: None,
+/// };
+/// let units = imunoise::units::channel_units(&table.names, None)?;
+/// let ui = imunoise::Ui::quiet();
+/// let curves = estimate::fit_curves(&table, 0.05, &ui)?;
+/// let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// let fits = fit::fit_all(&curves, &units, &settings, &ui)?;
+/// let inp = report::ReportInput {
+///     source: &table.file,
+///     rate_hz: 100.0,
+///     names: &table.names,
+///     columns: &table.columns,
+///     units: &units,
+///     curves: &curves,
+///     fits: &fits,
+///     extra_html: String::new(),
+///     bootstrap: 0,
+///     topic: None,
+///     timing: None,
+///     robust: None,
+///     record_halfwidth: 0.1,
+/// };
+/// let json = report::results_json(&inp)?;
+/// assert_eq!(json["channels"][0]["fit"]["model"], fits[0].model.as_str());
+/// assert!(json["channels"][0].get("robust").is_none());
+/// assert!(report::kalibr_yaml(&inp).contains("gyroscope_noise_density: "));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct ReportInput<'a> {
     /// Title / source of the data.
     pub source: &'a str,
@@ -84,6 +181,29 @@ pub struct ReportInput<'a> {
 
 /// The robust part of a report: each channel's robust AV, the contamination check and, when
 /// the robust curve was fitted too, its fit.
+///
+/// ```
+/// # use imunoise::pipeline::{analyze, simulate};
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let table = imunoise::io::Table {
+/// #     file: "gyro.csv".into(),
+/// #     names: vec!["gyro_x_rads".into()],
+/// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+/// #     rate_hz: Some(100.0),
+/// #     timing: None,
+/// #     topic: None,
+/// # };
+/// # let units = imunoise::units::channel_units(&table.names, None)?;
+/// # let ui = imunoise::Ui::quiet();
+/// let settings = analyze::AnalyzeSettings { robust: true, ..Default::default() };
+/// let a = analyze::analyze(table, units, &settings, &ui)?;
+/// let inp = a.report_input()?;
+/// let rob = inp.robust.expect("analyze always checks for contamination");
+/// assert_eq!(rob.curves[0].0, "gyro_x_rads");
+/// assert_eq!(rob.checks.len(), 1);
+/// assert_eq!(rob.fits.map(<[_]>::len), Some(1)); // fitted: `robust` was set
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct RobustReport<'a> {
     /// Each channel's robust Allan variance.
@@ -112,6 +232,15 @@ pub fn file_safe(name: &str) -> String {
 }
 
 /// A number with 4 significant digits: fixed notation between 1e-3 and 1e5, else scientific.
+///
+/// ```
+/// use imunoise::pipeline::report::num;
+/// assert_eq!(num(1.5), "1.500");
+/// assert_eq!(num(0.25), "0.2500");
+/// assert_eq!(num(1234.5), "1234");
+/// assert_eq!(num(2.0e6), "2.000e6");
+/// assert_eq!(num(0.0), "0");
+/// ```
 pub fn num(x: f64) -> String {
     let a = x.abs();
     if x == 0.0 {
@@ -133,6 +262,55 @@ fn html_esc(s: &str) -> String {
 /// The Kalibr `imu.yaml` text: noise density N (from WN) and random walk K (from RW) of
 /// gyroscopes (rad/s/√Hz, rad/s²/√Hz) and accelerometers (m/s²/√Hz, m/s³/√Hz), the
 /// largest over the axes of each sensor (conservative, as Kalibr takes one value per sensor).
+///
+/// ```
+/// # use imunoise::pipeline::{estimate, fit, report, simulate};
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let table = imunoise::io::Table {
+/// #     file: "gyro.csv".into(),
+/// #     names: vec!["gyro_x_rads".into()],
+/// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+/// #     rate_hz: Some(100.0),
+/// #     timing: None,
+/// #     topic: None,
+/// # };
+/// # let units = imunoise::units::channel_units(&table.names, None)?;
+/// # let ui = imunoise::Ui::quiet();
+/// # let curves = estimate::fit_curves(&table, 0.05, &ui)?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// # let fits = fit::fit_all(&curves, &units, &settings, &ui)?;
+/// # let inp = report::ReportInput {
+/// #     source: &table.file,
+/// #     rate_hz: 100.0,
+/// #     names: &table.names,
+/// #     columns: &table.columns,
+/// #     units: &units,
+/// #     curves: &curves,
+/// #     fits: &fits,
+/// #     extra_html: String::new(),
+/// #     bootstrap: 0,
+/// #     topic: None,
+/// #     timing: None,
+/// #     robust: None,
+/// #     record_halfwidth: 0.1,
+/// # };
+/// // `inp`: the report input of a WN+RW fit to a simulated gyro channel in rad/s at 100 Hz
+/// let yaml = report::kalibr_yaml(&inp);
+/// let value = |key: &str| -> f64 {
+///     let line = yaml.lines().find(|l| l.starts_with(key)).expect(key);
+///     line[key.len() + 2..].split_whitespace().next().unwrap().parse().unwrap()
+/// };
+/// // N = √(σ²/f), K = √(γ²·f) from the fitted WN and RW, written with 7 digits
+/// let p = &fits[0].parameters;
+/// let n = (p[0].value / 100.0).sqrt();
+/// let k = (p[1].value * 100.0).sqrt();
+/// assert!((value("gyroscope_noise_density") / n - 1.0).abs() < 1e-6);
+/// assert!((value("gyroscope_random_walk") / k - 1.0).abs() < 1e-6);
+/// assert_eq!(value("update_rate"), 100.0);
+/// // no accelerometer channel
+/// assert!(yaml.contains("# accelerometer_noise_density: not estimated"));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
     let mut vals: [Vec<f64>; 4] = Default::default(); // gN, gK, aN, aK
     let mut fallbacks: Vec<String> = Vec::new();
@@ -246,6 +424,50 @@ fn write_plot(dir: &Path, stem: &str, svg: &str) -> Result<()> {
 /// The read-off points of a channel: N at τ = 1 s (σ(1) on the −1/2 line), K at τ = 3 s
 /// (σ(3) on the +1/2 line), from the fitted WN and RW (else the IEEE 952 read-off), and B at
 /// the minimum of the Allan deviation (B = σ_min / 0.6643).
+///
+/// ```
+/// # use imunoise::pipeline::{estimate, fit, report, simulate};
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let table = imunoise::io::Table {
+/// #     file: "gyro.csv".into(),
+/// #     names: vec!["gyro_x_rads".into()],
+/// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+/// #     rate_hz: Some(100.0),
+/// #     timing: None,
+/// #     topic: None,
+/// # };
+/// # let units = imunoise::units::channel_units(&table.names, None)?;
+/// # let ui = imunoise::Ui::quiet();
+/// # let curves = estimate::fit_curves(&table, 0.05, &ui)?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// # let fits = fit::fit_all(&curves, &units, &settings, &ui)?;
+/// # let inp = report::ReportInput {
+/// #     source: &table.file,
+/// #     rate_hz: 100.0,
+/// #     names: &table.names,
+/// #     columns: &table.columns,
+/// #     units: &units,
+/// #     curves: &curves,
+/// #     fits: &fits,
+/// #     extra_html: String::new(),
+/// #     bootstrap: 0,
+/// #     topic: None,
+/// #     timing: None,
+/// #     robust: None,
+/// #     record_halfwidth: 0.1,
+/// # };
+/// // `inp`: the report input of a WN+RW fit to a simulated gyro channel in rad/s at 100 Hz
+/// let (av, f) = (&curves[0].1, &fits[0]);
+/// let marks = report::read_off_marks(av, f, &units[0], 100.0);
+/// let labels: Vec<&str> = marks.iter().map(|m| &m.label[..1]).collect();
+/// assert_eq!(labels, ["N", "K", "B"]);
+/// // N on the −1/2 line at τ = 1 s: √(σ²/f) from the fitted WN
+/// assert_eq!((marks[0].tau, marks[0].sigma), (1.0, (f.parameters[0].value / 100.0).sqrt()));
+/// // B at the minimum of the Allan deviation
+/// let min = av.points.iter().map(|p| p.adev).fold(f64::INFINITY, f64::min);
+/// assert_eq!(marks[2].sigma, min);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn read_off_marks(
     av: &AllanVariance,
     f: &ChannelFit,
@@ -303,6 +525,22 @@ pub fn read_off_marks(
 
 /// How long to record for a chosen precision of the Allan deviation at the bias-instability
 /// τ (see [`record_length`]).
+///
+/// ```
+/// use imunoise::avar::{allan_variance, AvarConfig};
+/// use imunoise::pipeline::report::record_length;
+/// let x: Vec<f64> = (0..4096).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let r = record_length(&av, x.len(), 100.0, 0.1).expect("a minimum with an EDF");
+/// assert_eq!(r.hours_now, 4096.0 / 100.0 / 3600.0);
+/// assert_eq!(r.halfwidth_target, 0.1);
+/// // τ_B is a τ of the curve
+/// assert!(av.points.iter().any(|p| p.tau == r.tau_b));
+/// // the length needed scales with (now / target)²
+/// let ratio = (r.halfwidth_now / r.halfwidth_target).powi(2);
+/// assert!((r.hours_needed / r.hours_now / ratio - 1.0).abs() < 1e-6);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct RecordLength {
     /// τ_B (s): where the Allan deviation has its minimum.
@@ -352,6 +590,51 @@ pub fn record_length(av: &AllanVariance, n: usize, rate_hz: f64, h: f64) -> Opti
 }
 
 /// Writes the whole report into `dir`.
+///
+/// ```
+/// # use imunoise::pipeline::{estimate, fit, report, simulate};
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let table = imunoise::io::Table {
+/// #     file: "gyro.csv".into(),
+/// #     names: vec!["gyro_x_rads".into()],
+/// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+/// #     rate_hz: Some(100.0),
+/// #     timing: None,
+/// #     topic: None,
+/// # };
+/// # let units = imunoise::units::channel_units(&table.names, None)?;
+/// # let ui = imunoise::Ui::quiet();
+/// # let curves = estimate::fit_curves(&table, 0.05, &ui)?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// # let fits = fit::fit_all(&curves, &units, &settings, &ui)?;
+/// # let inp = report::ReportInput {
+/// #     source: &table.file,
+/// #     rate_hz: 100.0,
+/// #     names: &table.names,
+/// #     columns: &table.columns,
+/// #     units: &units,
+/// #     curves: &curves,
+/// #     fits: &fits,
+/// #     extra_html: String::new(),
+/// #     bootstrap: 0,
+/// #     topic: None,
+/// #     timing: None,
+/// #     robust: None,
+/// #     record_halfwidth: 0.1,
+/// # };
+/// // `inp`: the report input of a WN+RW fit to a simulated gyro channel in rad/s at 100 Hz
+/// let dir = tempfile::tempdir()?;
+/// report::write_report(dir.path(), &inp, &ui)?;
+/// for f in ["report.html", "results.json", "avar.csv", "imu.yaml"] {
+///     assert!(dir.path().join(f).is_file(), "{f}");
+/// }
+/// // three plots per channel, named after it
+/// for stem in ["adev", "series", "acf"] {
+///     assert!(dir.path().join(format!("{stem}_gyro_x_rads.svg")).is_file());
+/// }
+/// assert_eq!(std::fs::read_to_string(dir.path().join("imu.yaml"))?, report::kalibr_yaml(&inp));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn write_report(dir: &Path, inp: &ReportInput<'_>, ui: &Ui) -> Result<()> {
     crate::output::create_dir(dir, "--out")?;
     let pb = ui.spinner("report and plots");
@@ -372,6 +655,51 @@ pub fn write_report(dir: &Path, inp: &ReportInput<'_>, ui: &Ui) -> Result<()> {
 /// The `results.json` document of a report: source, rate, topic and timing, and per channel its
 /// unit, sensor, sample count, Allan variance curve, fit and (with a robust part) the robust
 /// entry. This is what the Python `analyze` returns as a dict.
+///
+/// ```
+/// # use imunoise::pipeline::{estimate, fit, report, simulate};
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let table = imunoise::io::Table {
+/// #     file: "gyro.csv".into(),
+/// #     names: vec!["gyro_x_rads".into()],
+/// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+/// #     rate_hz: Some(100.0),
+/// #     timing: None,
+/// #     topic: None,
+/// # };
+/// # let units = imunoise::units::channel_units(&table.names, None)?;
+/// # let ui = imunoise::Ui::quiet();
+/// # let curves = estimate::fit_curves(&table, 0.05, &ui)?;
+/// # let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+/// # let fits = fit::fit_all(&curves, &units, &settings, &ui)?;
+/// # let inp = report::ReportInput {
+/// #     source: &table.file,
+/// #     rate_hz: 100.0,
+/// #     names: &table.names,
+/// #     columns: &table.columns,
+/// #     units: &units,
+/// #     curves: &curves,
+/// #     fits: &fits,
+/// #     extra_html: String::new(),
+/// #     bootstrap: 0,
+/// #     topic: None,
+/// #     timing: None,
+/// #     robust: None,
+/// #     record_halfwidth: 0.1,
+/// # };
+/// // `inp`: the report input of a WN+RW fit to a simulated gyro channel in rad/s at 100 Hz
+/// let json = report::results_json(&inp)?;
+/// assert_eq!(json["source"], "gyro.csv");
+/// assert_eq!(json["rate_hz"], 100.0);
+/// let ch = &json["channels"][0];
+/// assert_eq!(ch["name"], "gyro_x_rads");
+/// assert_eq!(ch["sensor"], "Gyroscope");
+/// // the fit and the curve as `imunoise fit` and `imunoise avar` write them
+/// assert_eq!(ch["fit"], serde_json::to_value(&fits[0])?);
+/// let avar = serde_json::to_value(&estimate::to_json(&curves).channels[0].points)?;
+/// assert_eq!(ch["avar"], avar);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn results_json(inp: &ReportInput<'_>) -> Result<serde_json::Value> {
     let json = super::estimate::to_json(inp.curves);
     let results = Results {
@@ -651,6 +979,31 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
 }
 
 /// One channel's robust entry in `results.json` (with `--robust` or when contaminated).
+///
+/// ```
+/// # use imunoise::pipeline::{analyze, simulate};
+/// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// # let table = imunoise::io::Table {
+/// #     file: "gyro.csv".into(),
+/// #     names: vec!["gyro_x_rads".into()],
+/// #     columns: vec![simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?[0].clone().into()],
+/// #     rate_hz: Some(100.0),
+/// #     timing: None,
+/// #     topic: None,
+/// # };
+/// # let units = imunoise::units::channel_units(&table.names, None)?;
+/// # let ui = imunoise::Ui::quiet();
+/// let settings = analyze::AnalyzeSettings { robust: true, ..Default::default() };
+/// let a = analyze::analyze(table, units, &settings, &ui)?;
+/// let json = a.results_json()?;
+/// let rob = &json["channels"][0]["robust"];
+/// let r = &a.robust_curves[0].1;
+/// assert_eq!(rob["efficiency"], r.efficiency);
+/// assert_eq!(rob["spikes_replaced"], r.spikes.indices.len());
+/// assert_eq!(rob["avar"].as_array().unwrap().len(), r.robust.points.len());
+/// assert_eq!(rob["fit"]["model"], a.robust_fits.as_ref().unwrap()[0].model.as_str());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Serialize)]
 pub struct RobustResult<'a> {
     /// Gaussian efficiency of the robust AV.

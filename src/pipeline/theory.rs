@@ -6,6 +6,16 @@ use processes::Model;
 use serde::Serialize;
 
 /// One theoretical point.
+///
+/// ```
+/// let model: imunoise::processes::Model = "WN(sigma2=2)".parse()?;
+/// let t = imunoise::pipeline::theory::curves(&model, 100.0, &[4])?;
+/// let p = &t.points[0];
+/// // white noise: AV = σ²/m
+/// assert_eq!((p.m, p.tau, p.avar), (4, 0.04, 0.5));
+/// assert_eq!(p.adev, 0.5f64.sqrt());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct TheoryPoint {
     /// Cluster size (samples).
@@ -19,6 +29,19 @@ pub struct TheoryPoint {
 }
 
 /// One component's curve.
+///
+/// ```
+/// let model: imunoise::processes::Model = "WN(sigma2=2) + RW(gamma2=1e-6)".parse()?;
+/// let t = imunoise::pipeline::theory::curves(&model, 100.0, &[1, 10, 100])?;
+/// assert_eq!(t.components.len(), 2);
+/// assert!(t.components[0].name.starts_with("WN") && t.components[1].name.starts_with("RW"));
+/// // independent components: the model's AV is the sum of theirs
+/// for (i, p) in t.points.iter().enumerate() {
+///     let sum: f64 = t.components.iter().map(|c| c.points[i].avar).sum();
+///     assert!((p.avar - sum).abs() <= 1e-12 * p.avar);
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct ComponentCurve {
     /// The component's text form, e.g. `"WN(sigma2=0.0001)"`.
@@ -28,6 +51,17 @@ pub struct ComponentCurve {
 }
 
 /// The JSON document of `imunoise theory`.
+///
+/// ```
+/// let model: imunoise::processes::Model = "WN(sigma2=2)".parse()?;
+/// let t = imunoise::pipeline::theory::curves(&model, 100.0, &[1, 2, 4, 8])?;
+/// let json = serde_json::to_value(&t)?;
+/// assert_eq!(json["rate_hz"], 100.0);
+/// assert_eq!(json["model"], model.to_string());
+/// assert_eq!(json["points"].as_array().unwrap().len(), 4);
+/// assert_eq!(json["psd"].as_array().unwrap().len(), t.psd.len());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct TheoryJson {
     /// The model's text form.
@@ -45,6 +79,14 @@ pub struct TheoryJson {
 }
 
 /// One PSD point.
+///
+/// ```
+/// let model: imunoise::processes::Model = "WN(sigma2=2)".parse()?;
+/// let psd = imunoise::pipeline::theory::psd_curve(&model, 100.0, 0.1, 5);
+/// // white noise is flat at σ²Δt
+/// assert!(psd.iter().all(|p| (p.psd - 2.0 / 100.0).abs() < 1e-15));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct PsdPoint {
     /// Frequency (Hz).
@@ -54,6 +96,21 @@ pub struct PsdPoint {
 }
 
 /// The model's two-sided PSD at `k` log-spaced frequencies in [f0, rate/2].
+///
+/// ```
+/// use imunoise::pipeline::theory::psd_curve;
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let psd = psd_curve(&model, 100.0, 0.01, 31);
+/// assert_eq!(psd.len(), 31);
+/// assert_eq!(psd[0].f, 0.01);
+/// assert!((psd[30].f - 50.0).abs() < 1e-9); // the Nyquist frequency
+/// // the random walk's 1/f² part: the PSD falls with f
+/// assert!(psd.windows(2).all(|w| w[1].psd < w[0].psd));
+/// // a drift has no PSD function: empty
+/// let dr: imunoise::processes::Model = "DR(omega=1e-3)".parse()?;
+/// assert!(psd_curve(&dr, 100.0, 0.01, 31).is_empty());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn psd_curve(model: &Model, rate_hz: f64, f0: f64, k: usize) -> Vec<PsdPoint> {
     let f1 = rate_hz / 2.0;
     let f0 = f0.min(f1 / 10.0);
@@ -69,6 +126,18 @@ pub fn psd_curve(model: &Model, rate_hz: f64, f0: f64, k: usize) -> Vec<PsdPoint
 }
 
 /// Theoretical curves of `model` at cluster sizes `ms` (closed forms of the `spectral` layer).
+///
+/// ```
+/// let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+/// let t = imunoise::pipeline::theory::curves(&model, 100.0, &[1, 2, 4, 8, 16])?;
+/// assert_eq!(t.points.iter().map(|p| p.m).collect::<Vec<_>>(), [1, 2, 4, 8, 16]);
+/// // the WN component: σ²/m
+/// let wn = &t.components[0];
+/// assert!(wn.points.iter().all(|p| (p.avar - 1e-4 / p.m as f64).abs() <= 1e-18));
+/// // the PSD reaches down to rate / (2 m_max)
+/// assert!((t.psd[0].f - 100.0 / 32.0).abs() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn curves(model: &Model, rate_hz: f64, ms: &[u64]) -> Result<TheoryJson> {
     let procs = model.processes()?;
     let point = |m: u64, avar: f64| TheoryPoint {
