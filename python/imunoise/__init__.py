@@ -94,6 +94,20 @@ class AvarResult:
     degrees of freedom, NaN without a chi-square CI); ``n_terms`` (squared differences, int64);
     ``copied`` (True when the samples had to be converted before reading).
     ``to_dict()`` gives the channel entry of ``imunoise avar --format json``.
+
+    >>> import numpy as np, imunoise
+    >>> x = (-1.0) ** np.arange(4096)            # +1, -1, +1, ...: a known AV
+    >>> r = imunoise.avar(x, rate=100.0, scales=[1, 2, 3])
+    >>> r.n, len(r), r.m.tolist(), r.copied     # a C-contiguous float64 array: read in place
+    (4096, 3, [1, 2, 3], False)
+    >>> bool(np.allclose(r.tau, r.m / 100.0) and np.allclose(r.adev, np.sqrt(r.avar)))
+    True
+    >>> # cluster means are +-1/m for odd m and 0 for even m; neighbours differ by 2/m or 0,
+    >>> # so AV(m) = (2/m)^2 / 2 = 2/m^2 (odd m) and 0 (even m)
+    >>> bool(np.allclose(r.avar, [2.0, 0.0, 2.0 / 9.0], rtol=1e-12, atol=1e-15))
+    True
+    >>> r.n_terms.tolist()                       # N - 2m + 1 overlapping differences
+    [4095, 4093, 4091]
     """
 
     def __init__(self, curve: Any, copied: bool) -> None:
@@ -116,7 +130,21 @@ class AvarResult:
         self.n_terms = np.array([p["n_terms"] for p in pts], dtype=np.int64)
 
     def to_dict(self) -> Dict[str, Any]:
-        """The channel entry of ``imunoise avar --format json`` (a fresh copy)."""
+        """The channel entry of ``imunoise avar --format json`` (a fresh copy).
+
+        >>> import numpy as np, imunoise
+        >>> r = imunoise.avar(np.random.default_rng(1).normal(size=4096), rate=100.0)
+        >>> d = r.to_dict()
+        >>> list(d)
+        ['name', 'rate_hz', 'n', 'estimator', 'points']
+        >>> sorted(d["points"][0])
+        ['adev', 'avar', 'avar_hi', 'avar_lo', 'edf', 'm', 'n_terms', 'tau']
+        >>> [p["avar"] for p in d["points"]] == r.avar.tolist() and d["n"] == r.n == 4096
+        True
+        >>> d["points"].clear()                  # a fresh copy: the result is unchanged
+        >>> len(r.to_dict()["points"]) == len(r)
+        True
+        """
         return json.loads(json.dumps(self._dict))
 
     def __len__(self) -> int:
@@ -137,6 +165,20 @@ class FitResult:
     the channel's unit, CI bounds NaN when absent), ``ieee`` (``{"N": (value, lo, hi, unit),
     ...}``), ``converged``, ``warnings``. ``to_dict()`` gives the channel entry of
     ``imunoise fit --format json``.
+
+    >>> import math, imunoise
+    >>> x = imunoise.simulate("WN(sigma2=1e-4)", 4096, 100.0, seed=1)
+    >>> f = imunoise.fit(x, 100.0, model="WN", unit="deg/s")
+    >>> f.method, list(f.parameters), list(f.ieee)
+    ('gmwm', ['WN.sigma2'], ['N'])
+    >>> v, lo, hi = f.parameters["WN.sigma2"]
+    >>> # the estimate's relative SE is about sqrt(2/4096) = 2.2 %: 10 % is 4.5 SE
+    >>> bool(lo < v < hi and abs(v / 1e-4 - 1) < 0.1)
+    True
+    >>> # N = sqrt(sigma2 / rate) deg/s/sqrt(Hz) = deg/sqrt(s), times 60 for deg/sqrt(h)
+    >>> n, n_lo, n_hi, unit = f.ieee["N"]
+    >>> bool(math.isclose(n, math.sqrt(v / 100.0) * 60, rel_tol=1e-9)), unit
+    (True, '°/√h')
     """
 
     def __init__(self, d: Dict[str, Any]) -> None:
@@ -160,7 +202,19 @@ class FitResult:
         }
 
     def to_dict(self) -> Dict[str, Any]:
-        """The channel entry of ``imunoise fit --format json`` (a fresh copy)."""
+        """The channel entry of ``imunoise fit --format json`` (a fresh copy).
+
+        >>> import imunoise
+        >>> x = imunoise.simulate("WN(sigma2=1e-4) + RW(gamma2=1e-9)", 4096, 100.0, seed=1)
+        >>> f = imunoise.fit(x, 100.0, model="WN+RW")
+        >>> d = f.to_dict()
+        >>> d["model"] == f.model and d["converged"] == f.converged
+        True
+        >>> [(p["process"], p["name"]) for p in d["parameters"]]
+        [('WN', 'sigma2'), ('RW', 'gamma2')]
+        >>> [p["value"] for p in d["parameters"]] == [v[0] for v in f.parameters.values()]
+        True
+        """
         return json.loads(json.dumps(self._dict))
 
     def __repr__(self) -> str:
@@ -170,7 +224,20 @@ class FitResult:
 class TheoryResult:
     """A model's theoretical Allan variance: ``m``, ``tau`` (s), ``avar`` (u^2), ``adev`` (u),
     ``components`` (``{name: adev array}``), ``psd_f`` (Hz), ``psd`` (two-sided, u^2/Hz).
-    ``to_dict()`` gives ``imunoise theory --format json``."""
+    ``to_dict()`` gives ``imunoise theory --format json``.
+
+    >>> import numpy as np, imunoise
+    >>> t = imunoise.theory("WN(sigma2=1e-4) + RW(gamma2=1e-9)", 100.0)
+    >>> t.model, list(t.components)
+    ('WN(sigma2=0.0001) + RW(gamma2=1e-9)', ['WN(sigma2=0.0001)', 'RW(gamma2=1e-9)'])
+    >>> bool(np.allclose(t.tau, t.m / 100.0) and np.allclose(t.adev, np.sqrt(t.avar)))
+    True
+    >>> # independent components: their Allan variances add up to the model's
+    >>> bool(np.allclose(t.avar, sum(a ** 2 for a in t.components.values()), rtol=1e-12))
+    True
+    >>> bool(len(t.psd_f) == len(t.psd) > 0 and np.all(t.psd > 0))
+    True
+    """
 
     def __init__(self, d: Dict[str, Any]) -> None:
         self._dict = d
@@ -189,7 +256,16 @@ class TheoryResult:
         self.psd = np.array([p["psd"] for p in d["psd"]], dtype=np.float64)
 
     def to_dict(self) -> Dict[str, Any]:
-        """``imunoise theory --format json`` (a fresh copy)."""
+        """``imunoise theory --format json`` (a fresh copy).
+
+        >>> import imunoise
+        >>> t = imunoise.theory("WN(sigma2=1e-4)", 100.0, scales=[1, 2, 4])
+        >>> d = t.to_dict()
+        >>> list(d), [p["m"] for p in d["points"]]
+        (['model', 'rate_hz', 'points', 'components', 'psd'], [1, 2, 4])
+        >>> [p["avar"] for p in d["points"]] == t.avar.tolist() and d["model"] == t.model
+        True
+        """
         return json.loads(json.dumps(self._dict))
 
     def __repr__(self) -> str:
@@ -203,6 +279,22 @@ class Model:
     ``n_params`` counts its parameters; ``complete`` says whether every value is given (so
     that it can be simulated). Parameters are per sample (see the package docstring).
     Raises :class:`ModelError` for bad text.
+
+    >>> import imunoise
+    >>> m = imunoise.Model("WN(sigma2=1e-4) + RW + 2*AR1")
+    >>> m
+    Model('WN(sigma2=0.0001) + RW + 2*AR1')
+    >>> m.components, m.n_params, m.complete   # 1 + 1 + 2 * (phi, sigma2); RW, AR1 open
+    (['WN(sigma2=0.0001)', 'RW', 'AR1', 'AR1'], 6, False)
+    >>> imunoise.Model(str(m)) == m             # the canonical text parses back
+    True
+    >>> imunoise.Model("WN(1e-4) + RW(1e-9)").complete
+    True
+    >>> try:
+    ...     imunoise.Model("WN + XX")
+    ... except imunoise.ModelError:
+    ...     print("ModelError")
+    ModelError
     """
 
     def __init__(self, text: Union[str, "Model"]) -> None:
@@ -242,6 +334,23 @@ class Recording:
     data read without a rate); ``t`` (s: the uniform grid ``t0 + i / rate`` the analysis
     assumes, from the first stamp when there are stamps, else from 0); ``topic``; ``timing``
     (what the stamps said: dict or None); ``file``.
+
+    >>> import os, tempfile, numpy as np, imunoise
+    >>> t = 1000.0 + np.arange(4096) / 200.0    # time stamps: 200 Hz from t = 1000 s
+    >>> y = np.random.default_rng(2).normal(size=4096)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     p = os.path.join(d, "imu.csv")
+    ...     np.savetxt(p, np.column_stack([t, y]), delimiter=",", fmt="%.17g",
+    ...                header="t,acc_z_mps2", comments="")
+    ...     rec = imunoise.read(p, time_column="t")
+    >>> rec.names, rec.units, rec.data.shape, rec.data.flags.f_contiguous
+    (['acc_z_mps2'], ['m/s^2'], (4096, 1), True)
+    >>> bool(np.array_equal(rec.data[:, 0], y))  # 17 significant digits read back exactly
+    True
+    >>> # the rate from the stamps, and t on the grid t0 + i / rate from the first stamp
+    >>> # (the stamps are exact to about 1e-13 s: tolerances far above that)
+    >>> bool(abs(rec.rate_hz - 200.0) < 1e-6 and np.allclose(rec.t, t, rtol=0, atol=1e-6))
+    True
     """
 
     def __init__(self, raw: tuple) -> None:
@@ -375,6 +484,17 @@ def fit(
     ``robust``: fit the robust AV at Gaussian ``efficiency``. ``unit``: the channels' unit
     (e.g. ``"deg/s"``), else from the names' suffixes. Parameters come per sample in that
     unit (see the package docstring). One result per channel; a list for 2-D input.
+
+    >>> import numpy as np, imunoise
+    >>> x = imunoise.simulate("WN(sigma2=1e-4) + RW(gamma2=1e-9)", 4096, 100.0, seed=2,
+    ...                       channels=2)
+    >>> fs = imunoise.fit(x, 100.0, model="WN+RW", names=["gyro_x", "gyro_y"])
+    >>> [f.name for f in fs], list(fs[0].parameters)
+    (['gyro_x', 'gyro_y'], ['WN.sigma2', 'RW.gamma2'])
+    >>> # fitting the avar() results gives the same fit as fitting the samples
+    >>> a = imunoise.fit(imunoise.avar(x[:, 0], 100.0), model="WN+RW")
+    >>> a.parameters == fs[0].parameters
+    True
     """
     model = str(model)
     if isinstance(x_or_avar_result, (AvarResult, list, tuple)) and (
@@ -408,6 +528,18 @@ def simulate(
 
     Channel k is stream k of ``seed``: the same numbers as ``imunoise simulate``. Returns a
     1-D array for one channel, else an (n, channels) Fortran-ordered array.
+
+    >>> import numpy as np, imunoise
+    >>> a = imunoise.simulate("WN(sigma2=1)", 4096, 100.0, seed=3, channels=2)
+    >>> a.shape, a.flags.f_contiguous
+    ((4096, 2), True)
+    >>> one = imunoise.simulate("WN(sigma2=1)", 4096, 100.0, seed=3)
+    >>> one.shape, bool(np.array_equal(one, a[:, 0]))    # channel 0 is stream 0 of seed 3
+    ((4096,), True)
+    >>> # unit-variance white noise: the sample variance of 8192 draws is 1 to an SE of
+    >>> # sqrt(2/8192) = 0.016; 0.08 is 5 SE
+    >>> bool(abs(a.var() - 1) < 0.08)
+    True
     """
     a = _imunoise.simulate_array(str(model), int(n), float(rate), int(seed), int(channels))
     return a[:, 0] if channels == 1 else a
@@ -421,7 +553,17 @@ def theory(
 ) -> TheoryResult:
     """The theoretical Allan variance of ``model`` (every parameter given) at ``rate`` Hz,
     per component too, and its PSD: as ``imunoise theory``. A named scale grid is made for a
-    record of ``n`` samples."""
+    record of ``n`` samples.
+
+    >>> import numpy as np, imunoise
+    >>> t = imunoise.theory("WN(sigma2=2e-4)", 50.0, scales=[1, 2, 8, 100])
+    >>> bool(np.allclose(t.avar, 2e-4 / t.m, rtol=1e-12))   # white noise: AV = sigma2 / m
+    True
+    >>> bool(np.allclose(t.tau, [0.02, 0.04, 0.16, 2.0], rtol=1e-15))  # tau = m / rate
+    True
+    >>> bool(np.allclose(t.psd, 2e-4 / 50.0, rtol=1e-12))   # two-sided PSD: sigma2 / rate
+    True
+    """
     return TheoryResult(
         json.loads(_imunoise.theory_json(str(model), float(rate), _scales_text(scales), int(n)))
     )
@@ -446,7 +588,21 @@ def read(
     ``.db3``, PX4 ``.ulg``, ArduPilot ``.bin``. Arguments are the command's input flags:
     ``rate`` in Hz (needed without time stamps), ``columns`` (``"gyro_x,acc_z"`` or
     ``"1-3"``), ``scale`` (a factor), ``names``/``unit`` (comma lists), ``time_column`` and
-    ``time_unit`` (s, ms, us, ns), ``gaps`` (refuse, fill, longest)."""
+    ``time_unit`` (s, ms, us, ns), ``gaps`` (refuse, fill, longest).
+
+    >>> import os, tempfile, numpy as np, imunoise
+    >>> x = np.random.default_rng(1).normal(size=(4096, 4))
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     p = os.path.join(d, "log.f64")
+    ...     x.astype("<f8").tofile(p)
+    ...     rec = imunoise.read(p, rate=100.0, binary="f64", channels=4, columns="2-3",
+    ...                         scale=2.0)
+    >>> rec.data.shape, rec.rate_hz, rec.timing
+    ((4096, 2), 100.0, None)
+    >>> # columns 2 and 3 (1-based), times 2 (a power of two: exact)
+    >>> bool(np.array_equal(rec.data, 2.0 * x[:, 1:3]))
+    True
+    """
     return Recording(
         _imunoise.read_file(
             str(path), rate, None if topic is None else [topic], columns, binary, channels,
@@ -481,6 +637,26 @@ def analyze(
 
     ``path_or_array``: a file (read as :func:`read` with ``rate`` and ``read_options``) or
     samples at ``rate`` Hz (1-D or 2-D; ``names`` and ``unit`` name them).
+
+    >>> import json, os, tempfile, imunoise
+    >>> x = imunoise.simulate("WN(sigma2=1e-4) + RW(gamma2=1e-9)", 4096, 100.0, seed=1,
+    ...                       channels=2)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     doc = imunoise.analyze(x, rate=100.0, out=d, names=["gyro_x", "gyro_y"],
+    ...                            unit="deg/s")
+    ...     with open(os.path.join(d, "results.json")) as f:
+    ...         on_disk = json.load(f)
+    ...     has_report = os.path.exists(os.path.join(d, "report.html"))
+    >>> sorted(doc), doc["source"], [ch["name"] for ch in doc["channels"]]
+    (['channels', 'rate_hz', 'source'], '<array>', ['gyro_x', 'gyro_y'])
+    >>> on_disk == doc, has_report              # the report folder holds the same document
+    (True, True)
+    >>> ch = doc["channels"][0]
+    >>> ch["unit"], "N" in ch["fit"]["ieee"]
+    ('deg/s', True)
+    >>> # its Allan variance is avar()'s (dyadic scales, chi-square CIs)
+    >>> ch["avar"] == imunoise.avar(x[:, 0], rate=100.0).to_dict()["points"]
+    True
     """
     common = (
         str(model), method, bool(select), int(bootstrap), weighting, int(seed), float(alpha),
@@ -510,7 +686,22 @@ def analyze(
 def to_dict(result: Any) -> Dict[str, Any]:
     """The CLI's JSON document of a result: ``{"channels": [...]}`` for :func:`avar` and
     :func:`fit` results (one or a list), ``imunoise theory``'s for a :class:`TheoryResult`;
-    a dict (``analyze``) is returned as it is."""
+    a dict (``analyze``) is returned as it is.
+
+    >>> import numpy as np, imunoise
+    >>> rs = imunoise.avar(np.random.default_rng(1).normal(size=(4096, 2)), rate=100.0,
+    ...                    names=["a", "b"])
+    >>> d = imunoise.to_dict(rs)
+    >>> list(d), [c["name"] for c in d["channels"]]
+    (['channels'], ['a', 'b'])
+    >>> imunoise.to_dict(rs[0]) == {"channels": [rs[0].to_dict()]}
+    True
+    >>> imunoise.to_dict(imunoise.theory("WN(1)", 1.0))["model"]
+    'WN(sigma2=1)'
+    >>> doc = {"channels": []}
+    >>> imunoise.to_dict(doc) is doc
+    True
+    """
     if isinstance(result, dict):
         return result
     if isinstance(result, TheoryResult):
@@ -527,6 +718,14 @@ def to_dict(result: Any) -> Dict[str, Any]:
 def plot(result: Any, ax: Any = None, **kwargs: Any) -> Any:
     """Log-log plot of Allan deviations with their CI bands (needs matplotlib: the ``plot``
     extra). Takes :func:`avar` results (one or a list), a :class:`TheoryResult` or an
-    :func:`analyze` document; returns the matplotlib Axes."""
+    :func:`analyze` document; returns the matplotlib Axes.
+
+    >>> import numpy as np, imunoise
+    >>> from matplotlib.figure import Figure
+    >>> ax = Figure().add_subplot()             # a figure without pyplot: no window
+    >>> r = imunoise.avar(np.random.default_rng(1).normal(size=(4096, 2)), rate=100.0)
+    >>> imunoise.plot(r, ax=ax) is ax, len(ax.get_lines()), ax.get_xscale()
+    (True, 2, 'log')
+    """
     return _plot_impl(result, ax=ax, **kwargs)
 

@@ -51,7 +51,23 @@ def _analyze_one(path: Any, options: Dict[str, Any]) -> Dict[str, Any]:
 def unit_row(unit: str, path: Any, results: Dict[str, Any]) -> Dict[str, Any]:
     """One unit's row from its ``results.json``: per axis (channel) the fitted model, its
     per-sample parameters with CIs, and N, B, K (value, ci_lo, ci_hi, unit; None when the
-    model has no such term)."""
+    model has no such term).
+
+    >>> import imunoise
+    >>> from imunoise import fleet
+    >>> x = imunoise.simulate("WN(sigma2=1e-4) + RW(gamma2=1e-9)", 4096, 100.0)
+    >>> doc = imunoise.analyze(x, rate=100.0, select=False, model="WN+RW", names=["gyro_x"],
+    ...                        unit="deg/s")
+    >>> row = fleet.unit_row("u01", "u01.csv", doc)
+    >>> row["unit"], row["file"], row["rate_hz"], list(row["axes"])
+    ('u01', 'u01.csv', 100.0, ['gyro_x'])
+    >>> a = row["axes"]["gyro_x"]
+    >>> a["n"], a["unit"], [p["process"] for p in a["parameters"]]
+    (4096, 'deg/s', ['WN', 'RW'])
+    >>> # WN gives N and RW gives K; the model has no bias-instability term B
+    >>> a["N"]["value"] == doc["channels"][0]["fit"]["ieee"]["N"]["value"], a["B"]
+    (True, None)
+    """
     axes: Dict[str, Any] = {}
     for ch in results["channels"]:
         f = ch["fit"]
@@ -87,7 +103,26 @@ def fleet_summary(
     rows: Sequence[Dict[str, Any]], z_limit: float = 3.5, min_units: int = 5
 ) -> Dict[str, Any]:
     """Per axis and term: the fleet's median, MAD (both of log10 values), the number of units,
-    each unit's robust z and the flagged units (see the module docstring)."""
+    each unit's robust z and the flagged units (see the module docstring).
+
+    >>> from imunoise import fleet
+    >>> # six units; log10 N = 0, 0, 0.1, -0.1, 0 and 2 (u5: 100 times the others)
+    >>> rows = [{"unit": f"u{i}", "axes": {"x": {"N": {"value": 10.0 ** e}}}}
+    ...         for i, e in enumerate([0, 0, 0.1, -0.1, 0, 2])]
+    >>> s = fleet.fleet_summary(rows)
+    >>> e = s["terms"]["x.N"]
+    >>> e["units"], e["median"]                  # median of log10: 0, so 10^0
+    (6, 1.0)
+    >>> # |deviations| 0, 0, 0.1, 0.1, 0, 2: MAD = (0 + 0.1) / 2 = 0.05
+    >>> abs(e["mad_log10"] - 0.05) < 1e-12
+    True
+    >>> abs(e["z"]["u5"] - 2 / (1.4826 * 0.05)) < 1e-9   # z = 27, beyond 3.5
+    True
+    >>> [(f["unit"], f["term"]) for f in s["flagged"]]   # the others: |z| <= 1.35
+    [('u5', 'N')]
+    >>> fleet.fleet_summary(rows[:4])["flagged"]        # fewer than 5 units: no judgement
+    []
+    """
     terms: Dict[str, Dict[str, Any]] = {}
     flagged: List[Dict[str, Any]] = []
     keys = []
@@ -126,7 +161,17 @@ def fleet_summary(
 class FleetResult:
     """What :func:`analyze_many` returns: ``rows`` (one per unit, in the order of the
     paths), ``summary`` (see :func:`fleet_summary`), ``flagged`` (the summary's flagged
-    units) and ``results`` (each unit's full ``results.json`` dict)."""
+    units) and ``results`` (each unit's full ``results.json`` dict).
+
+    >>> from imunoise import fleet
+    >>> rows = [{"unit": f"u{i}", "axes": {"x": {"N": {"value": 10.0 ** e}}}}
+    ...         for i, e in enumerate([0, 0, 0.1, -0.1, 0, 2])]
+    >>> r = fleet.FleetResult(rows, [{}] * 6, fleet.fleet_summary(rows))
+    >>> r
+    FleetResult(units=6, flagged=1)
+    >>> r.flagged is r.summary["flagged"], r.flagged[0]["unit"]
+    (True, 'u5')
+    """
 
     def __init__(self, rows: List[Dict[str, Any]], results: List[Dict[str, Any]],
                  summary: Dict[str, Any]) -> None:
@@ -136,7 +181,17 @@ class FleetResult:
         self.flagged = summary["flagged"]
 
     def report(self) -> str:
-        """The fleet summary as text: one line per axis and term, then the flagged units."""
+        """The fleet summary as text: one line per axis and term, then the flagged units.
+
+        >>> from imunoise import fleet
+        >>> # log10 N = 0, 0, 0.1, -0.1, 0, 2: median 0, MAD 0.05, z(u5) = 2 / (1.4826 * 0.05)
+        >>> rows = [{"unit": f"u{i}", "axes": {"x": {"N": {"value": 10.0 ** e}}}}
+        ...         for i, e in enumerate([0, 0, 0.1, -0.1, 0, 2])]
+        >>> print(fleet.FleetResult(rows, [{}] * 6, fleet.fleet_summary(rows)).report())
+        fleet of 6 units; flagged when |robust z| > 3.5 (log10 scale, median/MAD)
+          x.N: median 1 over 6 units
+          FLAG u5 x.N = 100 (fleet median 1, z = +27.0)
+        """
         lines = [f"fleet of {len(self.rows)} units; flagged when |robust z| > "
                  f"{self.summary['z_limit']} (log10 scale, median/MAD)"]
         for key, e in self.summary["terms"].items():
@@ -165,6 +220,23 @@ def analyze_many(
 
     Returns a :class:`FleetResult`: one row per unit (named after its file) with N, B, K and
     the fitted model with CIs per axis, and the fleet summary flagging outliers.
+
+    >>> import json, os, tempfile, numpy as np, imunoise
+    >>> from imunoise import fleet
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     paths = []
+    ...     for seed, name in enumerate(["a", "b"], start=1):
+    ...         x = imunoise.simulate("WN(sigma2=1e-4) + RW(gamma2=1e-9)", 4096, 100.0,
+    ...                               seed=seed, channels=2)
+    ...         paths.append(os.path.join(d, name + ".csv"))
+    ...         np.savetxt(paths[-1], x, delimiter=",", fmt="%.17g",
+    ...                    header="gyro_x_dps,gyro_y_dps", comments="")
+    ...     r = fleet.analyze_many(paths, rate=100.0, select=False, model="WN+RW")
+    ...     b = imunoise.analyze(paths[1], rate=100.0, select=False, model="WN+RW")
+    >>> r, [row["unit"] for row in r.rows], list(r.rows[0]["axes"])
+    (FleetResult(units=2, flagged=0), ['a', 'b'], ['gyro_x_dps', 'gyro_y_dps'])
+    >>> json.dumps(r.results[1]) == json.dumps(b)   # each unit's analyze(), bit for bit
+    True
     """
     paths = list(paths)
     if "out" in options:

@@ -32,7 +32,27 @@ def _curve(ax: Any, tau: Any, adev: Any, lo: Any, hi: Any, label: str) -> None:
 
 def plot(result: Any, ax: Any = None, title: Any = None) -> Any:
     """Plots ``avar`` results (one or a list), a ``TheoryResult`` (with its components) or an
-    ``analyze`` document (each channel's Allan deviation and fitted model). Returns the Axes."""
+    ``analyze`` document (each channel's Allan deviation and fitted model). Returns the Axes.
+
+    >>> import numpy as np, imunoise
+    >>> from imunoise.plot import plot
+    >>> from matplotlib.figure import Figure   # a figure without pyplot: no window
+    >>> t = imunoise.theory("WN(sigma2=1e-4) + RW(gamma2=1e-9)", 100.0)
+    >>> ax = plot(t, ax=Figure().add_subplot(), title="gyro")
+    >>> len(ax.get_lines()), ax.get_title()      # the model and its two components
+    (3, 'gyro')
+    >>> x = imunoise.simulate("WN(sigma2=1e-4) + RW(gamma2=1e-9)", 4096, 100.0, channels=2)
+    >>> doc = imunoise.analyze(x, rate=100.0, select=False, model="WN+RW")
+    >>> ax = plot(doc, ax=Figure().add_subplot())
+    >>> len(ax.get_lines())                      # per channel: its AD and its fitted model
+    4
+    >>> ax.get_xscale(), ax.get_yscale()
+    ('log', 'log')
+    >>> plot(42, ax=Figure().add_subplot())
+    Traceback (most recent call last):
+        ...
+    TypeError: imunoise.plot: cannot plot int
+    """
     from . import AvarResult, TheoryResult
 
     ax = _axes(ax)
