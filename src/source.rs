@@ -414,8 +414,11 @@ pub(crate) fn non_finite(name: &str, row: usize, channel: usize, v: f64) -> Erro
 
 /// Why `file` cannot be read by position, if it cannot: `Some("is standard input")` for `-`,
 /// `Some("is not a regular file (a pipe, FIFO or device)")`, `Some("is gzip-compressed")`;
-/// `None` for a regular uncompressed file. Such inputs are decoded once, in one sequential
-/// pass (raw binary: into temporary files; text: whole into memory), and the commands say so.
+/// `None` for a regular uncompressed file, for a folder (a ROS 2 bag, which its reader opens),
+/// and for a path that cannot be looked up (missing, or no permission: the read then says
+/// which, with no note about a pipe before it). Such
+/// inputs are decoded once, in one sequential pass (raw binary: into temporary files; text:
+/// whole into memory), and the commands say so.
 ///
 /// ```
 /// use imunoise::source::unseekable;
@@ -424,10 +427,14 @@ pub(crate) fn non_finite(name: &str, row: usize, channel: usize, v: f64) -> Erro
 /// let p = dir.path().join("w.f64");
 /// std::fs::write(&p, [0u8; 16]).unwrap();
 /// assert_eq!(unseekable(&p), None);
+/// assert_eq!(unseekable(dir.path()), None); // a folder: a ROS 2 bag, or an error of its own
+/// assert_eq!(unseekable(&dir.path().join("missing.f64")), None);
 /// ```
 pub fn unseekable(file: &Path) -> Option<&'static str> {
     if file.as_os_str() == "-" {
         Some("is standard input")
+    } else if std::fs::metadata(file).is_err() || file.is_dir() {
+        None
     } else if !is_regular(file) {
         Some("is not a regular file (a pipe, FIFO or device)")
     } else if is_gzip(file) {

@@ -135,12 +135,32 @@ fn a_directory_or_a_device_as_input_is_named_in_plain_words() {
     }
     let err = fails_with(&imunoise(&["fit", d, "--rate", "100"]), 2);
     assert!(err.contains("is a folder"), "{err}");
+    // a folder is no pipe: no note that it is read whole into memory
+    assert!(!err.contains("cannot be read by position"), "{err}");
+    // a missing input, text or raw binary of one or several channels, is named as missing,
+    // with no note before it that it would be a pipe read into memory or temporary files
     let missing = dir.path().join("missing.csv");
-    let err = fails_with(
-        &imunoise(&["avar", missing.to_str().unwrap(), "--rate", "1"]),
-        2,
-    );
-    assert!(err.contains("no such file or directory"), "{err}");
+    let m = missing.to_str().unwrap();
+    for args in [
+        vec!["avar", m, "--rate", "1"],
+        vec!["analyze", m, "--rate", "1"],
+        vec!["fit", m, "--rate", "1"],
+        vec!["avar", m, "--rate", "1", "--binary", "f64"],
+        vec![
+            "avar",
+            m,
+            "--rate",
+            "1",
+            "--binary",
+            "f64",
+            "--channels",
+            "2",
+        ],
+    ] {
+        let err = fails_with(&imunoise(&args), 2);
+        assert!(err.contains("no such file or directory"), "{args:?}: {err}");
+        assert!(!err.contains("note:"), "{args:?}: {err}");
+    }
 }
 
 /// Issue 16, case 3: `analyze --out EXISTING_FILE` used to exit 1 with "File exists (os error

@@ -252,8 +252,10 @@ impl Input {
     /// ```
     pub fn read_all(&self, ui: &Ui) -> Result<Vec<Table>> {
         // standard input, pipes and FIFOs cannot be read by position: say what that costs
-        if !crate::source::is_regular(&self.file) {
-            let why = crate::source::unseekable(&self.file).unwrap_or("is not a regular file");
+        // (a path that cannot be looked up gets no note: the read says what is wrong)
+        if let Some(why) =
+            crate::source::unseekable(&self.file).filter(|_| !crate::source::is_regular(&self.file))
+        {
             ui.note(format!(
                 "note: {} cannot be read by position: it is read whole into memory first (its \
                  size in bytes, then 8 bytes per value)",
