@@ -972,3 +972,67 @@ fn avar_statistic_csv_table_plot_and_errors() {
         assert!(help.contains(needle), "--help lacks {needle:?}");
     }
 }
+
+/// A bad model, level or option of `fit` and `analyze` is reported before the input is read
+/// (on a long log, reading it took seconds before the error), and `analyze` makes no `--out`
+/// folder for it. The input here does not exist: had it been read first, the error would name
+/// the missing file instead.
+#[test]
+fn settings_are_checked_before_the_input_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.csv");
+    let m = missing.to_str().unwrap();
+    let out_dir = dir.path().join("report");
+    let o = out_dir.to_str().unwrap();
+    let cases: [(&[&str], &str); 8] = [
+        (
+            &["fit", m, "--rate", "1", "--model", "WN+FOO"],
+            "unknown process \"FOO\"",
+        ),
+        (
+            &["fit", m, m, "--rate", "1", "--model", "WN+FOO"],
+            "unknown process \"FOO\"",
+        ),
+        (
+            &["fit", m, "--rate", "1", "--alpha", "2"],
+            "--alpha must lie in (0, 1)",
+        ),
+        (
+            &["fit", m, "--rate", "1", "--method", "avlr", "--select"],
+            "--select works with",
+        ),
+        (
+            &["fit", m, "--rate", "1", "--robust", "--efficiency", "3"],
+            "--efficiency must lie",
+        ),
+        (
+            &["analyze", m, "--rate", "1", "--model", "WN+FOO", "-o", o],
+            "unknown process",
+        ),
+        (
+            &[
+                "analyze",
+                m,
+                "--rate",
+                "1",
+                "--record-halfwidth",
+                "2",
+                "-o",
+                o,
+            ],
+            "--record-halfwidth",
+        ),
+        (
+            &["analyze", m, "--rate", "1", "--export", "foo", "-o", o],
+            "unknown export target",
+        ),
+    ];
+    for (args, want) in cases {
+        let out = imunoise(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(!err.contains("no such file"), "{args:?}: {err}");
+        assert!(!out_dir.exists(), "{args:?} made --out");
+    }
+}

@@ -320,7 +320,7 @@ fn fit_settings(
     if !(alpha > 0.0 && alpha < 1.0) {
         return Err(usage(format!("alpha must lie in (0, 1), got {alpha}")));
     }
-    Ok(fit::FitSettings {
+    let settings = fit::FitSettings {
         model: model.to_string(),
         method: match method {
             "gmwm" => fit::Method::Gmwm,
@@ -346,7 +346,10 @@ fn fit_settings(
         bootstrap,
         seed,
         alpha,
-    })
+    };
+    // the model parses (and the rest holds) before any file is read
+    settings.check().map_err(py_err)?;
+    Ok(settings)
 }
 
 fn robust_eff(robust: bool, efficiency: f64) -> PyResult<Option<f64>> {
@@ -647,14 +650,17 @@ fn analyze_settings(
     efficiency: f64,
     record_halfwidth: f64,
 ) -> PyResult<analyze::AnalyzeSettings> {
-    Ok(analyze::AnalyzeSettings {
+    let settings = analyze::AnalyzeSettings {
         // `select` is the command's `!--no-select`; the fit's own flag stays off as there
         fit: fit_settings(model, method, false, weighting, bootstrap, seed, alpha)?,
         select,
         robust,
         efficiency,
         record_halfwidth,
-    })
+    };
+    // checked before any file is read
+    settings.check().map_err(py_err)?;
+    Ok(settings)
 }
 
 fn run_analysis(

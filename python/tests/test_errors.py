@@ -65,3 +65,16 @@ def test_output_error(tmp_path):
         imunoise.analyze(x, rate=100.0, out=blocker / "sub")
     assert isinstance(e.value, (imunoise.OutputError, imunoise.UsageError))
     assert "file" in str(e.value)
+
+
+def test_analyze_checks_its_settings_before_reading(tmp_path):
+    # the file does not exist: a setting checked after the read would give InputError instead
+    missing = str(tmp_path / "missing.csv")
+    with pytest.raises(imunoise.ModelError, match="FOO"):
+        imunoise.analyze(missing, rate=1.0, model="WN+FOO")
+    with pytest.raises(imunoise.UsageError, match="record"):
+        imunoise.analyze(missing, rate=1.0, record_halfwidth=2.0)
+    assert not (tmp_path / "report").exists()
+    with pytest.raises(imunoise.ModelError, match="FOO"):
+        imunoise.analyze(missing, rate=1.0, out=str(tmp_path / "report"), model="WN+FOO")
+    assert not (tmp_path / "report").exists()

@@ -70,6 +70,20 @@ pub struct AnalyzeArgs {
 
 /// Runs `imunoise analyze`.
 pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
+    // a bad model or option fails before the file is read, and before --out is made
+    let settings = AnalyzeSettings {
+        fit: args.fit.settings(),
+        select: !args.no_select,
+        robust: args.robust.robust,
+        efficiency: args.robust.efficiency,
+        record_halfwidth: args.record_halfwidth,
+    };
+    settings.check()?;
+    let targets = args
+        .export
+        .as_deref()
+        .map(crate::export::Target::parse_list)
+        .transpose()?;
     // a bad --out fails before the work, not after it
     crate::output::create_dir(&args.out, "--out")?;
     // Several topics: one report per topic, in a folder named after it.
@@ -82,18 +96,6 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         }
         return Ok(());
     }
-    let targets = args
-        .export
-        .as_deref()
-        .map(crate::export::Target::parse_list)
-        .transpose()?;
-    let settings = AnalyzeSettings {
-        fit: args.fit.settings(),
-        select: !args.no_select,
-        robust: args.robust.robust,
-        efficiency: args.robust.efficiency,
-        record_halfwidth: args.record_halfwidth,
-    };
     let spec = args.input.spec();
     let table = spec.read(ui)?;
     let units = spec.units(&table)?;

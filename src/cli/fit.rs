@@ -134,6 +134,9 @@ pub struct FitArgs {
 
 /// Runs `imunoise fit`.
 pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
+    // a bad model or level fails before the file is read
+    args.fit.settings().check()?;
+    args.robust.efficiency()?;
     if !args.more.is_empty() {
         let mut inputs = vec![args.input.spec()];
         inputs.extend(args.more.iter().map(|f| {

@@ -82,6 +82,30 @@ impl AnalyzeSettings {
         }
         s
     }
+
+    /// Checks the settings before any data is read ([`FitSettings::check`] on
+    /// [`effective_fit`](Self::effective_fit), the robust efficiency, the "how long to record"
+    /// target), so that a bad option is reported at once rather than after the read.
+    ///
+    /// ```
+    /// use imunoise::pipeline::analyze::AnalyzeSettings;
+    /// assert!(AnalyzeSettings::default().check().is_ok());
+    /// assert!(AnalyzeSettings { record_halfwidth: 2.0, ..Default::default() }.check().is_err());
+    /// assert!(AnalyzeSettings { efficiency: 1.5, ..Default::default() }.check().is_err());
+    /// let mut typo = AnalyzeSettings::default();
+    /// typo.fit.model = "WN+FOO".into();
+    /// assert!(typo.check().is_err());
+    /// ```
+    pub fn check(&self) -> Result<()> {
+        let h = self.record_halfwidth;
+        if !(h > 0.0 && h < 1.0) {
+            return Err(Error::Usage(format!(
+                "--record-halfwidth must lie in (0, 1), e.g. 0.1 for ±10 %, got {h}"
+            )));
+        }
+        super::fit::robust_efficiency(self.robust, self.efficiency)?;
+        self.effective_fit().check().map(|_| ())
+    }
 }
 
 /// The result of [`analyze`]: the data, the curves and the fits, all channels in the order of
@@ -178,13 +202,9 @@ pub fn analyze(
     settings: &AnalyzeSettings,
     ui: &Ui,
 ) -> Result<Analysis> {
+    settings.check()?;
     let rate = table.rate()?;
     let h = settings.record_halfwidth;
-    if !(h > 0.0 && h < 1.0) {
-        return Err(Error::Usage(format!(
-            "--record-halfwidth must lie in (0, 1), e.g. 0.1 for ±10 %, got {h}"
-        )));
-    }
     let fit = settings.effective_fit();
     let robust = super::fit::robust_efficiency(settings.robust, settings.efficiency)?;
     let curves = fit_curves(&table, fit.alpha, ui)?;

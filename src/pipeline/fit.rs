@@ -237,6 +237,38 @@ impl Default for FitSettings {
     }
 }
 
+impl FitSettings {
+    /// Checks the settings before any data is read, and returns the parsed model template:
+    /// the template parses, `alpha` lies in (0, 1), and `select` comes with GMWM only. A bad
+    /// setting is then reported at once, not after a long file has been read.
+    ///
+    /// ```
+    /// use imunoise::pipeline::fit::{FitSettings, Method};
+    /// let s = FitSettings { model: "WN+RW".into(), ..FitSettings::default() };
+    /// assert_eq!(s.check()?.to_string(), "WN + RW");
+    /// let typo = FitSettings { model: "WN+FOO".into(), ..FitSettings::default() };
+    /// assert!(typo.check().unwrap_err().to_string().contains("unknown process \"FOO\""));
+    /// assert!(FitSettings { alpha: 1.5, ..s.clone() }.check().is_err());
+    /// let avlr = FitSettings { method: Method::Avlr, select: true, ..s };
+    /// assert!(avlr.check().is_err()); // selection compares GMWM fits by WIC
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
+    pub fn check(&self) -> Result<Model> {
+        if !(self.alpha > 0.0 && self.alpha < 1.0) {
+            return Err(Error::Usage(format!(
+                "--alpha must lie in (0, 1), got {}",
+                self.alpha
+            )));
+        }
+        if self.select && self.method != Method::Gmwm {
+            return Err(Error::Usage(
+                "--select works with --method gmwm only (it compares GMWM fits by WIC)".into(),
+            ));
+        }
+        Ok(self.model.parse()?)
+    }
+}
+
 /// Checks a Gaussian efficiency of the robust AV and returns `Some(efficiency)` when
 /// `robust`, else `None`.
 ///
@@ -871,12 +903,7 @@ pub fn fit_all_robust(
     ui: &Ui,
 ) -> Result<Vec<ChannelFit>> {
     use rayon::prelude::*;
-    if !(settings.alpha > 0.0 && settings.alpha < 1.0) {
-        return Err(Error::Usage(format!(
-            "--alpha must lie in (0, 1), got {}",
-            settings.alpha
-        )));
-    }
+    settings.check()?;
     // One step per channel fit, plus one per bootstrap replicate when bootstrapping.
     let boots = match settings.method {
         Method::Ieee952 => 0,
@@ -888,11 +915,6 @@ pub fn fit_all_robust(
     } else {
         "fitting"
     };
-    if settings.select && settings.method != Method::Gmwm {
-        return Err(Error::Usage(
-            "--select works with --method gmwm only (it compares GMWM fits by WIC)".into(),
-        ));
-    }
     let pb = ui.bar(curves.len() as u64 * per_channel, msg);
     let tick = || pb.inc(1);
     let out: Vec<Result<ChannelFit>> = curves
@@ -1200,12 +1222,8 @@ pub fn fit_joint(
                 .into(),
         ));
     }
-    if !(settings.alpha > 0.0 && settings.alpha < 1.0) {
-        return Err(Error::Usage(format!(
-            "--alpha must lie in (0, 1), got {}",
-            settings.alpha
-        )));
-    }
+    // the model and the level are checked before any recording is read
+    let template = settings.check()?;
     let Some(first) = inputs.first() else {
         return Err(Error::Usage(
             "a joint fit needs at least one recording".into(),
@@ -1231,7 +1249,6 @@ pub fn fit_joint(
         }
         per_file.push((table.names.clone(), units, curves));
     }
-    let template: Model = settings.model.parse()?;
     let opts = GmwmOptions {
         weighting: settings.weighting.weighting(),
         robust,
