@@ -973,7 +973,7 @@ fn avar_statistic_csv_table_plot_and_errors() {
     }
 }
 
-/// A bad model, level or option of `fit` and `analyze` is reported before the input is read
+/// A bad model, level or option of `avar`, `fit` and `analyze` is reported before the input is read
 /// (on a long log, reading it took seconds before the error), and `analyze` makes no `--out`
 /// folder for it. The input here does not exist: had it been read first, the error would name
 /// the missing file instead.
@@ -984,7 +984,19 @@ fn settings_are_checked_before_the_input_is_read() {
     let m = missing.to_str().unwrap();
     let out_dir = dir.path().join("report");
     let o = out_dir.to_str().unwrap();
-    let cases: [(&[&str], &str); 8] = [
+    let cases: [(&[&str], &str); 11] = [
+        (
+            &["avar", m, "--rate", "1", "--scales", "0,5"],
+            "m = 0 is not allowed",
+        ),
+        (
+            &["avar", m, "--rate", "1", "--scales", "log0"],
+            "N ≥ 1 points per decade",
+        ),
+        (
+            &["fit", m, "--rate", "1", "--bootstrap", "1000000000"],
+            "more than the 100000 this runs",
+        ),
         (
             &["fit", m, "--rate", "1", "--model", "WN+FOO"],
             "unknown process \"FOO\"",

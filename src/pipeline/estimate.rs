@@ -130,6 +130,8 @@ pub struct AvarJson {
 /// assert_eq!(parse_scales("octave"), Ok(imunoise::avar::Scales::Octave));
 /// assert_eq!(parse_scales("1,4,16"), Ok(imunoise::avar::Scales::Explicit(vec![1, 4, 16])));
 /// assert!(parse_scales("fortnightly").is_err());
+/// assert!(parse_scales("0,5").is_err()); // m counts samples: m ≥ 1
+/// assert!(parse_scales("log0").is_err());
 /// ```
 pub fn parse_scales(s: &str) -> std::result::Result<avar::Scales, String> {
     use avar::Scales;
@@ -143,16 +145,20 @@ pub fn parse_scales(s: &str) -> std::result::Result<avar::Scales, String> {
         _ if t.starts_with("log") => Scales::LogSpaced {
             per_decade: t[3..]
                 .parse()
-                .map_err(|_| format!("{s:?}: expected logN with N points per decade"))?,
+                .ok()
+                .filter(|&n: &usize| n >= 1)
+                .ok_or_else(|| format!("{s:?}: expected logN with N ≥ 1 points per decade"))?,
         },
         _ => Scales::Explicit(
             t.split(',')
-                .map(|m| {
-                    m.trim().parse::<u64>().map_err(|_| {
-                        format!(
-                            "{s:?}: expected dyadic, dyadic1, octave, decade, all, logN or a list of cluster sizes m1,m2,…"
-                        )
-                    })
+                .map(|m| match m.trim().parse::<u64>() {
+                    Ok(0) => Err(format!(
+                        "{s:?}: cluster size m = 0 is not allowed (m counts samples, m >= 1)"
+                    )),
+                    Ok(m) => Ok(m),
+                    Err(_) => Err(format!(
+                        "{s:?}: expected dyadic, dyadic1, octave, decade, all, logN or a list of cluster sizes m1,m2,…"
+                    )),
                 })
                 .collect::<std::result::Result<_, _>>()?,
         ),

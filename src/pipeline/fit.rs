@@ -239,7 +239,8 @@ impl Default for FitSettings {
 
 impl FitSettings {
     /// Checks the settings before any data is read, and returns the parsed model template:
-    /// the template parses, `alpha` lies in (0, 1), and `select` comes with GMWM only. A bad
+    /// the template parses, `alpha` lies in (0, 1), `select` comes with GMWM only, and
+    /// `bootstrap` is at most [`gmwm_prep::bootstrap::MAX_REPLICATIONS`]. A bad
     /// setting is then reported at once, not after a long file has been read.
     ///
     /// ```
@@ -251,6 +252,8 @@ impl FitSettings {
     /// assert!(FitSettings { alpha: 1.5, ..s.clone() }.check().is_err());
     /// let avlr = FitSettings { method: Method::Avlr, select: true, ..s };
     /// assert!(avlr.check().is_err()); // selection compares GMWM fits by WIC
+    /// let huge = FitSettings { bootstrap: 1 << 30, ..FitSettings::default() };
+    /// assert!(huge.check().is_err());
     /// # Ok::<(), imunoise::Error>(())
     /// ```
     pub fn check(&self) -> Result<Model> {
@@ -264,6 +267,14 @@ impl FitSettings {
             return Err(Error::Usage(
                 "--select works with --method gmwm only (it compares GMWM fits by WIC)".into(),
             ));
+        }
+        let most = gmwm_prep::bootstrap::MAX_REPLICATIONS;
+        if self.bootstrap > most {
+            return Err(Error::Usage(format!(
+                "--bootstrap: {} bootstrap replications is more than the {most} this runs \
+                 (each one simulates and refits a whole record)",
+                self.bootstrap
+            )));
         }
         Ok(self.model.parse()?)
     }
