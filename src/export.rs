@@ -175,15 +175,40 @@ pub struct ExportOptions {
     /// How one value per sensor is made from its axes (Basalt keeps the axes).
     #[arg(long, value_enum, default_value = "max")]
     pub aggregate: Aggregate,
-    /// Multiply the white-noise densities by F (e.g. 2 for a VIO; default 1).
-    #[arg(long, value_name = "F", default_value = "1", value_parser = crate::cli::parse_factor)]
+    /// Multiply the white-noise densities by F > 0 (e.g. 2 for a VIO; default 1).
+    #[arg(long, value_name = "F", default_value = "1", value_parser = crate::cli::parse_inflation)]
     pub inflate_noise: f64,
-    /// Multiply the random-walk densities by F (e.g. 10 for a VIO; default 1).
-    #[arg(long, value_name = "F", default_value = "1", value_parser = crate::cli::parse_factor)]
+    /// Multiply the random-walk densities by F > 0 (e.g. 10 for a VIO; default 1).
+    #[arg(long, value_name = "F", default_value = "1", value_parser = crate::cli::parse_inflation)]
     pub inflate_walk: f64,
     /// The `rostopic` written into Kalibr/OpenVINS files (default: the analysed topic, else /imu0).
     #[arg(long, value_name = "TOPIC")]
     pub rostopic: Option<String>,
+}
+
+impl ExportOptions {
+    /// Checks the inflation factors: finite and > 0 (a noise density or a standard deviation
+    /// cannot be negative or zero).
+    ///
+    /// ```
+    /// use imunoise::export::ExportOptions;
+    /// assert!(ExportOptions::default().check().is_ok());
+    /// assert!(ExportOptions { inflate_noise: -1.0, ..Default::default() }.check().is_err());
+    /// assert!(ExportOptions { inflate_walk: f64::NAN, ..Default::default() }.check().is_err());
+    /// ```
+    pub fn check(&self) -> Result<()> {
+        for (name, f) in [
+            ("--inflate-noise", self.inflate_noise),
+            ("--inflate-walk", self.inflate_walk),
+        ] {
+            if !(f.is_finite() && f > 0.0) {
+                return Err(Error::Usage(format!(
+                    "{name} must be a finite factor > 0, got {f}"
+                )));
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Default for ExportOptions {
@@ -853,6 +878,7 @@ pub fn write_all(
     o: &ExportOptions,
     dir: &std::path::Path,
 ) -> Result<Vec<std::path::PathBuf>> {
+    o.check()?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display().to_string(), e))?;
     targets
         .iter()

@@ -984,7 +984,15 @@ fn settings_are_checked_before_the_input_is_read() {
     let m = missing.to_str().unwrap();
     let out_dir = dir.path().join("report");
     let o = out_dir.to_str().unwrap();
-    let cases: [(&[&str], &str); 11] = [
+    let cases: [(&[&str], &str); 13] = [
+        (
+            &["analyze", m, "--rate", "1", "--inflate-noise=-1", "-o", o],
+            "must be > 0",
+        ),
+        (
+            &["export", m, "--inflate-walk=-1/2", "-o", o],
+            "must be > 0",
+        ),
         (
             &["avar", m, "--rate", "1", "--scales", "0,5"],
             "m = 0 is not allowed",

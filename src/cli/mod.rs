@@ -127,6 +127,18 @@ pub fn parse_factor(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
+/// A finite factor > 0 (`--inflate-noise`, `--inflate-walk`): a number or a fraction `a/b`.
+pub fn parse_inflation(s: &str) -> std::result::Result<f64, String> {
+    let v = parse_factor(s)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "the factor must be > 0 (it multiplies a noise density), got {s}"
+        ))
+    }
+}
+
 /// The input file and how to read it (shared by the analysis subcommands).
 #[derive(Debug, Clone, Args)]
 pub struct InputArgs {
