@@ -1056,3 +1056,80 @@ fn settings_are_checked_before_the_input_is_read() {
         assert!(!out_dir.exists(), "{args:?} made --out");
     }
 }
+
+/// Values written into `--model` are not used by the fit (every parameter is estimated); the
+/// command says so instead of dropping them silently, and the fit is the one of the bare
+/// template.
+#[test]
+fn values_in_the_model_template_are_named_as_unused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("sim.csv");
+    let d = data.to_str().unwrap();
+    imunoise_ok(&[
+        "simulate",
+        "--model",
+        "WN(sigma2=1e-4)+RW(gamma2=1e-8)",
+        "-n",
+        "4000",
+        "--rate",
+        "100",
+        "--seed",
+        "3",
+        "-o",
+        d,
+    ]);
+    let with = imunoise_ok(&["fit", d, "--rate", "100", "--model", "WN(sigma2=5)+RW"]);
+    let bare = imunoise_ok(&["fit", d, "--rate", "100", "--model", "WN+RW"]);
+    let note = String::from_utf8_lossy(&with.stderr);
+    assert!(note.contains("does not use them"), "{note}");
+    assert!(note.contains("--model \"WN + RW\""), "{note}");
+    assert!(!String::from_utf8_lossy(&bare.stderr).contains("does not use them"));
+    assert_eq!(with.stdout, bare.stdout);
+}
+
+/// A drift alone is deterministic: under it the AV estimates have no variance, so the J
+/// statistic is undefined. It used to be printed as "J = NaN, p = 1.000" (a NaN statistic
+/// read as a perfect fit); now there is no J test, and a note says why the CIs have zero width.
+#[test]
+fn a_drift_only_model_has_no_j_test_and_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("sim.csv");
+    let d = data.to_str().unwrap();
+    imunoise_ok(&[
+        "simulate",
+        "--model",
+        "WN(sigma2=1e-4)+RW(gamma2=1e-8)",
+        "-n",
+        "4000",
+        "--rate",
+        "100",
+        "--seed",
+        "3",
+        "-o",
+        d,
+    ]);
+    let out = imunoise_ok(&[
+        "fit", d, "--rate", "100", "--model", "DR", "--format", "json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let c = &v["channels"][0];
+    assert!(c["j_test"].is_null(), "{c}");
+    let w = c["warnings"].to_string();
+    assert!(w.contains("deterministic drift only"), "{w}");
+    let table = imunoise_ok(&["fit", d, "--rate", "100", "--model", "DR"]);
+    let text = String::from_utf8_lossy(&table.stdout);
+    assert!(!text.contains("J-test"), "{text}");
+    // with a random component the J test is there, with a finite statistic
+    let out = imunoise_ok(&[
+        "fit", d, "--rate", "100", "--model", "WN+DR", "--format", "json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let j = &v["channels"][0]["j_test"];
+    assert!(j["statistic"].as_f64().is_some_and(f64::is_finite), "{j}");
+    assert!(
+        j["p_value"]
+            .as_f64()
+            .is_some_and(|p| (0.0..=1.0).contains(&p)),
+        "{j}"
+    );
+}

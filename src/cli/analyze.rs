@@ -79,6 +79,14 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         record_halfwidth: args.record_halfwidth,
     };
     settings.check()?;
+    if let Some(note) = settings
+        .effective_fit()
+        .check()
+        .ok()
+        .and_then(|t| crate::pipeline::fit::template_values_note(&t))
+    {
+        ui.note(note);
+    }
     let targets = args
         .export
         .as_deref()

@@ -135,7 +135,10 @@ pub struct FitArgs {
 /// Runs `imunoise fit`.
 pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
     // a bad model or level fails before the file is read
-    args.fit.settings().check()?;
+    let template = args.fit.settings().check()?;
+    if let Some(note) = crate::pipeline::fit::template_values_note(&template) {
+        ui.note(note);
+    }
     args.robust.efficiency()?;
     if !args.more.is_empty() {
         let mut inputs = vec![args.input.spec()];

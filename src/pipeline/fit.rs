@@ -280,6 +280,31 @@ impl FitSettings {
     }
 }
 
+/// The note the commands print when the model template carries values: the fit estimates
+/// every parameter and does not use them (nothing the user wrote is dropped silently);
+/// `None` for a template of components only.
+///
+/// ```
+/// use imunoise::pipeline::fit::template_values_note;
+/// assert_eq!(template_values_note(&"WN+RW".parse()?), None);
+/// let note = template_values_note(&"WN(sigma2=1e-4) + RW".parse()?).unwrap();
+/// assert!(note.contains("does not use them") && note.contains("\"WN + RW\""));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
+pub fn template_values_note(template: &Model) -> Option<String> {
+    template
+        .components()
+        .iter()
+        .any(|c| c.process().is_some())
+        .then(|| {
+            format!(
+                "note: --model {template} gives parameter values; the fit estimates every \
+                 parameter and does not use them (the same fit as --model \"{}\")",
+                template.template()
+            )
+        })
+}
+
 /// Checks a Gaussian efficiency of the robust AV and returns `Some(efficiency)` when
 /// `robust`, else `None`.
 ///
@@ -682,7 +707,15 @@ pub fn fit_channel_robust(
             let inf = delta_method(&f, &v, settings.alpha).map_err(e)?;
             let r = FitReport::from_gmwm(&f, Some(&inf), unit);
             let kinds = f.kinds.clone();
-            let warnings = undetermined(&f);
+            let mut warnings = undetermined(&f);
+            if kinds.iter().all(|k| *k == processes::ProcessKind::Drift) {
+                warnings.push(
+                    "the model is a deterministic drift only: under it the AV estimates have no \
+                     variance, so its CIs have zero width and there is no J test; add a random \
+                     component (e.g. --model \"WN+DR\")"
+                        .into(),
+                );
+            }
             let ci = CiInfo {
                 method,
                 alpha: settings.alpha,

@@ -338,7 +338,10 @@ pub fn delta_method(fit: &GmwmFit, v: &CovMatrix, alpha: f64) -> Result<Inferenc
     let q = (e.transpose() * &omega * &e)[(0, 0)];
     let ab = &a * &b;
     let wic = q + 2.0 * (&(&omega * &ab) * &vm).diagonal().column_vector().sum();
-    let j_test = if j > p {
+    // no J test where the model gives some AV estimate no variance (a drift alone is
+    // deterministic): the statistic is undefined there
+    let degenerate = (0..j).any(|i| !(vm[(i, i)] > 0.0 && vm[(i, i)].is_finite()));
+    let j_test = if j > p && !degenerate {
         let pmat = Mat::<f64>::identity(j, j) - &ab;
         let s = &(&pmat * &vm) * pmat.transpose();
         let d: Vec<f64> = (0..j).map(|i| vm[(i, i)].sqrt()).collect();

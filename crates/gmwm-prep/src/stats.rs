@@ -14,13 +14,18 @@ pub fn z_two_sided(alpha: f64) -> f64 {
     Normal::standard().inverse_cdf(1.0 - alpha / 2.0)
 }
 
-/// Upper-tail probability P(χ²_dof > x) (the J-test p-value); NaN when dof ≤ 0.
+/// Upper-tail probability P(χ²_dof > x) (the J-test p-value); NaN when dof ≤ 0 or x is NaN
+/// (an undefined statistic must not read as a perfect fit).
 ///
 /// ```
 /// let p = gmwm_prep::stats::chi2_sf(3.841458820694124, 1.0);
 /// assert!((p - 0.05).abs() < 1e-9);
+/// assert!(gmwm_prep::stats::chi2_sf(f64::NAN, 3.0).is_nan());
 /// ```
 pub fn chi2_sf(x: f64, dof: f64) -> f64 {
+    if x.is_nan() {
+        return f64::NAN;
+    }
     match ChiSquared::new(dof) {
         Ok(d) => d.sf(x.max(0.0)),
         Err(_) => f64::NAN,
