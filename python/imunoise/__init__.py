@@ -30,6 +30,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import warnings
 from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
@@ -459,6 +460,23 @@ def avar(
     return res
 
 
+def _template_text(model: Union[str, "Model"]) -> str:
+    """The model's text for a fit; warns (``UserWarning``) when it gives parameter values,
+    which the fit does not use (it estimates every parameter), as the command notes it."""
+    text = str(model)
+    try:
+        given = any("(" in c for c in Model(text).components)
+    except Exception:  # a bad model: the native call raises the ModelError
+        return text
+    if given:
+        warnings.warn(
+            f"model {text} gives parameter values; the fit estimates every parameter and "
+            "does not use them",
+            stacklevel=3,
+        )
+    return text
+
+
 def fit(
     x_or_avar_result: Any,
     rate: Optional[float] = None,
@@ -496,7 +514,7 @@ def fit(
     >>> a.parameters == fs[0].parameters
     True
     """
-    model = str(model)
+    model = _template_text(model)
     if isinstance(x_or_avar_result, (AvarResult, list, tuple)) and (
         isinstance(x_or_avar_result, AvarResult)
         or (len(x_or_avar_result) > 0 and all(isinstance(r, AvarResult) for r in x_or_avar_result))
@@ -659,8 +677,8 @@ def analyze(
     True
     """
     common = (
-        str(model), method, bool(select), int(bootstrap), weighting, int(seed), float(alpha),
-        bool(robust), float(efficiency), float(record_halfwidth),
+        _template_text(model), method, bool(select), int(bootstrap), weighting, int(seed),
+        float(alpha), bool(robust), float(efficiency), float(record_halfwidth),
     )
     out_s = None if out is None else str(out)
     if isinstance(path_or_array, (str, bytes)) or hasattr(path_or_array, "__fspath__"):

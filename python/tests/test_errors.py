@@ -78,3 +78,15 @@ def test_analyze_checks_its_settings_before_reading(tmp_path):
     with pytest.raises(imunoise.ModelError, match="FOO"):
         imunoise.analyze(missing, rate=1.0, out=str(tmp_path / "report"), model="WN+FOO")
     assert not (tmp_path / "report").exists()
+
+
+def test_values_in_the_model_template_are_named_as_unused():
+    x = imunoise.simulate("WN(sigma2=1e-4) + RW(gamma2=1e-9)", 4096, 100.0, seed=2)
+    with pytest.warns(UserWarning, match="does not use them"):
+        with_values = imunoise.fit(x, 100.0, model="WN(sigma2=5) + RW")
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning for the bare template
+        bare = imunoise.fit(x, 100.0, model="WN+RW")
+    assert with_values.parameters == bare.parameters
