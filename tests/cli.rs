@@ -1133,3 +1133,36 @@ fn a_drift_only_model_has_no_j_test_and_says_why() {
         "{j}"
     );
 }
+
+/// Two channels of the same name (a header `gyro_x,gyro_x`, or `--names a,a`) used to write
+/// one set of plots over the other in `analyze`'s folder; now the read refuses them, naming
+/// both channels, and `--names` resolves it.
+#[test]
+fn equal_channel_names_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows: String = (0..3000)
+        .map(|i| format!("{},{}\n", (i * 7) % 11, (i * 5) % 13))
+        .collect();
+    let data = write(
+        dir.path(),
+        "dup.csv",
+        format!("gyro_x,gyro_x\n{rows}").as_bytes(),
+    );
+    let d = data.to_str().unwrap();
+    let out_dir = dir.path().join("report");
+    let o = out_dir.to_str().unwrap();
+    for args in [
+        vec!["avar", d, "--rate", "100"],
+        vec!["analyze", d, "--rate", "100", "-o", o],
+        vec!["avar", d, "--rate", "100", "--names", "a,a"],
+    ] {
+        let out = imunoise(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("channels 1 and 2 are both named"),
+            "{args:?}: {err}"
+        );
+    }
+    imunoise_ok(&["avar", d, "--rate", "100", "--names", "gx,gy"]);
+}

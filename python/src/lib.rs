@@ -137,7 +137,10 @@ impl<'py> Channels<'py> {
 
 fn channel_names(names: Option<Vec<String>>, k: usize) -> PyResult<Vec<String>> {
     match names {
-        Some(n) if n.len() == k => Ok(n),
+        Some(n) if n.len() == k => {
+            imunoise::pipeline::read::unique_names("<array>", &n).map_err(py_err)?;
+            Ok(n)
+        }
         Some(n) => Err(usage(format!("{} names given for {k} channels", n.len()))),
         None => Ok((1..=k).map(|i| format!("col{i}")).collect()),
     }

@@ -90,3 +90,9 @@ def test_values_in_the_model_template_are_named_as_unused():
         warnings.simplefilter("error")  # no warning for the bare template
         bare = imunoise.fit(x, 100.0, model="WN+RW")
     assert with_values.parameters == bare.parameters
+
+
+def test_equal_channel_names_are_refused():
+    x = imunoise.simulate("WN(sigma2=1e-4)", 4096, 100.0, seed=2, channels=2)
+    with pytest.raises(imunoise.UsageError, match="both named"):
+        imunoise.analyze(x, 100.0, names=["gx", "gx"])

@@ -445,18 +445,22 @@ impl Input {
     /// The channel names after `--names` (the given ones, one per channel), or `names` as
     /// they are without it.
     pub(crate) fn renamed(&self, names: Vec<String>) -> Result<Vec<String>> {
-        let Some(list) = &self.names else {
-            return Ok(names);
+        let names = match &self.names {
+            None => names,
+            Some(list) => {
+                let given: Vec<String> = list.split(',').map(|n| n.trim().to_string()).collect();
+                if given.len() != names.len() {
+                    return Err(Error::Usage(format!(
+                        "--names gives {} names for {} channels",
+                        given.len(),
+                        names.len()
+                    )));
+                }
+                given
+            }
         };
-        let given: Vec<String> = list.split(',').map(|n| n.trim().to_string()).collect();
-        if given.len() != names.len() {
-            return Err(Error::Usage(format!(
-                "--names gives {} names for {} channels",
-                given.len(),
-                names.len()
-            )));
-        }
-        Ok(given)
+        unique_names(&self.file.display().to_string(), &names)?;
+        Ok(names)
     }
 
     fn read_log(&self, fmt: logs::LogFormat, ui: &Ui) -> Result<Vec<Table>> {
@@ -501,4 +505,28 @@ impl Input {
         }
         Ok(out)
     }
+}
+
+/// Checks that the channel names of `what` (a file, or `<array>`) differ: they key the
+/// outputs (plots, `results.json`, config files), and two equal names would overwrite each
+/// other's files.
+///
+/// ```
+/// use imunoise::pipeline::read::unique_names;
+/// assert!(unique_names("imu.csv", &["gx".into(), "gy".into()]).is_ok());
+/// let e = unique_names("imu.csv", &["gx".into(), "gy".into(), "gx".into()]).unwrap_err();
+/// assert!(e.to_string().contains("channels 1 and 3 are both named \"gx\""));
+/// ```
+pub fn unique_names(what: &str, names: &[String]) -> Result<()> {
+    for (j, n) in names.iter().enumerate() {
+        if let Some(i) = names[..j].iter().position(|m| m == n) {
+            return Err(Error::Usage(format!(
+                "{what}: channels {} and {} are both named {n:?}; the names key the outputs \
+                 (plots, results.json, config files), so they must differ: give --names",
+                i + 1,
+                j + 1
+            )));
+        }
+    }
+    Ok(())
 }
