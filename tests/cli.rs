@@ -1166,3 +1166,39 @@ fn equal_channel_names_are_refused() {
     }
     imunoise_ok(&["avar", d, "--rate", "100", "--names", "gx,gy"]);
 }
+
+/// Channel names that differ but map to the same file name (`gyro x` and `gyro_x` both give
+/// `gyro_x`) get plot files of their own: the second is numbered.
+#[test]
+fn names_that_share_a_file_name_get_their_own_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows: String = (0..3000)
+        .map(|i| format!("{},{}\n", (i * 7) % 11, (i * 5) % 13))
+        .collect();
+    let data = write(
+        dir.path(),
+        "two.csv",
+        format!("gyro x,gyro_x\n{rows}").as_bytes(),
+    );
+    let out_dir = dir.path().join("report");
+    imunoise_ok(&[
+        "analyze",
+        data.to_str().unwrap(),
+        "--rate",
+        "100",
+        "-o",
+        out_dir.to_str().unwrap(),
+    ]);
+    for f in [
+        "adev_gyro_x.svg",
+        "adev_gyro_x_2.svg",
+        "series_gyro_x_2.svg",
+        "acf_gyro_x_2.svg",
+    ] {
+        assert!(out_dir.join(f).is_file(), "{f}");
+    }
+    // and the two plots are of the two channels
+    let a = std::fs::read_to_string(out_dir.join("adev_gyro_x.svg")).unwrap();
+    let b = std::fs::read_to_string(out_dir.join("adev_gyro_x_2.svg")).unwrap();
+    assert!(a.contains("gyro x:") && b.contains("gyro_x:"));
+}

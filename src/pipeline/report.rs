@@ -231,6 +231,30 @@ pub fn file_safe(name: &str) -> String {
         .collect()
 }
 
+/// The file-name stems of the channels `names`: [`file_safe`], with a stem that an earlier
+/// channel already took suffixed by the channel's number (`gyro x` and `gyro_x` would both
+/// be `gyro_x`, and the second channel's plots would overwrite the first's).
+///
+/// ```
+/// use imunoise::pipeline::report::file_stems;
+/// let names = ["gyro x".to_string(), "gyro_x".to_string(), "acc".to_string()];
+/// assert_eq!(file_stems(&names), ["gyro_x", "gyro_x_2", "acc"]);
+/// ```
+pub fn file_stems(names: &[String]) -> Vec<String> {
+    let mut out: Vec<String> = Vec::with_capacity(names.len());
+    for (k, name) in names.iter().enumerate() {
+        let mut stem = file_safe(name);
+        if out.contains(&stem) {
+            stem = format!("{stem}_{}", k + 1);
+            while out.contains(&stem) {
+                stem.push('_');
+            }
+        }
+        out.push(stem);
+    }
+    out
+}
+
 /// A number with 4 significant digits: fixed notation between 1e-3 and 1e5, else scientific.
 ///
 /// ```
@@ -902,12 +926,13 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
     let mut series_html = String::from("<h2>Time series</h2><div class=plots>\n");
     let mut acf_html = String::from("<h2>Autocorrelation</h2><div class=plots>\n");
     // the channels' plots in parallel (each renders three SVGs and PNGs), appended in order
+    let stems = file_stems(inp.names);
     let parts = inp
         .names
         .par_iter()
         .enumerate()
         .map(|(k, name)| -> Result<[String; 3]> {
-            let stem = file_safe(name);
+            let stem = &stems[k];
             let (_, av) = &inp.curves[k];
             let f = &inp.fits[k];
             let tau: Vec<f64> = av.points.iter().map(|p| p.tau).collect();
@@ -1077,6 +1102,7 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
         robust.first().map_or(0.0, |r| r.1.efficiency),
         robust.first().map_or(0.0, |r| r.1.biweight.c),
     );
+    let stems = file_stems(names);
     for (k, name) in names.iter().enumerate() {
         let (_, r) = &robust[k];
         let chk = &checks[k];
@@ -1207,7 +1233,7 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
             marks: Vec::new(),
         };
         let svg = adev_svg(&plot, &format!("rob{k}"));
-        write_plot(dir, &format!("adev_robust_{}", file_safe(name)), &svg)?;
+        write_plot(dir, &format!("adev_robust_{}", stems[k]), &svg)?;
         h.push_str("<div class=plots>");
         h.push_str(&svg);
         h.push_str("</div>\n");
