@@ -386,9 +386,12 @@ impl ImuNoise {
                 Unit::G => gmwm_prep::units::STANDARD_GRAVITY,
                 Unit::RadPerSec | Unit::MetrePerSec2 => 1.0,
                 _ => {
+                    let u = match unit.symbol() {
+                        "" => "none".to_string(),
+                        s => format!("{s:?}"),
+                    };
                     out.skipped.push(format!(
-                        "{name}: unit {} is neither an angular rate nor an acceleration (give --unit to analyze)",
-                        unit.symbol()
+                        "{name}: unit {u} is neither an angular rate nor an acceleration (give --unit to analyze)"
                     ));
                     continue;
                 }

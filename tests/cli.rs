@@ -1202,3 +1202,35 @@ fn names_that_share_a_file_name_get_their_own_plots() {
     let b = std::fs::read_to_string(out_dir.join("adev_gyro_x_2.svg")).unwrap();
     assert!(a.contains("gyro x:") && b.contains("gyro_x:"));
 }
+
+/// `export` of a results.json with no angular-rate or acceleration channel used to write five
+/// config files of "not estimated" and exit 0; now it says there is nothing to export.
+#[test]
+fn export_of_no_imu_channel_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows: String = (0..3000).map(|i| format!("{}\n", (i * 7) % 11)).collect();
+    let data = write(dir.path(), "x.csv", format!("x\n{rows}").as_bytes());
+    let report = dir.path().join("report");
+    imunoise_ok(&[
+        "analyze",
+        data.to_str().unwrap(),
+        "--rate",
+        "100",
+        "-o",
+        report.to_str().unwrap(),
+    ]);
+    let out_dir = dir.path().join("config");
+    let out = imunoise(&[
+        "export",
+        report.to_str().unwrap(),
+        "-o",
+        out_dir.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("nothing to export") && err.contains("x: unit none"),
+        "{err}"
+    );
+    assert!(!out_dir.exists());
+}

@@ -39,6 +39,15 @@ pub use crate::export::load;
 pub fn run(args: &ExportArgs, ui: &Ui) -> Result<()> {
     let targets = Target::parse_list(&args.to)?;
     let noise = load(&args.results)?;
+    // an explicit export of nothing: say so instead of writing files of "not estimated"
+    if noise.gyro.is_empty() && noise.acc.is_empty() {
+        return Err(crate::error::Error::Usage(format!(
+            "{}: nothing to export, as no channel is an angular rate or an acceleration ({}); \
+             analyze with the channels' unit (--unit, or a name suffix such as _rads or _mps2)",
+            args.results.display(),
+            noise.skipped.join("; ")
+        )));
+    }
     let dir = args.out.clone().unwrap_or_else(|| {
         if args.results.is_dir() {
             args.results.clone()
