@@ -1057,14 +1057,10 @@ fn settings_are_checked_before_the_input_is_read() {
     }
 }
 
-/// Values written into `--model` are not used by the fit (every parameter is estimated); the
-/// command says so instead of dropping them silently, and the fit is the one of the bare
-/// template.
-#[test]
-fn values_in_the_model_template_are_named_as_unused() {
-    let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("sim.csv");
-    let d = data.to_str().unwrap();
+/// A CSV of 4000 samples of WN(σ² = 1e-4) + RW(γ² = 1e-8) at 100 Hz (seed 3), made by the
+/// command itself, in `dir`.
+fn simulated_wn_rw(dir: &Path) -> PathBuf {
+    let data = dir.join("sim.csv");
     imunoise_ok(&[
         "simulate",
         "--model",
@@ -1076,8 +1072,19 @@ fn values_in_the_model_template_are_named_as_unused() {
         "--seed",
         "3",
         "-o",
-        d,
+        data.to_str().unwrap(),
     ]);
+    data
+}
+
+/// Values written into `--model` are not used by the fit (every parameter is estimated); the
+/// command says so instead of dropping them silently, and the fit is the one of the bare
+/// template.
+#[test]
+fn values_in_the_model_template_are_named_as_unused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = simulated_wn_rw(dir.path());
+    let d = data.to_str().unwrap();
     let with = imunoise_ok(&["fit", d, "--rate", "100", "--model", "WN(sigma2=5)+RW"]);
     let bare = imunoise_ok(&["fit", d, "--rate", "100", "--model", "WN+RW"]);
     let note = String::from_utf8_lossy(&with.stderr);
@@ -1093,21 +1100,8 @@ fn values_in_the_model_template_are_named_as_unused() {
 #[test]
 fn a_drift_only_model_has_no_j_test_and_says_why() {
     let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("sim.csv");
+    let data = simulated_wn_rw(dir.path());
     let d = data.to_str().unwrap();
-    imunoise_ok(&[
-        "simulate",
-        "--model",
-        "WN(sigma2=1e-4)+RW(gamma2=1e-8)",
-        "-n",
-        "4000",
-        "--rate",
-        "100",
-        "--seed",
-        "3",
-        "-o",
-        d,
-    ]);
     let out = imunoise_ok(&[
         "fit", d, "--rate", "100", "--model", "DR", "--format", "json",
     ]);
@@ -1134,20 +1128,33 @@ fn a_drift_only_model_has_no_j_test_and_says_why() {
     );
 }
 
+/// `imunoise analyze DATA --rate 100 -o OUT`, which must succeed.
+fn analyze_at_100_hz(data: &Path, out: &Path) {
+    imunoise_ok(&[
+        "analyze",
+        data.to_str().unwrap(),
+        "--rate",
+        "100",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+}
+
+/// A CSV `name` in `dir` of two integer columns (3000 rows) under `header`.
+fn two_columns(dir: &Path, name: &str, header: &str) -> PathBuf {
+    let rows: String = (0..3000)
+        .map(|i| format!("{},{}\n", (i * 7) % 11, (i * 5) % 13))
+        .collect();
+    write(dir, name, format!("{header}\n{rows}").as_bytes())
+}
+
 /// Two channels of the same name (a header `gyro_x,gyro_x`, or `--names a,a`) used to write
 /// one set of plots over the other in `analyze`'s folder; now the read refuses them, naming
 /// both channels, and `--names` resolves it.
 #[test]
 fn equal_channel_names_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let rows: String = (0..3000)
-        .map(|i| format!("{},{}\n", (i * 7) % 11, (i * 5) % 13))
-        .collect();
-    let data = write(
-        dir.path(),
-        "dup.csv",
-        format!("gyro_x,gyro_x\n{rows}").as_bytes(),
-    );
+    let data = two_columns(dir.path(), "dup.csv", "gyro_x,gyro_x");
     let d = data.to_str().unwrap();
     let out_dir = dir.path().join("report");
     let o = out_dir.to_str().unwrap();
@@ -1172,23 +1179,9 @@ fn equal_channel_names_are_refused() {
 #[test]
 fn names_that_share_a_file_name_get_their_own_plots() {
     let dir = tempfile::tempdir().unwrap();
-    let rows: String = (0..3000)
-        .map(|i| format!("{},{}\n", (i * 7) % 11, (i * 5) % 13))
-        .collect();
-    let data = write(
-        dir.path(),
-        "two.csv",
-        format!("gyro x,gyro_x\n{rows}").as_bytes(),
-    );
+    let data = two_columns(dir.path(), "two.csv", "gyro x,gyro_x");
     let out_dir = dir.path().join("report");
-    imunoise_ok(&[
-        "analyze",
-        data.to_str().unwrap(),
-        "--rate",
-        "100",
-        "-o",
-        out_dir.to_str().unwrap(),
-    ]);
+    analyze_at_100_hz(&data, &out_dir);
     for f in [
         "adev_gyro_x.svg",
         "adev_gyro_x_2.svg",
@@ -1211,14 +1204,7 @@ fn export_of_no_imu_channel_is_refused() {
     let rows: String = (0..3000).map(|i| format!("{}\n", (i * 7) % 11)).collect();
     let data = write(dir.path(), "x.csv", format!("x\n{rows}").as_bytes());
     let report = dir.path().join("report");
-    imunoise_ok(&[
-        "analyze",
-        data.to_str().unwrap(),
-        "--rate",
-        "100",
-        "-o",
-        report.to_str().unwrap(),
-    ]);
+    analyze_at_100_hz(&data, &report);
     let out_dir = dir.path().join("config");
     let out = imunoise(&[
         "export",

@@ -78,13 +78,8 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         efficiency: args.robust.efficiency,
         record_halfwidth: args.record_halfwidth,
     };
-    settings.check()?;
-    if let Some(note) = settings
-        .effective_fit()
-        .check()
-        .ok()
-        .and_then(|t| crate::pipeline::fit::template_values_note(&t))
-    {
+    let template = settings.check()?;
+    if let Some(note) = crate::pipeline::fit::template_values_note(&template) {
         ui.note(note);
     }
     let targets = args

@@ -85,7 +85,8 @@ impl AnalyzeSettings {
 
     /// Checks the settings before any data is read ([`FitSettings::check`] on
     /// [`effective_fit`](Self::effective_fit), the robust efficiency, the "how long to record"
-    /// target), so that a bad option is reported at once rather than after the read.
+    /// target), so that a bad option is reported at once rather than after the read; returns
+    /// the model template that will be fitted.
     ///
     /// ```
     /// use imunoise::pipeline::analyze::AnalyzeSettings;
@@ -96,7 +97,7 @@ impl AnalyzeSettings {
     /// typo.fit.model = "WN+FOO".into();
     /// assert!(typo.check().is_err());
     /// ```
-    pub fn check(&self) -> Result<()> {
+    pub fn check(&self) -> Result<processes::Model> {
         let h = self.record_halfwidth;
         if !(h > 0.0 && h < 1.0) {
             return Err(Error::Usage(format!(
@@ -104,7 +105,7 @@ impl AnalyzeSettings {
             )));
         }
         super::fit::robust_efficiency(self.robust, self.efficiency)?;
-        self.effective_fit().check().map(|_| ())
+        self.effective_fit().check()
     }
 }
 
