@@ -369,6 +369,8 @@ pub fn estimate(n: usize, seed: u64, bootstrap: usize, ui: &Ui) -> Result<DemoRu
         seed: seed.wrapping_add(1),
         alpha,
         weighting: super::fit::FitWeighting::Diagonal,
+        tau_min: None,
+        tau_max: None,
     };
     let fits = super::fit::fit_all(&curves, &data.units, &settings, ui)?;
     // Simultaneous intervals: Bonferroni over every parameter of every channel.
