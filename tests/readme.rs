@@ -175,11 +175,11 @@ fn write_bag(path: &Path, n: usize, rate: f64) {
         .unwrap();
     let ch = w.add_channel(s, "/imu0", "cdr", &BTreeMap::new()).unwrap();
     let dt = (1e9 / rate).round() as i64;
-    for i in 0..n {
+    for (i, &gyro_x) in c[0].iter().enumerate() {
         let stamp_ns = 1_700_000_000_000_000_000 + i as i64 * dt;
         let sample = ImuSample {
             stamp_ns,
-            gyro: [c[0][i], c[1][i], c[2][i]],
+            gyro: [gyro_x, c[1][i], c[2][i]],
             acc: [c[3][i], c[4][i], c[5][i]],
         };
         w.write_to_known_channel(
