@@ -164,6 +164,25 @@ impl Target {
     }
 }
 
+/// A finite factor > 0 (`--inflate-noise`, `--inflate-walk`): a number or a fraction `a/b`.
+///
+/// ```
+/// use imunoise::export::parse_inflation;
+/// assert_eq!(parse_inflation("2"), Ok(2.0));
+/// assert_eq!(parse_inflation("1/2"), Ok(0.5));
+/// assert!(parse_inflation("-1").is_err() && parse_inflation("0").is_err());
+/// ```
+pub fn parse_inflation(s: &str) -> std::result::Result<f64, String> {
+    let v = crate::pipeline::read::parse_factor(s)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "the factor must be > 0 (it multiplies a noise density), got {s}"
+        ))
+    }
+}
+
 /// The options shared by `imunoise export` and `analyze --export`.
 ///
 /// ```
@@ -182,10 +201,10 @@ pub struct ExportOptions {
     #[arg(long, value_enum, default_value = "max")]
     pub aggregate: Aggregate,
     /// Multiply the white-noise densities by F > 0 (e.g. 2 for a VIO; default 1).
-    #[arg(long, value_name = "F", default_value = "1", value_parser = crate::cli::parse_inflation)]
+    #[arg(long, value_name = "F", default_value = "1", value_parser = parse_inflation)]
     pub inflate_noise: f64,
     /// Multiply the random-walk densities by F > 0 (e.g. 10 for a VIO; default 1).
-    #[arg(long, value_name = "F", default_value = "1", value_parser = crate::cli::parse_inflation)]
+    #[arg(long, value_name = "F", default_value = "1", value_parser = parse_inflation)]
     pub inflate_walk: f64,
     /// The `rostopic` written into Kalibr/OpenVINS files (default: the analysed topic, else /imu0).
     #[arg(long, value_name = "TOPIC")]

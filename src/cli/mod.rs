@@ -94,50 +94,8 @@ pub fn run(cli: Cli) -> Result<()> {
 
 pub use crate::ui::Ui;
 
-/// A sampling rate in Hz: a finite number > 0.
-pub fn parse_rate(s: &str) -> std::result::Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("{s:?} is not a number"))?;
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(format!(
-            "the sampling rate must be a finite number > 0 Hz, got {s}"
-        ))
-    }
-}
-
-/// A finite non-zero factor: a number or a fraction `a/b`.
-pub fn parse_factor(s: &str) -> std::result::Result<f64, String> {
-    let num = |t: &str| {
-        t.trim()
-            .parse::<f64>()
-            .map_err(|_| format!("{s:?} is not a number or a fraction a/b"))
-    };
-    let v = match s.split_once('/') {
-        Some((a, b)) => num(a)? / num(b)?,
-        None => num(s)?,
-    };
-    if v.is_finite() && v != 0.0 {
-        Ok(v)
-    } else {
-        Err(format!("the factor must be finite and non-zero, got {s}"))
-    }
-}
-
-/// A finite factor > 0 (`--inflate-noise`, `--inflate-walk`): a number or a fraction `a/b`.
-pub fn parse_inflation(s: &str) -> std::result::Result<f64, String> {
-    let v = parse_factor(s)?;
-    if v > 0.0 {
-        Ok(v)
-    } else {
-        Err(format!(
-            "the factor must be > 0 (it multiplies a noise density), got {s}"
-        ))
-    }
-}
+pub use crate::export::parse_inflation;
+pub use crate::pipeline::read::{parse_factor, parse_rate};
 
 /// The input file and how to read it (shared by the analysis subcommands).
 #[derive(Debug, Clone, Args)]

@@ -530,3 +530,49 @@ pub fn unique_names(what: &str, names: &[String]) -> Result<()> {
     }
     Ok(())
 }
+
+/// A sampling rate in Hz (`--rate`): a finite number > 0.
+///
+/// ```
+/// use imunoise::pipeline::read::parse_rate;
+/// assert_eq!(parse_rate(" 200 "), Ok(200.0));
+/// assert!(parse_rate("0").is_err() && parse_rate("inf").is_err() && parse_rate("x").is_err());
+/// ```
+pub fn parse_rate(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "the sampling rate must be a finite number > 0 Hz, got {s}"
+        ))
+    }
+}
+
+/// A finite non-zero factor (`--scale`): a number or a fraction `a/b`.
+///
+/// ```
+/// use imunoise::pipeline::read::parse_factor;
+/// assert_eq!(parse_factor("1/131"), Ok(1.0 / 131.0));
+/// assert_eq!(parse_factor("-2"), Ok(-2.0));
+/// assert!(parse_factor("0").is_err() && parse_factor("1/0").is_err());
+/// ```
+pub fn parse_factor(s: &str) -> std::result::Result<f64, String> {
+    let num = |t: &str| {
+        t.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("{s:?} is not a number or a fraction a/b"))
+    };
+    let v = match s.split_once('/') {
+        Some((a, b)) => num(a)? / num(b)?,
+        None => num(s)?,
+    };
+    if v.is_finite() && v != 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("the factor must be finite and non-zero, got {s}"))
+    }
+}

@@ -72,18 +72,6 @@ fn vm_hwm_mb() -> f64 {
         .unwrap_or(f64::NAN)
 }
 
-/// One vectorised summing pass over `x` (16 lanes): the memory-bandwidth baseline.
-pub(crate) fn one_pass(x: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 16];
-    let mut it = x.chunks_exact(16);
-    for c in &mut it {
-        for l in 0..16 {
-            acc[l] += c[l];
-        }
-    }
-    acc.iter().sum::<f64>() + it.remainder().iter().sum::<f64>()
-}
-
 const PY: &str = r#"
 import sys, time, json, resource
 import numpy as np, allantools
@@ -314,7 +302,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             f.write_all(&bytes).map_err(|e| e.to_string())?;
         }
         let (t_pass, _) = best_of(3, || {
-            std::hint::black_box(one_pass(std::hint::black_box(&x)))
+            std::hint::black_box(crate::avar_e2e::one_pass(std::hint::black_box(&x)))
         });
         let (t_dy, _) = best_of(3, || {
             allan_variance(&x, 1.0, &no_ci).map(|a| a.points.len())
