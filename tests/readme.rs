@@ -5,6 +5,8 @@
 //! - The blocks marked `<!-- runs in tests/readme.rs -->` (the five-minute tour) run as they
 //!   are, in a fresh folder holding a `run.mcap` written here from simulated data, and produce
 //!   what the README says they do.
+//! - The README has at most 300 lines, and every relative link of the README and `docs/`
+//!   (file and heading) resolves.
 //!
 //! (The README's Python blocks run in `python/tests/test_readme.py`.)
 #![cfg(feature = "mcap")]
@@ -293,4 +295,69 @@ fn the_readme_tour_runs_on_a_bag() {
         !vio.join("basalt_imu.json").exists(),
         "--to kalibr,vins wrote basalt"
     );
+}
+
+/// GitHub's anchor of a heading: lower case, spaces to `-`, other punctuation dropped.
+fn slug(heading: &str) -> String {
+    heading
+        .trim()
+        .to_lowercase()
+        .chars()
+        .filter_map(|c| match c {
+            ' ' => Some('-'),
+            c if c.is_alphanumeric() || c == '-' || c == '_' => Some(c),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn the_readme_is_short_and_its_links_and_the_docs_links_resolve() {
+    let docs = documents();
+    let readme = &docs[0].1;
+    let lines = readme.lines().count();
+    assert!(
+        lines <= 300,
+        "README.md has {lines} lines (at most 300: details go to docs/)"
+    );
+    let anchors = |text: &str| -> Vec<String> {
+        text.lines()
+            .filter(|l| l.starts_with('#'))
+            .map(|l| slug(l.trim_start_matches('#')))
+            .collect()
+    };
+    let mut checked = 0;
+    for (path, text) in &docs {
+        let dir = path.parent().unwrap();
+        let mut rest = text.as_str();
+        while let Some(k) = rest.find("](") {
+            rest = &rest[k + 2..];
+            let Some(end) = rest.find(')') else { break };
+            let target = &rest[..end];
+            if target.starts_with("http") || target.contains(' ') {
+                continue;
+            }
+            let (file, anchor) = target.split_once('#').unwrap_or((target, ""));
+            let file_path = if file.is_empty() {
+                path.clone()
+            } else {
+                dir.join(file)
+            };
+            assert!(
+                file_path.exists(),
+                "{}: link to {target}: no such file",
+                path.display()
+            );
+            if !anchor.is_empty() {
+                let t = std::fs::read_to_string(&file_path).unwrap();
+                assert!(
+                    anchors(&t).iter().any(|a| a == anchor),
+                    "{}: link to {target}: no such heading",
+                    path.display()
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 10, "only {checked} links found");
 }
