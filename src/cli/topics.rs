@@ -24,6 +24,10 @@ pub struct TopicsArgs {
     /// The log format when the extension does not tell.
     #[arg(long, value_name = "FORMAT", value_enum)]
     pub log_format: Option<logs::LogFormat>,
+    /// Refuse a cut-off log (one that ends inside a message) instead of listing its complete
+    /// messages with a warning.
+    #[arg(long)]
+    pub strict: bool,
     /// Output format (table or json; csv is the table with commas).
     #[arg(long, value_enum, default_value = "table")]
     pub format: Format,
@@ -42,7 +46,7 @@ pub fn run(args: &TopicsArgs, ui: &Ui) -> Result<()> {
             ))
         })?;
     let pb = ui.spinner(format!("reading {file}"));
-    let reader = logs::open(&path, fmt)?;
+    let reader = logs::open_checked(&path, fmt, args.strict, ui)?;
     let all = logs::summarize(reader.as_ref());
     pb.finish_and_clear();
     let all = all?;

@@ -9,11 +9,15 @@
 //! Layout: each message is `A3 95 type` then a payload whose size and field types come
 //! from the FMT message (type 128: type u8, length u8, name `char[4]`, format `char[16]`,
 //! labels `char[64]`). IMU messages are those named `IMU…` with `TimeUS` (µs), `GyrX/Y/Z`
-//! (rad/s) and `AccX/Y/Z` (m/s²); an `I` field is the instance (`IMU[1]`), older logs use
-//! `IMU2`, `IMU3`.
+//! (rad/s) and `AccX/Y/Z` (m/s²); an `I` field is the instance (`IMU[1]`). Older firmware
+//! logs the instances as the messages `IMU`, `IMU2`, `IMU3` (no `I` field): these are the
+//! topics `IMU[0]`, `IMU[1]`, `IMU[2]` (type `IMU`, `IMU2`, `IMU3`).
+//!
+//! A log cut off inside a message (the power went while it was written: the common case)
+//! is read up to its last complete message; [`LogReader::truncation`] says where it is cut.
 
 use super::imu_msg::ImuSample;
-use super::{ImuSeries, LogFormat, LogReader, TopicInfo, map_file};
+use super::{ImuSeries, LogFormat, LogReader, TopicInfo, Truncation, map_file};
 use crate::error::{Error, Result};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -54,6 +58,8 @@ use std::path::Path;
 pub struct DataflashReader {
     file: String,
     map: memmap2::Mmap,
+    /// Where the file is cut off (from the walk at open).
+    truncation: Option<Truncation>,
 }
 
 /// Size of a DataFlash field type character.
@@ -76,6 +82,11 @@ struct Fmt {
     len: usize,
     /// For IMU messages: offsets of TimeUS, GyrX..Z, AccX..Z (f32) and the instance byte.
     imu: Option<ImuLayout>,
+    /// Offset of a `TimeUS` field (u64 µs).
+    time: Option<usize>,
+    /// The instance of an old-style IMU message without an `I` field: 0 for `IMU`, k − 1
+    /// for `IMUk`.
+    old_instance: Option<u32>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -119,6 +130,11 @@ fn parse_fmt(p: &[u8]) -> Option<(u8, Fmt)> {
             .filter(|(_, c)| *c == want)
             .map(|(o, _)| *o)
     };
+    let old_instance = match name.strip_prefix("IMU") {
+        Some("") => Some(0),
+        Some(k) if k.len() == 1 => k.parse::<u32>().ok().filter(|&k| k >= 2).map(|k| k - 1),
+        _ => None,
+    };
     let imu = (|| {
         if !name.starts_with("IMU") {
             return None;
@@ -130,7 +146,17 @@ fn parse_fmt(p: &[u8]) -> Option<(u8, Fmt)> {
             instance: at("I", b'B'),
         })
     })();
-    Some((ty, Fmt { name, len, imu }))
+    let old_instance = old_instance.filter(|_| imu.is_some_and(|l| l.instance.is_none()));
+    Some((
+        ty,
+        Fmt {
+            time: at("TimeUS", b'Q'),
+            name,
+            len,
+            imu,
+            old_instance,
+        },
+    ))
 }
 
 impl DataflashReader {
@@ -176,7 +202,13 @@ impl DataflashReader {
                     .to_string(),
             });
         }
-        Ok(DataflashReader { file, map })
+        let mut r = DataflashReader {
+            file,
+            map,
+            truncation: None,
+        };
+        r.truncation = r.walk(|_, _| {})?;
+        Ok(r)
     }
 
     fn corrupt(&self, at: usize, what: &str) -> Error {
@@ -186,8 +218,9 @@ impl DataflashReader {
         }
     }
 
-    /// Walks every message; `on(fmt, message bytes including the header)`.
-    fn walk(&self, mut on: impl FnMut(&Fmt, &[u8])) -> Result<()> {
+    /// Walks every message; `on(fmt, message bytes including the header)`. Returns where
+    /// the file is cut off: a last message (or message header) that the file ends inside.
+    fn walk(&self, mut on: impl FnMut(&Fmt, &[u8])) -> Result<Option<Truncation>> {
         let b = &self.map[..];
         let mut fmts: Vec<Option<Fmt>> = vec![None; 256];
         // FMT describes itself; a log normally starts with that FMT, but be safe.
@@ -195,11 +228,24 @@ impl DataflashReader {
             name: "FMT".into(),
             len: 89,
             imu: None,
+            time: None,
+            old_instance: None,
         });
+        let mut last_stamp = None;
         let mut p = 0;
         while p < b.len() {
-            if b.len() - p < 3 {
-                return Err(self.corrupt(p, "a message header is cut short"));
+            let rest = &b[p..];
+            let cut = || Truncation {
+                offset: p as u64,
+                dropped_bytes: (b.len() - p) as u64,
+                last_stamp_ns: last_stamp,
+            };
+            if rest.len() < 3 {
+                // a message header cut short, if what is there can start one
+                if rest[0] == 0xA3 && rest.get(1).is_none_or(|&x| x == 0x95) {
+                    return Ok(Some(cut()));
+                }
+                return Err(self.corrupt(p, "expected a message header (A3 95)"));
             }
             if b[p] != 0xA3 || b[p + 1] != 0x95 {
                 return Err(self.corrupt(p, "expected a message header (A3 95)"));
@@ -208,27 +254,42 @@ impl DataflashReader {
             let Some(f) = &fmts[ty] else {
                 return Err(self.corrupt(p, &format!("message type {ty} has no FMT before it")));
             };
-            let m = b.get(p..p + f.len).ok_or_else(|| {
-                self.corrupt(p, &format!("the last {} message is cut short", f.name))
-            })?;
+            let Some(m) = b.get(p..p + f.len) else {
+                return Ok(Some(cut()));
+            };
             let len = f.len.max(3);
             if ty == 0x80 {
                 let (t, nf) = parse_fmt(&m[3..])
                     .ok_or_else(|| self.corrupt(p, "a FMT message that cannot be parsed"))?;
                 fmts[t as usize] = Some(nf);
             } else {
+                if let Some(o) = f.time {
+                    let us = u64::from_le_bytes(m[o..o + 8].try_into().expect("8"));
+                    last_stamp = Some((us as i64).saturating_mul(1000));
+                }
                 on(f, m);
             }
             p += len;
         }
-        Ok(())
+        Ok(None)
     }
 }
 
 fn topic_of(f: &Fmt, m: &[u8]) -> String {
-    match f.imu.and_then(|l| l.instance) {
-        Some(i) => format!("{}[{}]", f.name, m[i]),
-        None => f.name.clone(),
+    match (f.imu.and_then(|l| l.instance), f.old_instance) {
+        (Some(i), _) => format!("{}[{}]", f.name, m[i]),
+        (None, Some(k)) => format!("IMU[{k}]"),
+        (None, None) => f.name.clone(),
+    }
+}
+
+/// Whether message `m` of format `f` belongs to `topic` (`name[k]` split as `want`).
+fn is_topic(f: &Fmt, m: &[u8], topic: &str, want: Option<(&str, u32)>) -> bool {
+    match (f.imu.and_then(|l| l.instance), f.old_instance, want) {
+        (Some(i), _, Some((name, k))) => name == f.name && m[i] as u32 == k,
+        (None, Some(k), Some((name, kk))) => name == "IMU" && k == kk,
+        (None, None, _) => f.name == topic,
+        _ => false,
     }
 }
 
@@ -255,9 +316,13 @@ impl LogReader for DataflashReader {
 
     fn read_imu(&self, topic: &str) -> Result<ImuSeries> {
         let mut out = ImuSeries::with_capacity(0);
+        let want = topic
+            .strip_suffix(']')
+            .and_then(|t| t.split_once('['))
+            .and_then(|(n, k)| Some((n, k.parse::<u32>().ok()?)));
         self.walk(|f, m| {
             let Some(l) = f.imu else { return };
-            if !topic.starts_with(f.name.as_str()) || topic_of(f, m) != topic {
+            if !is_topic(f, m, topic, want) {
                 return;
             }
             let g = |o: usize| f32::from_le_bytes(m[o..o + 4].try_into().expect("4")) as f64;
@@ -270,5 +335,9 @@ impl LogReader for DataflashReader {
         })?;
         out.check_finite(&format!("{} ({topic})", self.file))?;
         Ok(out)
+    }
+
+    fn truncation(&self) -> Option<Truncation> {
+        self.truncation
     }
 }

@@ -47,6 +47,11 @@ pub struct Input {
     pub time_unit: TimeUnit,
     /// What to do with gaps in time-stamped input.
     pub gaps: logs::GapPolicy,
+    /// Logs: the instance of each `topic` (ULog multi id, DataFlash `I`): `--topic
+    /// sensor_gyro` with instance 1 reads `sensor_gyro[1]` (see [`logs::instance_topic`]).
+    pub instance: Option<u32>,
+    /// Logs: refuse a cut-off file instead of reading its complete messages with a warning.
+    pub strict: bool,
 }
 
 impl Input {
@@ -75,6 +80,8 @@ impl Input {
             time_column: None,
             time_unit: TimeUnit::S,
             gaps: logs::GapPolicy::Refuse,
+            instance: None,
+            strict: false,
         }
     }
 
@@ -473,8 +480,10 @@ impl Input {
         }
         let path = logs::storage_file(&self.file)?;
         let file = path.display().to_string();
-        let reader = logs::open(&path, fmt)?;
-        let topics = logs::select_topics(reader.as_ref(), &file, &self.topic)?;
+        let reader = logs::open_checked(&path, fmt, self.strict, ui)?;
+        let requested = self.instance_topics(reader.as_ref(), &file)?;
+        let topics = logs::select_topics(reader.as_ref(), &file, &requested)?;
+        let truncated = reader.truncation();
         let mut out = Vec::new();
         for topic in topics {
             let series = reader.read_imu(&topic)?;
@@ -486,6 +495,10 @@ impl Input {
                 self.gaps,
                 &what,
             )?;
+            let timing = logs::Timing {
+                truncated,
+                ..timing
+            };
             ui.note(format!("{topic}: {}", timing.summary()));
             let mut t = Table {
                 file: file.clone(),
@@ -504,6 +517,48 @@ impl Input {
             out.push(t);
         }
         Ok(out)
+    }
+}
+
+impl Input {
+    /// The topics asked for, with `instance` applied (`--topic sensor_gyro --instance 1` is
+    /// `sensor_gyro[1]`).
+    fn instance_topics(&self, reader: &dyn logs::LogReader, file: &str) -> Result<Vec<String>> {
+        let Some(k) = self.instance else {
+            return Ok(self.topic.clone());
+        };
+        if self.topic.is_empty() {
+            return Err(Error::Usage(
+                "--instance needs --topic NAME (the message whose instance to read)".to_string(),
+            ));
+        }
+        let all = reader.topics()?;
+        self.topic
+            .iter()
+            .map(|name| {
+                logs::instance_topic(&all, name, k).ok_or_else(|| {
+                    let have: Vec<&str> = all
+                        .iter()
+                        .filter(|t| {
+                            t.name == *name
+                                || t.name
+                                    .strip_prefix(name.as_str())
+                                    .is_some_and(|r| r.starts_with('[') && r.ends_with(']'))
+                        })
+                        .map(|t| t.name.as_str())
+                        .collect();
+                    Error::Usage(format!(
+                        "--topic {name} --instance {k}: {file} has no such instance; its \
+                         instances of {name}: {}",
+                        if have.is_empty() {
+                            "none".to_string()
+                        } else {
+                            have.join(", ")
+                        }
+                    ))
+                })
+            })
+            .collect()
     }
 }
 
