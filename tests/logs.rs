@@ -292,8 +292,16 @@ fn no_imu_topic_empty_topic_truncated_and_corrupt_files_exit_2() {
     let bytes = std::fs::read(&good).unwrap();
     let trunc = p(&dir, "trunc.mcap");
     std::fs::write(&trunc, &bytes[..bytes.len() * 6 / 10]).unwrap();
-    let err = fails(&["avar", s(&trunc)]);
-    assert!(err.contains("truncated or corrupt MCAP"), "{err}");
+    // read up to its last complete chunk with a warning; refused under --strict
+    let out = imunoise(&["avar", s(&trunc), "--format", "json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("warning:") && err.contains("the file is cut off"),
+        "{err}"
+    );
+    let err = fails(&["avar", s(&trunc), "--strict"]);
+    assert!(err.contains("--strict refuses cut-off logs"), "{err}");
     // Corrupt: 4 KiB flipped a third into the file (inside the first zstd chunk, which
     // is written before its message index).
     let mut bad = bytes.clone();
@@ -694,16 +702,24 @@ fn ros1_bag_equals_csv_and_bad_bags_exit_2() {
     let bytes = std::fs::read(&bag).unwrap();
     let trunc = p(&dir, "trunc.bag");
     std::fs::write(&trunc, &bytes[..bytes.len() / 2]).unwrap();
-    let err = fails(&["avar", s(&trunc)]);
-    assert!(err.contains("truncated or corrupt bag"), "{err}");
+    let out = imunoise(&["avar", s(&trunc), "--format", "json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && err.contains("the file is cut off"),
+        "{err}"
+    );
+    assert!(fails(&["avar", s(&trunc), "--strict"]).contains("--strict refuses"));
     let mut unidx = bytes.clone();
     // version, header length, "op" field (4 + 4 bytes), field length, "index_pos=".
     let at = 13 + 4 + 8 + 4 + 10;
     unidx[at..at + 8].copy_from_slice(&0u64.to_le_bytes());
     let u = p(&dir, "unindexed.bag");
     std::fs::write(&u, &unidx).unwrap();
-    let err = fails(&["avar", s(&u)]);
-    assert!(err.contains("has no index"), "{err}");
+    // not closed: read by a walk over its records, the same values as through the index
+    assert_eq!(
+        ok(&["avar", s(&u), "--format", "json", "-q", "--strict"]),
+        a
+    );
     let junk = p(&dir, "junk.bag");
     std::fs::write(&junk, b"hello").unwrap();
     assert!(fails(&["topics", s(&junk)]).contains("not a ROS 1 bag"));
@@ -863,7 +879,13 @@ fn ulog_equals_csv_and_bad_files_exit_2() {
     let bytes = std::fs::read(&ul).unwrap();
     let trunc = p(&dir, "trunc.ulg");
     std::fs::write(&trunc, &bytes[..bytes.len() - 7]).unwrap();
-    assert!(fails(&["avar", s(&trunc)]).contains("truncated or corrupt ULog"));
+    assert!(fails(&["avar", s(&trunc), "--strict"]).contains("the file is cut off"));
+    let out = imunoise(&["topics", s(&trunc)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && err.contains("the 46 bytes from byte"),
+        "{err}"
+    );
     let junk = p(&dir, "junk.ulg");
     std::fs::write(&junk, b"not a ulog file at all").unwrap();
     assert!(fails(&["avar", s(&junk)]).contains("not a PX4 ULog"));
@@ -971,7 +993,13 @@ fn dataflash_equals_csv_and_bad_files_exit_2() {
     let bytes = std::fs::read(&df).unwrap();
     let trunc = p(&dir, "trunc.bin");
     std::fs::write(&trunc, &bytes[..bytes.len() - 5]).unwrap();
-    assert!(fails(&["avar", s(&trunc), "--topic", "IMU[0]"]).contains("cut short"));
+    assert!(fails(&["avar", s(&trunc), "--topic", "IMU[0]", "--strict"]).contains("cut off"));
+    let out = imunoise(&["topics", s(&trunc)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && err.contains("the 31 bytes from byte"),
+        "{err}"
+    );
     let mut bad = bytes.clone();
     let at = 89 * 3 + 2 * 36 + 16; // the header of the second time step's first IMU message
     bad[at] = 0;
@@ -1219,6 +1247,212 @@ mod fuzz {
             let mut b = magic.to_vec();
             b.extend_from_slice(&tail);
             read_all(format, ext, &b);
+        }
+    }
+}
+
+/// A fixture, its last message spans (start, end, stamp in ns, whether of `topic`), the number of `topic` messages before them, and whether a cut at a message boundary still
+/// leaves an unfinished record (a chunk: MCAP, bags).
+#[cfg(all(feature = "rosbag", feature = "ulog", feature = "dataflash"))]
+struct CutFixture {
+    format: imunoise::logs::LogFormat,
+    ext: &'static str,
+    topic: &'static str,
+    bytes: Vec<u8>,
+    /// The last four messages of the file: start, end, stamp (ns), whether of `topic`.
+    spans: Vec<(usize, usize, i64, bool)>,
+    /// Messages of `topic` before the first span.
+    before: usize,
+    in_chunk: bool,
+}
+
+#[cfg(all(feature = "rosbag", feature = "ulog", feature = "dataflash"))]
+fn find(hay: &[u8], needle: &[u8]) -> usize {
+    hay.windows(needle.len())
+        .position(|w| w == needle)
+        .expect("the record is in the file")
+}
+
+/// One fixture per reader, written by this file's writers; the spans of the last four
+/// messages are found from the bytes each writer writes for them (not from the readers).
+#[cfg(all(feature = "rosbag", feature = "ulog", feature = "dataflash"))]
+fn cut_fixtures() -> Vec<CutFixture> {
+    use imunoise::logs::LogFormat;
+    use imunoise::logs::imu_msg::encode_ros1;
+    let dir = tempfile::tempdir().unwrap();
+    let mut out = Vec::new();
+    // ULog: 250 sensor_combined (53-byte messages), vehicle_status at 0, 100, 200
+    let n = 250;
+    let cols = as_f32(&simulated(n, 250.0));
+    let us: Vec<u64> = (0..n as u64).map(|i| 1_000_000 + 4000 * i).collect();
+    let path = p(&dir, "c.ulg");
+    write_ulog(&path, &us, &cols);
+    let bytes = std::fs::read(&path).unwrap();
+    let len = bytes.len();
+    let spans = (0..4)
+        .map(|k| {
+            let end = len - 53 * (3 - k);
+            (end - 53, end, us[n - 4 + k] as i64 * 1000, true)
+        })
+        .collect();
+    out.push(CutFixture {
+        format: LogFormat::Ulog,
+        ext: "ulg",
+        topic: "sensor_combined",
+        bytes,
+        spans,
+        before: n - 4,
+        in_chunk: false,
+    });
+    // DataFlash: per step IMU[0] and IMU[1] (36 bytes each), BARO every 40 steps (16 bytes)
+    let n = 250;
+    let cols = as_f32(&simulated(n, 400.0));
+    let us: Vec<u64> = (0..n as u64).map(|i| 1_000_000 + 2500 * i).collect();
+    let path = p(&dir, "c.bin");
+    write_dataflash(&path, &us, &cols);
+    let bytes = std::fs::read(&path).unwrap();
+    let len = bytes.len();
+    // the last four messages: IMU[0], IMU[1] of steps n-2 and n-1 (read topic IMU[1])
+    let spans = (0..4)
+        .map(|k| {
+            let end = len - 36 * (3 - k);
+            (end - 36, end, us[n - 2 + k / 2] as i64 * 1000, k % 2 == 1)
+        })
+        .collect();
+    out.push(CutFixture {
+        format: LogFormat::Dataflash,
+        ext: "bin",
+        topic: "IMU[1]",
+        bytes,
+        spans,
+        before: n - 2,
+        in_chunk: false,
+    });
+    // ROS 1 bag: 60 messages on /imu0 in one uncompressed chunk, indexed
+    let mut t = imu("/imu0", 60, 100.0);
+    t.schema = "sensor_msgs/Imu";
+    let path = p(&dir, "c.bag");
+    write_bag(&path, std::slice::from_ref(&t));
+    let bytes = std::fs::read(&path).unwrap();
+    let spans = (56..60)
+        .map(|i| {
+            let rec = bag_record(
+                &[
+                    bag_field("op", &[2]),
+                    bag_field("conn", &0u32.to_le_bytes()),
+                    bag_field("time", &bag_time(t.stamps[i])),
+                ],
+                &encode_ros1(&sample(&t.stamps, &t.cols, i), i as u32, "imu_link"),
+            );
+            let at = find(&bytes, &rec);
+            (at, at + rec.len(), t.stamps[i], true)
+        })
+        .collect();
+    out.push(CutFixture {
+        format: LogFormat::Bag,
+        ext: "bag",
+        topic: "/imu0",
+        bytes,
+        spans,
+        before: 56,
+        in_chunk: true,
+    });
+    // MCAP: 60 messages on /imu0 in uncompressed chunks of about 4 kB
+    let t = imu("/imu0", 60, 100.0);
+    let path = p(&dir, "c.mcap");
+    let opts = mcap::WriteOptions::new()
+        .compression(None)
+        .chunk_size(Some(4000));
+    write_mcap_with(&path, std::slice::from_ref(&t), opts);
+    let bytes = std::fs::read(&path).unwrap();
+    let spans = (56..60)
+        .map(|i| {
+            // a message record: opcode, u64 length, channel, sequence, log and publish time
+            let data = encode_cdr(&sample(&t.stamps, &t.cols, i), "imu_link");
+            let tail = [
+                &(t.stamps[i] as u64).to_le_bytes()[..],
+                &(t.stamps[i] as u64).to_le_bytes(),
+                &data,
+            ]
+            .concat();
+            let at = find(&bytes, &tail) - 15;
+            assert_eq!(bytes[at], 0x05);
+            (at, at + 15 + tail.len(), t.stamps[i], true)
+        })
+        .collect();
+    out.push(CutFixture {
+        format: LogFormat::Mcap,
+        ext: "mcap",
+        topic: "/imu0",
+        bytes,
+        spans,
+        before: 56,
+        in_chunk: true,
+    });
+    out
+}
+
+/// Cut-off property: each reader, on its fixture cut at every byte of its last three
+/// messages (and at their ends), reads exactly the complete prefix of the full read (stamps
+/// and values), reports where the file is cut (offset, bytes dropped, stamp of the last
+/// complete message), and refuses the file under strict. A cut at the end of a message is no
+/// cut for ULog and DataFlash (nothing tells it from a complete file); inside an unfinished
+/// chunk (MCAP, bags) it is reported with no bytes dropped.
+#[cfg(all(feature = "rosbag", feature = "ulog", feature = "dataflash"))]
+#[test]
+fn cut_off_fixtures_give_the_complete_prefix_and_the_warning() {
+    use imunoise::logs::{Truncation, open, open_checked};
+    let dir = tempfile::tempdir().unwrap();
+    let quiet = imunoise::Ui::quiet();
+    for fx in cut_fixtures() {
+        let full_path = dir.path().join(format!("full.{}", fx.ext));
+        std::fs::write(&full_path, &fx.bytes).unwrap();
+        let full = open(&full_path, fx.format).unwrap();
+        assert_eq!(full.truncation(), None, "{:?}", fx.format);
+        let all = full.read_imu(fx.topic).unwrap();
+        let n_all = fx.before + fx.spans.iter().filter(|sp| sp.3).count();
+        assert_eq!(all.stamps_ns.len(), n_all, "{:?}", fx.format);
+        let path = dir.path().join(format!("cut.{}", fx.ext));
+        // every byte of the last three messages, and their ends
+        let cuts: std::collections::BTreeSet<usize> =
+            fx.spans[1..].iter().flat_map(|sp| sp.0..=sp.1).collect();
+        for cut in cuts {
+            std::fs::write(&path, &fx.bytes[..cut]).unwrap();
+            let r = open(&path, fx.format).unwrap();
+            let s = r.read_imu(fx.topic).unwrap();
+            // complete messages of the topic: those before the spans, and whole spans
+            let whole = fx.spans.iter().filter(|sp| sp.3 && sp.1 <= cut).count();
+            let k = fx.before + whole;
+            let what = format!("{:?} cut at {cut}", fx.format);
+            assert_eq!(s.stamps_ns, all.stamps_ns[..k], "{what}");
+            for (c, a) in s.columns.iter().zip(&all.columns) {
+                assert_eq!(c[..], a[..k], "{what}");
+            }
+            let inside = fx.spans.iter().find(|sp| sp.0 < cut && cut < sp.1);
+            let last_stamp = fx.spans.iter().rev().find(|sp| sp.1 <= cut).map(|sp| sp.2);
+            let want = match inside {
+                Some(sp) => Some(Truncation {
+                    offset: sp.0 as u64,
+                    dropped_bytes: (cut - sp.0) as u64,
+                    last_stamp_ns: last_stamp,
+                }),
+                None if fx.in_chunk && cut < fx.bytes.len() => Some(Truncation {
+                    offset: cut as u64,
+                    dropped_bytes: 0,
+                    last_stamp_ns: last_stamp,
+                }),
+                None => None,
+            };
+            assert_eq!(r.truncation(), want, "{what}");
+            let strict = open_checked(&path, fx.format, true, &quiet);
+            match want {
+                Some(t) => {
+                    let e = strict.err().expect("strict refuses a cut-off file");
+                    assert_eq!(e.exit_code(), 2);
+                    assert!(e.to_string().contains(&t.to_string()), "{what}: {e}");
+                }
+                None => assert!(strict.is_ok(), "{what}"),
+            }
         }
     }
 }

@@ -335,6 +335,9 @@ fn check_records(
         limit = limit.max(check_chunk(&body[start..start + len], false)?);
         chunks.insert((8 + start - 9) as u64);
     }
+    // a data section that ends without its data end record is cut too (at a record boundary)
+    let ended = top.last().is_some_and(|r| r.0 == 0x0F);
+    let cut_at = cut_at.or((!ended).then_some(body.len()));
     let cut = cut_at.map(|at| {
         let end = 8 + at;
         let mut last = last_log_time(body, &top);

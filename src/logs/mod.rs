@@ -372,12 +372,22 @@ pub struct Truncation {
 
 impl std::fmt::Display for Truncation {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "the file is cut off: the {} bytes from byte {} on are an incomplete message and \
-             were dropped; every complete message before them was read",
-            self.dropped_bytes, self.offset
-        )?;
+        if self.dropped_bytes == 0 {
+            write!(
+                f,
+                "the file is cut off at byte {}, after a complete message (no bytes dropped; \
+                 the records a closed file ends with are missing); every message before it \
+                 was read",
+                self.offset
+            )?;
+        } else {
+            write!(
+                f,
+                "the file is cut off: the {} bytes from byte {} on are an incomplete message \
+                 and were dropped; every complete message before them was read",
+                self.dropped_bytes, self.offset
+            )?;
+        }
         match self.last_stamp_ns {
             Some(t) => write!(f, " (the last one stamped {:.6} s)", t as f64 * 1e-9),
             None => write!(f, " (none of them carries a stamp)"),

@@ -238,14 +238,25 @@ impl BagReader {
     /// // `path`: a ROS 1 bag with 100 IMU messages at 100 Hz on /imu0 (one uncompressed chunk)
     /// use imunoise::logs::rosbag1::BagReader;
     /// assert!(BagReader::open(&path).is_ok());
-    /// // a bag whose recording was not closed has no index: refused, saying what to do
+    /// // a bag whose recording was not closed has no index: read by a walk over its records
     /// let open = dir.path().join("open.bag");
     /// let mut bytes = std::fs::read(&path)?;
     /// let at = bytes.windows(10).position(|w| w == b"index_pos=").unwrap() + 10;
     /// bytes[at..at + 8].copy_from_slice(&0u64.to_le_bytes());
-    /// std::fs::write(&open, bytes)?;
-    /// let e = BagReader::open(&open).err().unwrap();
-    /// assert!(e.to_string().contains("run `rosbag reindex` on it first"));
+    /// std::fs::write(&open, &bytes)?;
+    /// use imunoise::logs::LogReader;
+    /// let r = BagReader::open(&open)?;
+    /// assert_eq!(r.read_imu("/imu0")?.stamps_ns.len(), 100);
+    /// assert!(r.truncation().is_none());
+    /// // cut off 10 bytes into its chunk's last message: the 99 before it are read
+    /// let last = [&b"time="[..], &time(stamp(99))].concat();
+    /// // the record: header length (4), op (4 + 4), conn (4 + 9), time field length (4), time=
+    /// let msg = bytes.windows(13).position(|w| w == last).unwrap() - 29;
+    /// std::fs::write(&open, &bytes[..msg + 10])?;
+    /// let r = BagReader::open(&open)?;
+    /// assert_eq!(r.read_imu("/imu0")?.stamps_ns.len(), 99);
+    /// let t = r.truncation().unwrap();
+    /// assert_eq!((t.offset, t.dropped_bytes, t.last_stamp_ns), (msg as u64, 10, Some(stamp(98))));
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn open(path: &Path) -> Result<Self> {
@@ -256,7 +267,8 @@ impl BagReader {
             drop(map);
             None
         } else {
-            Some(Walked::new(map, section.0, &file)?)
+            let cut = index_beyond_end(&map);
+            Some(Walked::new(map, section.0, &file, cut)?)
         };
         let fh = std::fs::File::open(path).map_err(|e| Error::File {
             file: file.clone(),
@@ -515,6 +527,16 @@ struct Walked {
     conns: Connections,
     counts: BTreeMap<u32, u64>,
     truncation: Option<Truncation>,
+    /// The record time of the last message (ns).
+    last_stamp: Option<i64>,
+}
+
+/// Whether the bag header's `index_pos` lies beyond the end of `b` (cut off before its index).
+fn index_beyond_end(b: &[u8]) -> bool {
+    let at = b.windows(10).position(|w| w == b"index_pos=");
+    at.and_then(|a| b.get(a + 10..a + 18))
+        .map(|v| u64::from_le_bytes(v.try_into().expect("8")))
+        .is_some_and(|i| i > b.len() as u64)
 }
 
 /// A record of `b` at `at`: its header fields (name, value), its data range and the offset
@@ -563,28 +585,41 @@ type OnConn<'a> = dyn FnMut(u32, (String, String)) + 'a;
 type OnMsg<'a> = dyn FnMut(u32, i64, &[u8]) -> Result<()> + 'a;
 
 impl Walked {
-    fn new(map: memmap2::Mmap, start: usize, file: &str) -> Result<Walked> {
+    /// Walks the bag from `start`; `cut` says its header points at an index beyond the end
+    /// of the file (so a walk that ends cleanly still found a file cut off, between records).
+    fn new(map: memmap2::Mmap, start: usize, file: &str, cut: bool) -> Result<Walked> {
         let mut w = Walked {
             map,
             start,
             conns: Connections::new(),
             counts: BTreeMap::new(),
             truncation: None,
+            last_stamp: None,
         };
         let mut conns = Connections::new();
         let mut counts: BTreeMap<u32, u64> = BTreeMap::new();
+        let mut last = None;
         w.truncation = w.walk(
             file,
             &mut |id, c| {
                 conns.insert(id, c);
             },
-            &mut |conn, _, _| {
+            &mut |conn, t, _| {
                 *counts.entry(conn).or_default() += 1;
+                last = Some(t);
                 Ok(())
             },
         )?;
+        w.last_stamp = last;
         w.conns = conns;
         w.counts = counts;
+        if cut && w.truncation.is_none() {
+            w.truncation = Some(Truncation {
+                offset: w.map.len() as u64,
+                dropped_bytes: 0,
+                last_stamp_ns: w.last_stamp,
+            });
+        }
         Ok(w)
     }
 
