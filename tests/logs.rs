@@ -1456,3 +1456,191 @@ fn cut_off_fixtures_give_the_complete_prefix_and_the_warning() {
         }
     }
 }
+
+/// A ULog written from message definitions: the header, the flag bits (with `appended` as
+/// the appended-data offset, patched in by [`UlogWriter::append_here`]), then messages.
+struct UlogWriter {
+    out: Vec<u8>,
+}
+
+impl UlogWriter {
+    fn new() -> Self {
+        let mut out = b"ULog\x01\x12\x35\x01".to_vec();
+        out.extend_from_slice(&0u64.to_le_bytes());
+        out.extend(ulog_msg(b'B', &[0u8; 40]));
+        UlogWriter { out }
+    }
+    fn msg(&mut self, ty: u8, body: &[u8]) {
+        self.out.extend(ulog_msg(ty, body));
+    }
+    fn add(&mut self, multi: u8, id: u16, name: &str) {
+        let mut b = vec![multi];
+        b.extend_from_slice(&id.to_le_bytes());
+        b.extend_from_slice(name.as_bytes());
+        self.msg(b'A', &b);
+    }
+    fn data(&mut self, id: u16, payload: &[u8]) {
+        self.msg(b'D', &[&id.to_le_bytes()[..], payload].concat());
+    }
+    /// Marks the data from here on as appended (flag bits: DATA_APPENDED, first offset).
+    fn append_here(&mut self) {
+        let at = self.out.len() as u64;
+        // the flag bits' body starts at 16 + 3: compat[8], incompat[8], offsets[3]
+        self.out[19 + 8] = 1;
+        self.out[19 + 16..19 + 24].copy_from_slice(&at.to_le_bytes());
+    }
+}
+
+/// ULog per the specification, in a fixture written from the definitions: a nested type
+/// before the fields read (offsets after it), three instances of `sensor_gyro` (`--instance`),
+/// messages with and without their trailing `_padding` bytes, appended data, and
+/// `sensor_gyro_fifo` (PX4 `msg/SensorGyroFifo.msg`): each sample a row, the last at
+/// `timestamp_sample` and the others `dt` µs before it, values × `scale`.
+#[cfg(feature = "ulog")]
+#[test]
+fn ulog_nested_instances_padding_appended_and_fifo() {
+    use imunoise::logs::{LogFormat, open};
+    let dir = tempfile::tempdir().unwrap();
+    let mut w = UlogWriter::new();
+    w.msg(b'F', b"esc_report:uint32_t rpm;float[2] v;");
+    w.msg(b'F', b"sensor_gyro:uint64_t timestamp;esc_report[2] esc;uint64_t timestamp_sample;uint32_t device_id;float x;float y;float z;float temperature;uint8_t[4] _padding0;");
+    w.msg(b'F', b"sensor_gyro_fifo:uint64_t timestamp;uint64_t timestamp_sample;uint32_t device_id;bool is_external;float dt;float scale;uint8_t samples;int16_t[32] x;int16_t[32] y;int16_t[32] z;uint8_t[2] _padding0;");
+    for k in 0..3u8 {
+        w.add(k, k as u16, "sensor_gyro");
+    }
+    w.add(0, 7, "sensor_gyro_fifo");
+    // sensor_gyro instance k, message i: x = k + i/8, stamp 1 s + 4 ms i (+ 100 µs k)
+    let gyro = |w: &mut UlogWriter, k: u16, i: u64| {
+        let mut d = (1_000_000 + 4000 * i + 100 * k as u64 + 7)
+            .to_le_bytes()
+            .to_vec();
+        d.extend((0..2).flat_map(|e| {
+            [
+                (e as u32).to_le_bytes(),
+                1.5f32.to_le_bytes(),
+                2.5f32.to_le_bytes(),
+            ]
+            .concat()
+        }));
+        d.extend_from_slice(&(1_000_000 + 4000 * i + 100 * k as u64).to_le_bytes());
+        d.extend_from_slice(&42u32.to_le_bytes());
+        for v in [k as f32 + i as f32 / 8.0, -0.25, 0.125, 40.0] {
+            d.extend_from_slice(&v.to_le_bytes());
+        }
+        if i % 2 == 1 {
+            d.extend_from_slice(&[0; 4]); // the padding, written for odd messages only
+        }
+        w.data(k, &d);
+    };
+    for i in 0..100 {
+        for k in 0..3 {
+            gyro(&mut w, k, i);
+        }
+    }
+    // FIFO: 10 messages of 32 samples at 2 kHz (dt 500 µs), the 5th with 20 valid samples
+    let fifo_n = |m: u64| if m == 4 { 20 } else { 32 };
+    let count = |m: u64, i: u64, a: u64| ((m * 37 + i * 5 + a * 11) % 2000) as i16 - 1000;
+    let scale = 1.0f32 / 4096.0;
+    for m in 0..10u64 {
+        let mut d = (2_000_000 + 16_000 * m).to_le_bytes().to_vec();
+        d.extend_from_slice(&(2_000_000 + 16_000 * m - 10).to_le_bytes()); // timestamp_sample
+        d.extend_from_slice(&7u32.to_le_bytes());
+        d.push(0);
+        d.extend_from_slice(&500f32.to_le_bytes());
+        d.extend_from_slice(&scale.to_le_bytes());
+        d.push(fifo_n(m) as u8);
+        for a in 0..3 {
+            for i in 0..32 {
+                d.extend_from_slice(&count(m, i, a).to_le_bytes());
+            }
+        }
+        w.data(7, &d); // without the padding
+    }
+    // appended data: 20 more messages of instance 1
+    w.append_here();
+    for i in 100..120 {
+        gyro(&mut w, 1, i);
+    }
+    let path = p(&dir, "spec.ulg");
+    std::fs::write(&path, &w.out).unwrap();
+
+    let r = open(&path, LogFormat::Ulog).unwrap();
+    let counts: Vec<(String, u64, bool)> = r
+        .topics()
+        .unwrap()
+        .into_iter()
+        .map(|t| (t.name, t.count, t.is_imu))
+        .collect();
+    let want = [
+        ("sensor_gyro", 100),
+        ("sensor_gyro[1]", 120),
+        ("sensor_gyro[2]", 100),
+        ("sensor_gyro_fifo", 10),
+    ];
+    assert_eq!(counts, want.map(|(n, c)| (n.to_string(), c, true)).to_vec());
+    for (k, topic) in ["sensor_gyro", "sensor_gyro[1]", "sensor_gyro[2]"]
+        .iter()
+        .enumerate()
+    {
+        let s = r.read_imu(topic).unwrap();
+        let n = if k == 1 { 120 } else { 100 };
+        let st: Vec<i64> = (0..n)
+            .map(|i| (1_000_000 + 4000 * i + 100 * k as i64) * 1000)
+            .collect();
+        assert_eq!(s.stamps_ns, st, "{topic}: timestamp_sample, not timestamp");
+        assert_eq!(s.names, ["gyro_x_rads", "gyro_y_rads", "gyro_z_rads"]);
+        let x: Vec<f64> = (0..n).map(|i| (k as f32 + i as f32 / 8.0) as f64).collect();
+        assert_eq!(s.columns[0], x, "{topic}");
+        assert!(s.columns[1].iter().all(|&v| v == -0.25));
+        assert!(s.columns[2].iter().all(|&v| v == 0.125));
+    }
+    let f = r.read_imu("sensor_gyro_fifo").unwrap();
+    let (mut st, mut xs) = (Vec::new(), vec![Vec::new(); 3]);
+    for m in 0..10u64 {
+        let n = fifo_n(m);
+        let last_ns = (2_000_000 + 16_000 * m as i64 - 10) * 1000;
+        for i in 0..n {
+            st.push(last_ns - (n - 1 - i) as i64 * 500_000);
+            for (a, x) in xs.iter_mut().enumerate() {
+                x.push(count(m, i, a as u64) as f64 * scale as f64);
+            }
+        }
+    }
+    assert_eq!(f.stamps_ns.len(), 9 * 32 + 20);
+    assert_eq!(f.stamps_ns, st);
+    assert_eq!(f.columns, xs);
+    // the same through the command: --topic and --instance
+    let a = ok(&[
+        "avar",
+        s(&path),
+        "--topic",
+        "sensor_gyro",
+        "--instance",
+        "2",
+        "--format",
+        "json",
+        "-q",
+    ]);
+    let b = ok(&[
+        "avar",
+        s(&path),
+        "--topic",
+        "sensor_gyro[2]",
+        "--format",
+        "json",
+        "-q",
+    ]);
+    assert_eq!(a, b);
+    let err = fails(&[
+        "avar",
+        s(&path),
+        "--topic",
+        "sensor_gyro",
+        "--instance",
+        "3",
+    ]);
+    assert!(
+        err.contains("its instances of sensor_gyro: sensor_gyro, sensor_gyro[1], sensor_gyro[2]"),
+        "{err}"
+    );
+}
