@@ -1644,3 +1644,224 @@ fn ulog_nested_instances_padding_appended_and_fifo() {
         "{err}"
     );
 }
+
+/// A DataFlash log with the batch sampler (ArduPilot `libraries/AP_InertialSensor/
+/// LogStructure.h`: `ISBH` "QHBBHHQf" TimeUS,N,type,instance,mul,smp_cnt,SampleUS,smp_rate;
+/// `ISBD` "QHHaaa" TimeUS,N,seqno,x,y,z) and a low-rate IMU: batches of `per` ISBD messages
+/// (32 samples each) at `rate`, gyro (type 1) and accelerometer (type 0) of instance 0 in turn,
+/// `skip` = (batch, seqno) of ISBD messages not written. Sample j of batch b, axis a: count
+/// `isb_count(b, j, a)`.
+fn write_isb(path: &Path, batches: u16, per: u16, rate: f32, skip: &[(u16, u16)]) {
+    let mut out = df_fmt(0x80, 89, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns");
+    out.extend(df_fmt(
+        0x40,
+        36,
+        "IMU",
+        "QBffffff",
+        "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ",
+    ));
+    out.extend(df_fmt(
+        0x50,
+        31,
+        "ISBH",
+        "QHBBHHQf",
+        "TimeUS,N,type,instance,mul,smp_cnt,SampleUS,smp_rate",
+    ));
+    out.extend(df_fmt(0x51, 207, "ISBD", "QHHaaa", "TimeUS,N,seqno,x,y,z"));
+    for b in 0..batches {
+        let t0 = isb_start_us(b, per, rate);
+        let ty = if b % 2 == 0 { 1u8 } else { 0 };
+        out.extend_from_slice(&[0xA3, 0x95, 0x50]);
+        out.extend_from_slice(&(t0 + 500).to_le_bytes());
+        out.extend_from_slice(&b.to_le_bytes());
+        out.extend_from_slice(&[ty, 0]);
+        out.extend_from_slice(&isb_mul(ty).to_le_bytes());
+        out.extend_from_slice(&(32 * per).to_le_bytes());
+        out.extend_from_slice(&t0.to_le_bytes());
+        out.extend_from_slice(&rate.to_le_bytes());
+        for k in 0..per {
+            // a low-rate IMU message now and then
+            out.extend_from_slice(&[0xA3, 0x95, 0x40]);
+            out.extend_from_slice(&(t0 + 1000 * k as u64).to_le_bytes());
+            out.push(0);
+            out.extend([0u8; 24]);
+            if skip.contains(&(b, k)) {
+                continue;
+            }
+            out.extend_from_slice(&[0xA3, 0x95, 0x51]);
+            out.extend_from_slice(&(t0 + 1000 * k as u64 + 700).to_le_bytes());
+            out.extend_from_slice(&b.to_le_bytes());
+            out.extend_from_slice(&k.to_le_bytes());
+            for a in 0..3 {
+                for i in 0..32 {
+                    out.extend_from_slice(&isb_count(b, 32 * k + i, a).to_le_bytes());
+                }
+            }
+        }
+    }
+    std::fs::write(path, out).unwrap();
+}
+
+fn isb_start_us(b: u16, per: u16, rate: f32) -> u64 {
+    // batches 10 s apart, well after the previous one ends
+    let _ = (per, rate);
+    5_000_000 + 10_000_000 * b as u64
+}
+
+fn isb_mul(ty: u8) -> u16 {
+    if ty == 1 { 1000 } else { 200 }
+}
+
+fn isb_count(b: u16, j: u16, a: u16) -> i16 {
+    ((b as i32 * 101 + j as i32 * 7 + a as i32 * 13) % 3000 - 1500) as i16
+}
+
+/// ArduPilot's batch sampler in a fixture written from its message definitions: each ISBD
+/// sample a row, stamped `SampleUS + (32 seqno + i) / smp_rate`, valued `x[i] / mul`, a
+/// missing ISBD message a gap of 32 samples; `topics` lists `ISB_gyro[0]` and `ISB_acc[0]` at
+/// the sample rate; `analyze` without `--topic` reads them (a note says so) rather than IMU.
+#[cfg(feature = "dataflash")]
+#[test]
+fn dataflash_batch_sampler_samples_stamps_and_preference() {
+    use imunoise::logs::{LogFormat, open};
+    let dir = tempfile::tempdir().unwrap();
+    let path = p(&dir, "isb.bin");
+    let (per, rate) = (40u16, 2000f32);
+    write_isb(&path, 3, per, rate, &[(2, 5)]);
+    let r = open(&path, LogFormat::Dataflash).unwrap();
+    let topics: Vec<(String, String, u64, bool)> = r
+        .topics()
+        .unwrap()
+        .into_iter()
+        .map(|t| (t.name, t.msg_type, t.count, t.is_imu))
+        .collect();
+    let t = |n: &str, ty: &str, c, imu| (n.to_string(), ty.to_string(), c, imu);
+    assert_eq!(
+        topics,
+        [
+            t("IMU[0]", "IMU", 3 * per as u64, true),
+            t("ISBH", "ISBH", 3, false),
+            t("ISB_acc[0]", "ISBD", per as u64, true),
+            t("ISB_gyro[0]", "ISBD", 2 * per as u64 - 1, true),
+        ]
+    );
+    for (topic, batches, ty) in [
+        ("ISB_gyro[0]", &[0u16, 2][..], 1u8),
+        ("ISB_acc[0]", &[1], 0),
+    ] {
+        let s = r.read_imu(topic).unwrap();
+        let (mut st, mut cols) = (Vec::new(), vec![Vec::new(); 3]);
+        for &b in batches {
+            for j in 0..32 * per {
+                if b == 2 && j / 32 == 5 {
+                    continue; // the ISBD not written
+                }
+                let dt = (j as f64 * 1e9 / rate as f64).round() as i64;
+                st.push(isb_start_us(b, per, rate) as i64 * 1000 + dt);
+                for (a, c) in cols.iter_mut().enumerate() {
+                    c.push(isb_count(b, j, a as u16) as f64 / isb_mul(ty) as f64);
+                }
+            }
+        }
+        assert_eq!(s.stamps_ns, st, "{topic}");
+        assert_eq!(s.columns, cols, "{topic}");
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&path), "--format", "json"])).unwrap();
+    assert_eq!(v[3]["name"], "ISB_gyro[0]");
+    assert_eq!(v[3]["rate_hz"], 2000.0);
+    // analyze prefers the batch topics; the gyro's missing message is a gap
+    let out = imunoise(&[
+        "analyze",
+        s(&path),
+        "--gaps",
+        "longest",
+        "--model",
+        "WN",
+        "--no-select",
+        "--out",
+        s(&p(&dir, "rep")),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("reading the high-rate IMU topics ISB_gyro[0], ISB_acc[0]"),
+        "{err}"
+    );
+    assert!(
+        err.contains("ISB_gyro[0]: 2528 messages") && err.contains("gaps"),
+        "{err}"
+    );
+}
+
+/// A simulated WN + RW gyro at 2 kHz written through PX4's `sensor_gyro_fifo` (int16 counts
+/// × `scale`, 32 samples a message): `analyze` of the log equals `analyze` of the same
+/// quantized samples as CSV, and the fitted parameters are within 4 standard errors of the
+/// simulated values (fixed seed; the quantization noise, scale²/12 = 2.3e-11 (rad/s)², is 4·10⁻⁵ of the
+/// white noise's variance).
+#[cfg(feature = "ulog")]
+#[test]
+fn fifo_gyro_at_2khz_recovers_wn_and_rw() {
+    let dir = tempfile::tempdir().unwrap();
+    let (n, rate) = (1usize << 19, 2000.0);
+    let model: imunoise::processes::Model = "WN(sigma2=1e-6)+RW(gamma2=1e-12)".parse().unwrap();
+    let sim = imunoise::cli::simulate::simulate_channels(&model, n, rate, 21, 3).unwrap();
+    let scale = 1.0f32 / 65536.0;
+    let counts: Vec<Vec<i16>> = sim
+        .iter()
+        .map(|c| {
+            c.iter()
+                .map(|&v| (v / scale as f64).round() as i16)
+                .collect()
+        })
+        .collect();
+    let mut w = UlogWriter::new();
+    w.msg(b'F', b"sensor_gyro_fifo:uint64_t timestamp;uint64_t timestamp_sample;uint32_t device_id;bool is_external;float dt;float scale;uint8_t samples;int16_t[32] x;int16_t[32] y;int16_t[32] z;uint8_t[2] _padding0;");
+    w.add(0, 0, "sensor_gyro_fifo");
+    for m in 0..n / 32 {
+        let last_us = 1_000_000 + 500 * (32 * m as u64 + 31);
+        let mut d = (last_us + 50).to_le_bytes().to_vec();
+        d.extend_from_slice(&last_us.to_le_bytes());
+        d.extend_from_slice(&1u32.to_le_bytes());
+        d.push(0);
+        d.extend_from_slice(&500f32.to_le_bytes());
+        d.extend_from_slice(&scale.to_le_bytes());
+        d.push(32);
+        for c in &counts {
+            for v in &c[32 * m..32 * m + 32] {
+                d.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        d.extend_from_slice(&[0, 0]);
+        w.data(0, &d);
+    }
+    let path = p(&dir, "fifo.ulg");
+    std::fs::write(&path, &w.out).unwrap();
+    let csv = p(&dir, "fifo.csv");
+    let names: Vec<String> = ["gyro_x_rads", "gyro_y_rads", "gyro_z_rads"]
+        .map(String::from)
+        .to_vec();
+    let cols: Vec<Vec<f64>> = counts
+        .iter()
+        .map(|c| c.iter().map(|&v| v as f64 * scale as f64).collect())
+        .collect();
+    let mut f = std::io::BufWriter::new(std::fs::File::create(&csv).unwrap());
+    imunoise::cli::simulate::write_csv(&mut f, &names, &cols).unwrap();
+    drop(f);
+    let res = analyze_equals_csv(&dir, &[s(&path)], &csv, "2000");
+    assert_eq!(res["rate_hz"], 2000.0);
+    for ch in res["channels"].as_array().unwrap() {
+        for prm in ch["fit"]["parameters"].as_array().unwrap() {
+            let truth = if prm["process"] == "WN" { 1e-6 } else { 1e-12 };
+            let (lo, hi) = (
+                prm["ci_lo"].as_f64().unwrap(),
+                prm["ci_hi"].as_f64().unwrap(),
+            );
+            // within 4 standard errors of the simulated value (the standard error from the
+            // fit's 95 % interval, half-width / 1.96): a chance of 6e-5 per parameter to fail
+            let se = (hi - lo) / 2.0 / 1.96;
+            let v = prm["value"].as_f64().unwrap();
+            assert!((v - truth).abs() <= 4.0 * se, "{}: {prm}", ch["name"]);
+        }
+    }
+}

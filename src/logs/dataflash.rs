@@ -13,6 +13,14 @@
 //! logs the instances as the messages `IMU`, `IMU2`, `IMU3` (no `I` field): these are the
 //! topics `IMU[0]`, `IMU[1]`, `IMU[2]` (type `IMU`, `IMU2`, `IMU3`).
 //!
+//! The batch sampler (ArduPilot `INS_LOG_BAT_*`; `libraries/AP_InertialSensor/LogStructure.h`):
+//! an `ISBH` header (`N` batch number, `type` 0 accelerometer or 1 gyro, `instance`, `mul`,
+//! `smp_cnt`, `SampleUS` the first sample's time, `smp_rate` Hz) then `ISBD` messages (`N`,
+//! `seqno` = index of the message in its batch, `x, y, z` 32 int16 samples each). Sample i of
+//! message `seqno` is at `SampleUS + (32 seqno + i) / smp_rate` with the value `x[i] / mul`
+//! (rad/s, m/s²): a missing message leaves a gap in the stamps. These are the topics
+//! `ISB_gyro[k]` and `ISB_acc[k]` (three channels each).
+//!
 //! A log cut off inside a message (the power went while it was written: the common case)
 //! is read up to its last complete message; [`LogReader::truncation`] says where it is cut.
 
@@ -87,6 +95,86 @@ struct Fmt {
     /// The instance of an old-style IMU message without an `I` field: 0 for `IMU`, k − 1
     /// for `IMUk`.
     old_instance: Option<u32>,
+    /// Batch sampler messages: their fields.
+    isb: Option<Isb>,
+}
+
+/// The field offsets of the batch sampler's messages.
+#[derive(Debug, Clone, Copy)]
+enum Isb {
+    /// `ISBH`: N, type, instance, mul, SampleUS, smp_rate.
+    Header {
+        n: usize,
+        ty: usize,
+        inst: usize,
+        mul: usize,
+        sample_us: usize,
+        rate: usize,
+    },
+    /// `ISBD`: N, seqno, x, y, z (32 int16 each).
+    Data {
+        n: usize,
+        seqno: usize,
+        xyz: [usize; 3],
+    },
+}
+
+/// A batch's header: sensor type (0 accelerometer, 1 gyro), instance, multiplier, first
+/// sample time (µs) and rate (Hz).
+#[derive(Debug, Clone, Copy)]
+struct Batch {
+    ty: u8,
+    inst: u8,
+    mul: f64,
+    sample_us: u64,
+    rate: f64,
+}
+
+impl Batch {
+    fn topic(&self) -> String {
+        format!(
+            "ISB_{}[{}]",
+            if self.ty == 1 { "gyro" } else { "acc" },
+            self.inst
+        )
+    }
+}
+
+/// Reads the batch sampler's messages as [`DataflashReader::walk`] passes them.
+#[derive(Default)]
+struct Batches {
+    /// Batch number → its header.
+    by_n: std::collections::HashMap<u16, Batch>,
+}
+
+impl Batches {
+    /// Records an `ISBH`; for an `ISBD`, its batch (if its header came before it).
+    fn see(&mut self, f: &Fmt, m: &[u8]) -> Option<Batch> {
+        let u16_at = |o: usize| u16::from_le_bytes([m[o], m[o + 1]]);
+        match f.isb? {
+            Isb::Header {
+                n,
+                ty,
+                inst,
+                mul,
+                sample_us,
+                rate,
+            } => {
+                self.by_n.insert(
+                    u16_at(n),
+                    Batch {
+                        ty: m[ty],
+                        inst: m[inst],
+                        mul: u16_at(mul) as f64,
+                        sample_us: u64::from_le_bytes(m[sample_us..sample_us + 8].try_into().ok()?),
+                        rate: f32::from_le_bytes(m[rate..rate + 4].try_into().ok()?) as f64,
+                    },
+                );
+                None
+            }
+            Isb::Data { n, .. } => self.by_n.get(&u16_at(n)).copied(),
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -147,6 +235,26 @@ fn parse_fmt(p: &[u8]) -> Option<(u8, Fmt)> {
         })
     })();
     let old_instance = old_instance.filter(|_| imu.is_some_and(|l| l.instance.is_none()));
+    let isb = match name.as_str() {
+        "ISBH" => (|| {
+            Some(Isb::Header {
+                n: at("N", b'H')?,
+                ty: at("type", b'B')?,
+                inst: at("instance", b'B')?,
+                mul: at("mul", b'H')?,
+                sample_us: at("SampleUS", b'Q')?,
+                rate: at("smp_rate", b'f')?,
+            })
+        })(),
+        "ISBD" => (|| {
+            Some(Isb::Data {
+                n: at("N", b'H')?,
+                seqno: at("seqno", b'H')?,
+                xyz: [at("x", b'a')?, at("y", b'a')?, at("z", b'a')?],
+            })
+        })(),
+        _ => None,
+    };
     Some((
         ty,
         Fmt {
@@ -155,6 +263,7 @@ fn parse_fmt(p: &[u8]) -> Option<(u8, Fmt)> {
             len,
             imu,
             old_instance,
+            isb,
         },
     ))
 }
@@ -230,6 +339,7 @@ impl DataflashReader {
             imu: None,
             time: None,
             old_instance: None,
+            isb: None,
         });
         let mut last_stamp = None;
         let mut p = 0;
@@ -293,6 +403,47 @@ fn is_topic(f: &Fmt, m: &[u8], topic: &str, want: Option<(&str, u32)>) -> bool {
     }
 }
 
+impl DataflashReader {
+    /// The samples of a batch sampler topic (`ISB_gyro[k]`, `ISB_acc[k]`).
+    fn read_batches(&self, topic: &str) -> Result<ImuSeries> {
+        let names = if topic.starts_with("ISB_gyro") {
+            ["gyro_x_rads", "gyro_y_rads", "gyro_z_rads"]
+        } else {
+            ["acc_x_mps2", "acc_y_mps2", "acc_z_mps2"]
+        };
+        let mut out = ImuSeries {
+            stamps_ns: Vec::new(),
+            names: names.iter().map(|s| s.to_string()).collect(),
+            columns: vec![Vec::new(); 3],
+        };
+        let mut batches = Batches::default();
+        self.walk(|f, m| {
+            let Some(b) = batches.see(f, m) else { return };
+            let Some(Isb::Data { seqno, xyz, .. }) = f.isb else {
+                return;
+            };
+            if b.topic() != topic {
+                return;
+            }
+            let k = u16::from_le_bytes([m[seqno], m[seqno + 1]]) as u64;
+            for i in 0..32u64 {
+                let dt_ns = ((32 * k + i) as f64 * 1e9 / b.rate).round() as i64;
+                out.stamps_ns.push(
+                    (b.sample_us as i64)
+                        .saturating_mul(1000)
+                        .saturating_add(dt_ns),
+                );
+                for (c, &o) in out.columns.iter_mut().zip(&xyz) {
+                    let at = o + 2 * i as usize;
+                    c.push(i16::from_le_bytes([m[at], m[at + 1]]) as f64 / b.mul);
+                }
+            }
+        })?;
+        out.check_finite(&format!("{} ({topic})", self.file))?;
+        Ok(out)
+    }
+}
+
 impl LogReader for DataflashReader {
     fn format(&self) -> LogFormat {
         LogFormat::Dataflash
@@ -300,14 +451,16 @@ impl LogReader for DataflashReader {
 
     fn topics(&self) -> Result<Vec<TopicInfo>> {
         let mut by: BTreeMap<String, TopicInfo> = BTreeMap::new();
+        let mut batches = Batches::default();
         self.walk(|f, m| {
-            let t = topic_of(f, m);
+            let batch = batches.see(f, m);
+            let t = batch.map_or_else(|| topic_of(f, m), |b| b.topic());
             by.entry(t.clone())
                 .or_insert_with(|| TopicInfo {
                     name: t,
                     msg_type: f.name.clone(),
                     count: 0,
-                    is_imu: f.imu.is_some(),
+                    is_imu: f.imu.is_some() || batch.is_some(),
                 })
                 .count += 1;
         })?;
@@ -315,6 +468,9 @@ impl LogReader for DataflashReader {
     }
 
     fn read_imu(&self, topic: &str) -> Result<ImuSeries> {
+        if topic.starts_with("ISB_") {
+            return self.read_batches(topic);
+        }
         let mut out = ImuSeries::with_capacity(0);
         let want = topic
             .strip_suffix(']')

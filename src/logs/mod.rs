@@ -484,6 +484,41 @@ pub fn instance_topic(topics: &[TopicInfo], name: &str, k: u32) -> Option<String
         .map(|t| t.name.clone())
 }
 
+/// The high-rate IMU topics of a flight log, which analyses prefer when no `--topic` is
+/// given: PX4's `sensor_gyro_fifo` and `sensor_accel_fifo`, ArduPilot's batch sampler
+/// `ISB_gyro[k]` and `ISB_acc[k]`; of each, the first instance present. Empty when the log has
+/// none of them.
+///
+/// ```
+/// use imunoise::logs::{TopicInfo, preferred_topics};
+/// let t = |name: &str| TopicInfo { name: name.into(), msg_type: String::new(), count: 9, is_imu: true };
+/// let topics = [t("ISB_acc[1]"), t("ISB_gyro[0]"), t("ISB_gyro[1]"), t("IMU[0]")];
+/// assert_eq!(preferred_topics(&topics), ["ISB_gyro[0]", "ISB_acc[1]"]);
+/// assert!(preferred_topics(&[t("sensor_combined")]).is_empty());
+/// ```
+pub fn preferred_topics(topics: &[TopicInfo]) -> Vec<String> {
+    let mut out = Vec::new();
+    for family in [
+        "sensor_gyro_fifo",
+        "sensor_accel_fifo",
+        "ISB_gyro[",
+        "ISB_acc[",
+    ] {
+        let mut of: Vec<&TopicInfo> = topics
+            .iter()
+            .filter(|t| t.is_imu && t.count > 0 && t.name.starts_with(family))
+            .filter(|t| {
+                family.ends_with('[') || t.name == family || t.name[family.len()..].starts_with('[')
+            })
+            .collect();
+        of.sort_by_key(|t| (t.name.len(), t.name.clone()));
+        if let Some(t) = of.first() {
+            out.push(t.name.clone());
+        }
+    }
+    out
+}
+
 /// What every log reader offers.
 ///
 /// ```

@@ -481,7 +481,10 @@ impl Input {
         let path = logs::storage_file(&self.file)?;
         let file = path.display().to_string();
         let reader = logs::open_checked(&path, fmt, self.strict, ui)?;
-        let requested = self.instance_topics(reader.as_ref(), &file)?;
+        let mut requested = self.instance_topics(reader.as_ref(), &file)?;
+        if requested.is_empty() {
+            requested = preferred(reader.as_ref(), &file, ui)?;
+        }
         let topics = logs::select_topics(reader.as_ref(), &file, &requested)?;
         let truncated = reader.truncation();
         let mut out = Vec::new();
@@ -520,7 +523,44 @@ impl Input {
     }
 }
 
+/// A flight log's high-rate IMU topics ([`logs::preferred_topics`]), with a note saying they
+/// are read.
+fn preferred(reader: &dyn logs::LogReader, file: &str, ui: &Ui) -> Result<Vec<String>> {
+    let preferred = logs::preferred_topics(&reader.topics()?);
+    if !preferred.is_empty() {
+        ui.note(format!(
+            "note: {file}: reading the high-rate IMU topics {} (choose others with --topic; \
+             `imunoise topics {file}` lists them)",
+            preferred.join(", ")
+        ));
+    }
+    Ok(preferred)
+}
+
 impl Input {
+    /// With no `topic` given, a log's high-rate IMU topics (PX4 FIFO, ArduPilot batch
+    /// sampler; see [`logs::preferred_topics`]), which the readers use then; a note says so.
+    /// Empty for other input, or when topics are given or the log has none.
+    ///
+    /// ```
+    /// use imunoise::pipeline::read::Input;
+    /// let ui = imunoise::Ui::quiet();
+    /// assert!(Input::new("imu.csv").preferred_topics(&ui)?.is_empty());
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
+    pub fn preferred_topics(&self, ui: &Ui) -> Result<Vec<String>> {
+        let Some(fmt) = self.log_format() else {
+            return Ok(Vec::new());
+        };
+        if !self.topic.is_empty() {
+            return Ok(Vec::new());
+        }
+        let path = logs::storage_file(&self.file)?;
+        let file = path.display().to_string();
+        let reader = logs::open_checked(&path, fmt, self.strict, &Ui::quiet())?;
+        preferred(reader.as_ref(), &file, ui)
+    }
+
     /// The topics asked for, with `instance` applied (`--topic sensor_gyro --instance 1` is
     /// `sensor_gyro[1]`).
     fn instance_topics(&self, reader: &dyn logs::LogReader, file: &str) -> Result<Vec<String>> {
