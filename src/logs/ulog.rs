@@ -382,16 +382,16 @@ impl UlogReader {
     /// #     msg(b'D', &d);
     /// # }
     /// # std::fs::write(&path, &log)?;
-    /// // `path`: a PX4 ULog with 100 `sensor_combined` messages of 33 bytes at 250 Hz
+    /// // `path`: a PX4 ULog with 100 `sensor_combined` messages of 37 bytes at 250 Hz
     /// use imunoise::logs::{LogReader, ulog::UlogReader};
     /// assert!(UlogReader::open(&path).is_ok());
-    /// // cut 10 bytes into its last message: the 99 complete ones are read
+    /// // cut 14 bytes into its last message: the 99 complete ones are read
     /// let cut = dir.path().join("cut.ulg");
     /// std::fs::write(&cut, &log[..log.len() - 23])?;
     /// let r = UlogReader::open(&cut)?;
     /// assert_eq!(r.read_imu("sensor_combined")?.stamps_ns.len(), 99);
     /// let t = r.truncation().unwrap();
-    /// assert_eq!((t.offset, t.dropped_bytes), (log.len() as u64 - 33, 10));
+    /// assert_eq!((t.offset, t.dropped_bytes), (log.len() as u64 - 37, 14));
     /// assert_eq!(t.last_stamp_ns, Some(98 * 4_000_000));
     /// let junk = dir.path().join("junk.ulg");
     /// std::fs::write(&junk, b"not a ulog file at all")?;
