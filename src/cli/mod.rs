@@ -169,6 +169,14 @@ pub struct InputArgs {
     /// refuse it (default), analyse the longest gap-free segment, or ignore the gaps.
     #[arg(long, value_name = "POLICY", value_enum, default_value = "refuse")]
     pub gaps: logs::GapPolicy,
+    /// Logs: the instance of the --topic message to read (ULog multi-instance topics such as
+    /// `--topic sensor_gyro --instance 1`, DataFlash `--topic IMU --instance 1`).
+    #[arg(long, value_name = "K")]
+    pub instance: Option<u32>,
+    /// Logs: refuse a cut-off file (one that ends inside a message, as when the power goes)
+    /// instead of reading every complete message before the cut with a warning.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 pub use crate::pipeline::read::TimeUnit;
@@ -190,6 +198,8 @@ impl InputArgs {
             time_column: self.time_column.clone(),
             time_unit: self.time_unit,
             gaps: self.gaps,
+            instance: self.instance,
+            strict: self.strict,
         }
     }
 
