@@ -27,6 +27,7 @@
 use rayon::prelude::*;
 
 use crate::error::AvarError;
+use crate::simd::SimdLevel;
 use crate::source::SampleWindow;
 
 /// Width of the fixed grid of k-chunks (terms) that partial sums are formed on.
@@ -128,17 +129,17 @@ fn sumsq_portable(c: &[f64], m: usize, lo: usize, hi: usize, acc: &mut [f64; LAN
 
 type SumFn = fn(&[f64], usize, usize, usize, &mut [f64; LANES]);
 
-fn sumsq_fn() -> SumFn {
+/// The sum kernel of `level` (at most [`crate::simd::level`]).
+fn sumsq_fn(level: SimdLevel) -> SumFn {
+    let level = level.min(crate::simd::level());
+    crate::simd::note(level);
     #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F (checked above).
-            return |c, m, lo, hi, acc| unsafe { sumsq_avx512(c, m, lo, hi, acc) };
-        }
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked above).
-            return |c, m, lo, hi, acc| unsafe { sumsq_avx2(c, m, lo, hi, acc) };
-        }
+    match level {
+        // SAFETY: `level()` never exceeds what the CPU has (AVX-512F).
+        SimdLevel::Avx512 => return |c, m, lo, hi, acc| unsafe { sumsq_avx512(c, m, lo, hi, acc) },
+        // SAFETY: as above (AVX2).
+        SimdLevel::Avx2 => return |c, m, lo, hi, acc| unsafe { sumsq_avx2(c, m, lo, hi, acc) },
+        SimdLevel::Scalar => {}
     }
     sumsq_portable
 }
@@ -181,7 +182,12 @@ const SCALE_BATCH: usize = 128;
 /// for a given m is the Neumaier sum, in chunk order, of the fixed-lane chunk partials, whatever
 /// other scales are requested.
 pub(crate) fn overlapping_sums(c: &[f64], ms: &[u64]) -> Vec<f64> {
-    let f = sumsq_fn();
+    overlapping_sums_at(c, ms, crate::simd::level())
+}
+
+/// [`overlapping_sums`] with the kernel of `level` (the same bits at every level).
+fn overlapping_sums_at(c: &[f64], ms: &[u64], level: SimdLevel) -> Vec<f64> {
+    let f = sumsq_fn(level);
     let n_chunks = c.len().div_ceil(CHUNK);
     let mut out = Vec::with_capacity(ms.len());
     for batch in ms.chunks(SCALE_BATCH) {
@@ -1017,37 +1023,8 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
             };
             reduce_lanes(&st.acc)
         } else {
-            stream_chunk::<SEG>(x, ck, m, i, Simd::None, &mut [])
+            stream_chunk::<SEG>(x, ck, m, i, SimdLevel::Scalar, &mut [])
         };
-    }
-}
-
-/// Which vector kernel [`stream_chunk`] uses for full chunks.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-enum Simd {
-    /// Portable [`seg_sum`] only.
-    None,
-    /// [`fill_y_avx2`] + [`full_chunk_avx2`].
-    Avx2,
-    /// [`chunk_all_avx512`].
-    Avx512,
-}
-
-impl Simd {
-    /// The widest kernel the CPU supports.
-    fn detect() -> Simd {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                return Simd::Avx512;
-            }
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                return Simd::Avx2;
-            }
-        }
-        Simd::None
     }
 }
 
@@ -1060,27 +1037,28 @@ fn stream_chunk<const SEG: usize>(
     ck: &Checkpoints,
     m: usize,
     i: usize,
-    simd: Simd,
+    simd: SimdLevel,
     yb: &mut [f64],
 ) -> f64 {
     let t = x.len();
     let a = i * (NSEG * SEG);
     let mut acc = [0.0f64; NSEG];
     #[cfg(target_arch = "x86_64")]
-    if simd != Simd::None && a >= 2 * m && a + (NSEG * SEG) <= t {
+    if simd != SimdLevel::Scalar && a >= 2 * m && a + (NSEG * SEG) <= t {
         let mut d0 = [0.0f64; NSEG];
         for (l, d) in d0.iter_mut().enumerate() {
             *d = d_start(x, ck, m, a + l * SEG);
         }
-        acc = if simd == Simd::Avx512 {
+        crate::simd::note(simd);
+        acc = if simd == SimdLevel::Avx512 {
             let mut st = SegState { d: d0, acc };
-            // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present); the
-            // range is checked above.
+            // SAFETY: `simd` is at most `simd::level()` (the callers pass it or, in tests, a
+            // lower level), so AVX-512F is present; the range is checked above.
             unsafe { block_avx512::<SEG>(x, m, a, 0, 0, SEG, &mut st) };
             st.acc
         } else {
-            // SAFETY: `Simd::Avx2` comes only from `Simd::detect` (AVX2 and FMA present); the range is
-            // checked above.
+            // SAFETY: `simd` ≤ `simd::level()` (see above): AVX2 and FMA are present; the range
+            // is checked above.
             unsafe {
                 fill_y_avx2::<SEG>(x, m, a, yb);
                 full_chunk_avx2::<SEG>(yb, &d0)
@@ -1143,7 +1121,7 @@ pub(crate) fn overlapping_sums_stream_io(
     io: &Io<'_>,
 ) -> Result<(Vec<f64>, f64), AvarError> {
     let job_chunks = job_chunks(x.len());
-    overlapping_sums_stream_split(x, ms, far_m(x.len()), job_chunks, Simd::detect(), io)
+    overlapping_sums_stream_split(x, ms, far_m(x.len()), job_chunks, crate::simd::level(), io)
         .map(|(sums, mean, _)| (sums, mean))
 }
 
@@ -1173,7 +1151,7 @@ pub(crate) fn overlapping_sums_stream_checkpoints(
         ms,
         far_m(x.len()),
         job_chunks(x.len()),
-        Simd::detect(),
+        crate::simd::level(),
         &Io::NONE,
     )?;
     Ok((sums, ck.far.is_some().then_some(ck)))
@@ -1190,9 +1168,12 @@ fn overlapping_sums_stream_split(
     ms: &[u64],
     far_m: usize,
     job_chunks: usize,
-    simd: Simd,
+    simd: SimdLevel,
     io: &Io<'_>,
 ) -> Result<(Vec<f64>, f64, Checkpoints), AvarError> {
+    // never above the process's level (the vector paths' safety rests on it)
+    let simd = simd.min(crate::simd::level());
+    crate::simd::note(SimdLevel::Scalar);
     let release = io.release;
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
@@ -1342,7 +1323,7 @@ fn stream_near(
     near: &[usize],
     warm: usize,
     job_chunks: usize,
-    simd: Simd,
+    simd: SimdLevel,
     release: Release<'_>,
     loc: &mut [(f64, f64)],
     out: &mut [f64],
@@ -1520,16 +1501,20 @@ fn chunk_run<const SEG: usize>(
     ck: &Checkpoints,
     batch: &[u64],
     i: usize,
-    simd: Simd,
+    simd: SimdLevel,
     scratch: &mut Scratch,
     next: Option<usize>,
     out: &mut [f64],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if simd == Simd::Avx512 {
-        // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present).
-        unsafe { chunk_all_avx512::<SEG>(x, ck, batch, i, next, scratch, out) };
-        return;
+    match simd {
+        SimdLevel::Avx512 => {
+            crate::simd::note(simd);
+            // SAFETY: `simd` is at most `simd::level()` (see [`stream_chunk`]): AVX-512F present.
+            unsafe { chunk_all_avx512::<SEG>(x, ck, batch, i, next, scratch, out) };
+            return;
+        }
+        SimdLevel::Avx2 | SimdLevel::Scalar => {}
     }
     let _ = next;
     for (o, &m) in out.iter_mut().zip(batch) {
@@ -1607,7 +1592,7 @@ fn stream_group<const SEG: usize>(
     ms: &[u64],
     group: &[usize],
     residue_step: usize,
-    simd: Simd,
+    simd: SimdLevel,
     io: &Io<'_>,
     out: &mut [f64],
 ) {
@@ -1627,7 +1612,7 @@ fn stream_group<const SEG: usize>(
             .map(|m| m / step)
             .max()
             .unwrap_or(0);
-        let slots = if simd == Simd::Avx512 && q_max > 0 {
+        let slots = if simd == SimdLevel::Avx512 && q_max > 0 {
             2 * q_max + 1
         } else {
             0
@@ -1639,7 +1624,7 @@ fn stream_group<const SEG: usize>(
         // more into a window is harmless)
         let lags_from_x = |m: usize, a: usize, tc: usize| {
             let q = m / step;
-            !(simd == Simd::Avx512
+            !(simd == SimdLevel::Avx512
                 && slots > 0
                 && m.is_multiple_of(step)
                 && 2 * q <= tc
@@ -1896,23 +1881,26 @@ pub(crate) mod tests {
         // here), with one job per near chunk (local checkpoint frames with a warm-up of
         // 4096 samples): same sums as the buffered kernel
         let far_m = 4096;
-        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1, Simd::detect(), &Io::NONE)
-            .unwrap()
-            .0;
+        let split =
+            overlapping_sums_stream_split(&x, &ms, far_m, 1, crate::simd::level(), &Io::NONE)
+                .unwrap()
+                .0;
         for ((a, b), &m) in split.iter().zip(&buffered).zip(&ms) {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
         }
         // every vector path gives the same bits as the portable one, near and far (the far
         // scales 8192 and 16 384 are whole class steps here and read the ring of lane copies)
         for (far_m, jobs) in [(FAR_M, JOB_CHUNKS), (far_m, 1)] {
-            let best =
-                overlapping_sums_stream_split(&x, &ms, far_m, jobs, Simd::detect(), &Io::NONE)
-                    .unwrap();
-            let mut paths = vec![Simd::None];
-            if Simd::detect() != Simd::None {
-                paths.push(Simd::Avx2);
-            }
-            for simd in paths {
+            let best = overlapping_sums_stream_split(
+                &x,
+                &ms,
+                far_m,
+                jobs,
+                crate::simd::level(),
+                &Io::NONE,
+            )
+            .unwrap();
+            for simd in crate::simd::levels() {
                 let p =
                     overlapping_sums_stream_split(&x, &ms, far_m, jobs, simd, &Io::NONE).unwrap();
                 for ((a, b), &m) in p.0.iter().zip(&best.0).zip(&ms) {
@@ -1923,22 +1911,28 @@ pub(crate) mod tests {
         }
         // one job instead of the default grid (here four one-chunk jobs): the checkpoint frames
         // differ, the sums only by rounding
-        let one_job =
-            overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS, Simd::detect(), &Io::NONE)
-                .unwrap()
-                .0;
+        let one_job = overlapping_sums_stream_split(
+            &x,
+            &ms,
+            far_m,
+            JOB_CHUNKS,
+            crate::simd::level(),
+            &Io::NONE,
+        )
+        .unwrap()
+        .0;
         assert_eq!(job_chunks(n), 1);
         for ((a, d), &m) in one_job.iter().zip(&streamed).zip(&ms) {
             assert!((a - d).abs() <= 1e-13 * d.abs(), "m {m}: {a} vs {d}");
         }
         // the value for m does not depend on the other requested scales
         let single_far =
-            overlapping_sums_stream_split(&x, &[20_000], far_m, 1, Simd::detect(), &Io::NONE)
+            overlapping_sums_stream_split(&x, &[20_000], far_m, 1, crate::simd::level(), &Io::NONE)
                 .unwrap()
                 .0;
         assert_eq!(single_far[0].to_bits(), split[11].to_bits());
         let single_near =
-            overlapping_sums_stream_split(&x, &[1000], far_m, 1, Simd::detect(), &Io::NONE)
+            overlapping_sums_stream_split(&x, &[1000], far_m, 1, crate::simd::level(), &Io::NONE)
                 .unwrap()
                 .0;
         assert_eq!(single_near[0].to_bits(), split[6].to_bits());
@@ -1951,11 +1945,33 @@ pub(crate) mod tests {
         for (a, b) in off.iter().zip(&streamed) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
-        let off_split = overlapping_sums_stream_split(&y, &ms, far_m, 1, Simd::detect(), &Io::NONE)
-            .unwrap()
-            .0;
+        let off_split =
+            overlapping_sums_stream_split(&y, &ms, far_m, 1, crate::simd::level(), &Io::NONE)
+                .unwrap()
+                .0;
         for (a, b) in off_split.iter().zip(&split) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
+        }
+    }
+
+    /// The buffered kernel gives the same bits at every SIMD level up to the process's level
+    /// (lanes tied to the absolute index, no FMA contraction), for near batches (sub-block walk)
+    /// and spread scales.
+    #[test]
+    fn buffered_sums_are_identical_at_every_level() {
+        let x = series(2 * CHUNK + 777, 0.5);
+        let mut c = Vec::new();
+        centred_prefix_into(&x, &mut c).unwrap();
+        let near: Vec<u64> = (1..=40).collect();
+        let spread: Vec<u64> = vec![1, 3, 64, 1000, 4097, 16_384];
+        for ms in [&near, &spread] {
+            let want = overlapping_sums_at(&c, ms, SimdLevel::Scalar);
+            for level in crate::simd::levels() {
+                let got = overlapping_sums_at(&c, ms, level);
+                for ((a, b), m) in got.iter().zip(&want).zip(ms.iter()) {
+                    assert_eq!(a.to_bits(), b.to_bits(), "{level} m {m}");
+                }
+            }
         }
     }
 
@@ -1967,7 +1983,8 @@ pub(crate) mod tests {
         let x = series(n, 0.0);
         let ms: Vec<u64> = (1..=300).map(|k| 7 * k).collect();
         let (sums, ..) =
-            overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect(), &Io::NONE).unwrap();
+            overlapping_sums_stream_split(&x, &ms, FAR_M, 1, crate::simd::level(), &Io::NONE)
+                .unwrap();
         let mut c = Vec::new();
         centred_prefix_into(&x, &mut c).unwrap();
         let buffered = overlapping_sums(&c, &ms);
@@ -1975,8 +1992,14 @@ pub(crate) mod tests {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
         }
         for k in [0, 150, 299] {
-            let one =
-                overlapping_sums_stream_split(&x, &ms[k..=k], FAR_M, 1, Simd::detect(), &Io::NONE);
+            let one = overlapping_sums_stream_split(
+                &x,
+                &ms[k..=k],
+                FAR_M,
+                1,
+                crate::simd::level(),
+                &Io::NONE,
+            );
             assert_eq!(
                 one.unwrap().0[0].to_bits(),
                 sums[k].to_bits(),
@@ -2004,7 +2027,7 @@ pub(crate) mod tests {
                     &[2, 8192],
                     4096,
                     job_chunks,
-                    Simd::detect(),
+                    crate::simd::level(),
                     &Io::NONE,
                 ) {
                     Err(AvarError::NonFinite { index: i, .. }) => assert_eq!(i, index),
@@ -2022,7 +2045,7 @@ pub(crate) mod tests {
             .map(|i| if i % 2 == 0 { 1.7e308 } else { -1.7e308 })
             .collect();
         assert!(matches!(
-            overlapping_sums_stream_split(&x, &[2], 4096, 1, Simd::detect(), &Io::NONE),
+            overlapping_sums_stream_split(&x, &[2], 4096, 1, crate::simd::level(), &Io::NONE),
             Err(AvarError::Overflow)
         ));
     }
@@ -2036,17 +2059,11 @@ pub(crate) mod tests {
         let ck = checkpoints(&x).unwrap();
         let n_chunks = (n + 1).div_ceil(NSEG * SEG);
         let mut yb = vec![0.0; NSEG * (SEG + 8)];
-        let best = Simd::detect();
-        let mut paths = vec![Simd::None];
-        if best != Simd::None {
-            paths.push(Simd::Avx2);
-        }
-        if best == Simd::Avx512 {
-            paths.push(Simd::Avx512);
-        }
+        let best = crate::simd::level();
+        let paths = crate::simd::levels();
         for &m in ms {
             for i in 0..n_chunks {
-                let p = stream_chunk::<SEG>(&x, &ck, m as usize, i, Simd::None, &mut yb);
+                let p = stream_chunk::<SEG>(&x, &ck, m as usize, i, SimdLevel::Scalar, &mut yb);
                 for &simd in &paths[1..] {
                     let q = stream_chunk::<SEG>(&x, &ck, m as usize, i, simd, &mut yb);
                     assert_eq!(
@@ -2058,7 +2075,7 @@ pub(crate) mod tests {
             }
         }
         #[cfg(target_arch = "x86_64")]
-        if best == Simd::Avx512 {
+        if best == SimdLevel::Avx512 {
             let big = series(n + 8, 0.0);
             for o in 0..8 {
                 let xo = &big[o..o + n];
@@ -2069,10 +2086,17 @@ pub(crate) mod tests {
                     let nx = Some((i + 1) * NSEG * SEG);
                     let mut q = vec![0.0; ms.len()];
                     let mut scratch = Scratch::new::<SEG>();
-                    // SAFETY: AVX-512F detected above.
+                    // SAFETY: AVX-512F is present (`level()` is AVX-512).
                     unsafe { chunk_all_avx512::<SEG>(xo, &cko, ms, i, nx, &mut scratch, &mut q) };
                     for (&m, qm) in ms.iter().zip(&q) {
-                        let p = stream_chunk::<SEG>(xo, &cko, m as usize, i, Simd::None, &mut yb);
+                        let p = stream_chunk::<SEG>(
+                            xo,
+                            &cko,
+                            m as usize,
+                            i,
+                            SimdLevel::Scalar,
+                            &mut yb,
+                        );
                         assert_eq!(
                             p.to_bits(),
                             qm.to_bits(),
