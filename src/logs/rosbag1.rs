@@ -541,7 +541,10 @@ fn index_beyond_end(b: &[u8]) -> bool {
 
 /// A record of `b` at `at`: its header fields (name, value), its data range and the offset
 /// after it; `None` when it runs past the end of `b` (or its header is malformed).
-fn bag_record(b: &[u8], at: usize) -> Option<(Vec<(&[u8], &[u8])>, (usize, usize), usize)> {
+/// A record's header fields (name, value), its data range and the offset after it.
+type RecordAt<'a> = (Vec<(&'a [u8], &'a [u8])>, (usize, usize), usize);
+
+fn bag_record(b: &[u8], at: usize) -> Option<RecordAt<'_>> {
     let u32_at = |o: usize| -> Option<usize> {
         Some(u32::from_le_bytes(b.get(o..o.checked_add(4)?)?.try_into().ok()?) as usize)
     };
