@@ -2,8 +2,10 @@
 # Renders the demo's report.html in headless Chromium and saves a screenshot under
 # target/report-check/ (look at it; it is not committed). Installs Debian's chromium with
 # apt-get when absent; skips with a message (exit 0) when it cannot.
-# Checks: the report exists, has inline SVG plots and the noise table, and the screenshot
-# is a non-trivial PNG. Usage: scripts/check-report.sh [REPORT_DIR]
+# Checks: the report exists, has inline SVG plots and the summary table, the screenshot is a
+# non-trivial PNG, and the first screen as Chromium renders it (--dump-dom) shows every
+# channel's N, K, B and verdict as results.json has them (scripts/check_first_screen.py).
+# Usage: scripts/check-report.sh [REPORT_DIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=target/report-check
@@ -27,9 +29,10 @@ if [ -z "$browser" ]; then
 fi
 
 if [ -z "${1:-}" ]; then
-    cargo run --release --quiet -- demo --quiet --samples 262144 --bootstrap 10 --out "$dir" >/dev/null
+    # the dev-profile binary (CI has it from `cargo test`; no release build just for this)
+    cargo run --quiet -- demo --quiet --samples 262144 --bootstrap 10 --out "$dir" >/dev/null
 fi
-html="$dir/report.html"
+html="$(realpath "$dir")/report.html"
 [ -s "$html" ] || { echo "check-report: FAILED: $html missing"; exit 1; }
 n_svg=$(grep -o '<svg' "$html" | wc -l)
 grep -q 'Summary: the values a filter needs' "$html" || { echo "check-report: FAILED: no summary table"; exit 1; }
@@ -37,12 +40,20 @@ grep -q 'Summary: the values a filter needs' "$html" || { echo "check-report: FA
 
 shot="$out/report.png"
 rm -f "$shot"
-"$browser" --headless --no-sandbox --disable-gpu --hide-scrollbars \
-    --window-size=1400,2400 --screenshot="$PWD/$shot" "file://$PWD/$html" >/dev/null 2>&1 || true
+"$browser" --headless --no-sandbox --disable-gpu --disable-quic --no-first-run \
+    --disable-background-networking --disable-component-update --disable-sync --hide-scrollbars \
+    --window-size=1400,1000 --screenshot="$PWD/$shot" "file://$html" >/dev/null 2>&1 || true
 if [ ! -s "$shot" ]; then
     echo "check-report: FAILED: chromium produced no screenshot"
     exit 1
 fi
 size=$(stat -c %s "$shot")
 [ "$size" -gt 50000 ] || { echo "check-report: FAILED: screenshot only $size bytes (blank page?)"; exit 1; }
-echo "check-report: OK: $n_svg inline SVG plots, noise table present; screenshot $shot ($size bytes)"
+# the first screen as the browser rendered it: N, K, B and the verdicts equal results.json
+"$browser" --headless --no-sandbox --disable-gpu --disable-quic --no-first-run \
+    --disable-background-networking --disable-component-update --disable-sync \
+    --dump-dom "file://$html" > "$out/dom.html" 2>/dev/null || true
+[ -s "$out/dom.html" ] || { echo "check-report: FAILED: chromium dumped no DOM"; exit 1; }
+python3 scripts/check_first_screen.py "$out/dom.html" "$dir/results.json" || {
+    echo "check-report: FAILED: the first screen disagrees with results.json"; exit 1; }
+echo "check-report: OK: $n_svg inline SVG plots, summary table present; screenshot $shot ($size bytes)"

@@ -507,6 +507,8 @@ def fit(
     efficiency: float = 0.6,
     names: Optional[Sequence[str]] = None,
     unit: Optional[str] = None,
+    tau_min: Optional[float] = None,
+    tau_max: Optional[float] = None,
 ) -> Union[FitResult, List[FitResult]]:
     """Fits the noise ``model`` to samples (as ``imunoise fit`` does) or to ``avar`` results.
 
@@ -516,7 +518,9 @@ def fit(
     then not needed). ``method``: ``"gmwm"``, ``"avlr"`` or ``"ieee952"``; ``select``: the
     best sub-model by WIC; ``bootstrap``: parametric bootstrap replicates for the CIs;
     ``robust``: fit the robust AV at Gaussian ``efficiency``. ``unit``: the channels' unit
-    (e.g. ``"deg/s"``), else from the names' suffixes. Parameters come per sample in that
+    (e.g. ``"deg/s"``), else from the names' suffixes. ``tau_min``/``tau_max`` (s): fit only
+    the scales in that range (as ``--tau-min``/``--tau-max``; the others are listed in the
+    result's ``to_dict()["excluded_taus"]``). Parameters come per sample in that
     unit (see the package docstring). One result per channel; a list for 2-D input.
 
     >>> import numpy as np, imunoise
@@ -529,6 +533,10 @@ def fit(
     >>> a = imunoise.fit(imunoise.avar(x[:, 0], 100.0), model="WN+RW")
     >>> a.parameters == fs[0].parameters
     True
+    >>> # the scales below 0.1 s left out of the fit
+    >>> f = imunoise.fit(x[:, 0], 100.0, model="WN+RW", tau_min=0.1)
+    >>> f.to_dict()["excluded_taus"], f.to_dict()["fitted"][0]["m"]
+    ([0.02, 0.04, 0.08], 16)
     """
     model = _template_text(model)
     if isinstance(x_or_avar_result, (AvarResult, list, tuple)) and (
@@ -539,7 +547,7 @@ def fit(
         rs = [x_or_avar_result] if single else list(x_or_avar_result)
         doc = _imunoise.fit_curves(
             [r._curve for r in rs], model, method, bool(select), int(bootstrap), weighting,
-            int(seed), float(alpha), unit,
+            int(seed), float(alpha), unit, tau_min=tau_min, tau_max=tau_max,
         )
     else:
         if rate is None:
@@ -550,6 +558,7 @@ def fit(
             a, float(rate), model, method, bool(select), int(bootstrap), weighting,
             int(seed), float(alpha), bool(robust), float(efficiency),
             None if names is None else [str(n) for n in names], unit,
+            tau_min=tau_min, tau_max=tau_max,
         )
     fits = [FitResult(c) for c in json.loads(doc)["channels"]]
     return fits[0] if single else fits
@@ -661,6 +670,8 @@ def analyze(
     record_halfwidth: float = 0.1,
     names: Optional[Sequence[str]] = None,
     unit: Optional[str] = None,
+    tau_min: Optional[float] = None,
+    tau_max: Optional[float] = None,
     **read_options: Any,
 ) -> Dict[str, Any]:
     """Everything for one recording, as ``imunoise analyze``: each channel's Allan variance
@@ -702,7 +713,7 @@ def analyze(
             names = ",".join(names)
         doc = _imunoise.analyze_file(
             str(path_or_array), out_s, *common, rate=rate, names=names, unit=unit,
-            **read_options,
+            tau_min=tau_min, tau_max=tau_max, **read_options,
         )
     else:
         if rate is None:
@@ -713,6 +724,7 @@ def analyze(
         doc = _imunoise.analyze_array(
             a, float(rate), out_s, *common,
             None if names is None else [str(n) for n in names], unit,
+            tau_min=tau_min, tau_max=tau_max,
         )
     return json.loads(doc)
 

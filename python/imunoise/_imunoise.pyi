@@ -41,10 +41,12 @@ def fit_array(
     x: npt.NDArray[np.float64], rate: float, model: str, method: str, select: bool,
     bootstrap: int, weighting: str, seed: int, alpha: float, robust: bool, efficiency: float,
     names: Optional[List[str]] = None, unit: Optional[str] = None,
+    tau_min: Optional[float] = None, tau_max: Optional[float] = None,
 ) -> str: ...
 def fit_curves(
     curves: List[Curve], model: str, method: str, select: bool, bootstrap: int,
     weighting: str, seed: int, alpha: float, unit: Optional[str] = None,
+    tau_min: Optional[float] = None, tau_max: Optional[float] = None,
 ) -> str: ...
 def simulate_array(
     model: str, n: int, rate: float, seed: int, channels: int
@@ -66,12 +68,14 @@ def analyze_file(
     channels: Optional[int] = None, scale: Optional[float] = None,
     names: Optional[str] = None, unit: Optional[str] = None,
     time_column: Optional[str] = None, time_unit: str = "s", gaps: str = "refuse",
+    tau_min: Optional[float] = None, tau_max: Optional[float] = None,
 ) -> str: ...
 def analyze_array(
     x: npt.NDArray[np.float64], rate: float, out: Optional[str], model: str, method: str,
     select: bool, bootstrap: int, weighting: str, seed: int, alpha: float, robust: bool,
     efficiency: float, record_halfwidth: float, names: Optional[List[str]] = None,
-    unit: Optional[str] = None,
+    unit: Optional[str] = None, tau_min: Optional[float] = None,
+    tau_max: Optional[float] = None,
 ) -> str: ...
 def kernel_seconds(
     x: npt.NDArray[np.float64], rate: float, scales: str, ci: str, repeats: int

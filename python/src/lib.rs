@@ -319,6 +319,7 @@ fn fit_settings(
     bootstrap: usize,
     seed: u64,
     alpha: f64,
+    tau: (Option<f64>, Option<f64>),
 ) -> PyResult<fit::FitSettings> {
     if !(alpha > 0.0 && alpha < 1.0) {
         return Err(usage(format!("alpha must lie in (0, 1), got {alpha}")));
@@ -349,8 +350,8 @@ fn fit_settings(
         bootstrap,
         seed,
         alpha,
-        tau_min: None,
-        tau_max: None,
+        tau_min: tau.0,
+        tau_max: tau.1,
     };
     // the model parses (and the rest holds) before any file is read
     settings.check().map_err(py_err)?;
@@ -384,7 +385,7 @@ fn units_of(names: &[String], unit: Option<&str>) -> PyResult<Vec<Unit>> {
 /// Allan variance curves; returns the `fit --format json` document as a string.
 #[pyfunction]
 #[pyo3(signature = (x, rate, model, method, select, bootstrap, weighting, seed, alpha,
-    robust, efficiency, names=None, unit=None))]
+    robust, efficiency, names=None, unit=None, tau_min=None, tau_max=None))]
 #[allow(clippy::too_many_arguments)]
 fn fit_array(
     py: Python<'_>,
@@ -401,8 +402,13 @@ fn fit_array(
     efficiency: f64,
     names: Option<Vec<String>>,
     unit: Option<&str>,
+    tau_min: Option<f64>,
+    tau_max: Option<f64>,
 ) -> PyResult<String> {
-    let settings = fit_settings(model, method, select, weighting, bootstrap, seed, alpha)?;
+    let tau = (tau_min, tau_max);
+    let settings = fit_settings(
+        model, method, select, weighting, bootstrap, seed, alpha, tau,
+    )?;
     let robust = robust_eff(robust, efficiency)?;
     let table = array_table(x, rate, names)?;
     let units = units_of(&table.names, unit)?;
@@ -415,7 +421,8 @@ fn fit_array(
 /// Fits a noise model to Allan variance curves made by `avar` (no data-quality pass: the
 /// samples are not at hand); returns the `fit --format json` document as a string.
 #[pyfunction]
-#[pyo3(signature = (curves, model, method, select, bootstrap, weighting, seed, alpha, unit=None))]
+#[pyo3(signature = (curves, model, method, select, bootstrap, weighting, seed, alpha, unit=None,
+    tau_min=None, tau_max=None))]
 #[allow(clippy::too_many_arguments)]
 fn fit_curves(
     py: Python<'_>,
@@ -428,8 +435,13 @@ fn fit_curves(
     seed: u64,
     alpha: f64,
     unit: Option<&str>,
+    tau_min: Option<f64>,
+    tau_max: Option<f64>,
 ) -> PyResult<String> {
-    let settings = fit_settings(model, method, select, weighting, bootstrap, seed, alpha)?;
+    let tau = (tau_min, tau_max);
+    let settings = fit_settings(
+        model, method, select, weighting, bootstrap, seed, alpha, tau,
+    )?;
     let named: Vec<(String, AllanVariance)> = curves
         .iter()
         .map(|c| (c.name.clone(), c.av.clone()))
@@ -654,10 +666,11 @@ fn analyze_settings(
     robust: bool,
     efficiency: f64,
     record_halfwidth: f64,
+    tau: (Option<f64>, Option<f64>),
 ) -> PyResult<analyze::AnalyzeSettings> {
     let settings = analyze::AnalyzeSettings {
         // `select` is the command's `!--no-select`; the fit's own flag stays off as there
-        fit: fit_settings(model, method, false, weighting, bootstrap, seed, alpha)?,
+        fit: fit_settings(model, method, false, weighting, bootstrap, seed, alpha, tau)?,
         select,
         robust,
         efficiency,
@@ -697,7 +710,7 @@ fn run_analysis(
 #[pyo3(signature = (path, out, model, method, select, bootstrap, weighting, seed, alpha,
     robust, efficiency, record_halfwidth, rate=None, topic=None, columns=None, binary=None,
     channels=None, scale=None, names=None, unit=None, time_column=None, time_unit="s",
-    gaps="refuse"))]
+    gaps="refuse", tau_min=None, tau_max=None))]
 #[allow(clippy::too_many_arguments)]
 fn analyze_file(
     py: Python<'_>,
@@ -724,6 +737,8 @@ fn analyze_file(
     time_column: Option<String>,
     time_unit: &str,
     gaps: &str,
+    tau_min: Option<f64>,
+    tau_max: Option<f64>,
 ) -> PyResult<String> {
     let settings = analyze_settings(
         model,
@@ -736,6 +751,7 @@ fn analyze_file(
         robust,
         efficiency,
         record_halfwidth,
+        (tau_min, tau_max),
     )?;
     let spec = input_spec(
         path,
@@ -764,7 +780,7 @@ fn analyze_file(
 /// `imunoise analyze` on an array's channels: the `results.json` document as a string.
 #[pyfunction]
 #[pyo3(signature = (x, rate, out, model, method, select, bootstrap, weighting, seed, alpha,
-    robust, efficiency, record_halfwidth, names=None, unit=None))]
+    robust, efficiency, record_halfwidth, names=None, unit=None, tau_min=None, tau_max=None))]
 #[allow(clippy::too_many_arguments)]
 fn analyze_array(
     py: Python<'_>,
@@ -783,6 +799,8 @@ fn analyze_array(
     record_halfwidth: f64,
     names: Option<Vec<String>>,
     unit: Option<&str>,
+    tau_min: Option<f64>,
+    tau_max: Option<f64>,
 ) -> PyResult<String> {
     let settings = analyze_settings(
         model,
@@ -795,6 +813,7 @@ fn analyze_array(
         robust,
         efficiency,
         record_halfwidth,
+        (tau_min, tau_max),
     )?;
     let table = array_table(x, rate, names)?;
     let units = units_of(&table.names, unit)?;

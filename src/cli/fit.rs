@@ -15,6 +15,8 @@ pub const EXAMPLES: &str = "Examples:
   imunoise fit imu.csv.gz --rate 100 --method avlr
   imunoise fit imu.csv.gz --rate 100 --robust          # robust AV (biweight, 60 % efficiency): outliers
   imunoise fit day1.csv.gz day2.csv.gz --rate 100 --model \"WN+RW+AR1\" --format json   # one model, two recordings
+  imunoise fit --curve avar.csv --select               # a curve from `imunoise avar --format csv`
+  imunoise fit --curve datasheet.txt --rate 400 --samples 5760000 --unit deg/s   # a published AD curve
 
 --robust fits the robust Allan variance (Tukey biweight M-estimator of scale per scale at
 Gaussian efficiency --efficiency, 0.6 by default, as the R package gmwm): differences beyond
@@ -148,6 +150,19 @@ pub struct FitArgs {
     /// Robust fitting.
     #[command(flatten)]
     pub robust: RobustArgs,
+    /// The input is an Allan variance curve, not samples: a text file of τ and AV or AD
+    /// columns, as `imunoise avar --format csv`, allan_variance_ros or imu_utils write them or
+    /// as copied from a datasheet (long layout: tau, avar|adev, optional channel, m,
+    /// avar_lo/avar_hi or adev_lo/adev_hi, edf, n_terms; wide layout: τ first, then one
+    /// column per channel, deviations unless the name contains "var"). The rate comes from
+    /// --rate or the m column; the CIs from the file's CI or EDF columns, else from the record
+    /// length (--samples, or the n_terms column) by the EDF of the noise the curve's slope
+    /// shows. Units from --unit or the channel names, as for samples.
+    #[arg(long)]
+    pub curve: bool,
+    /// With --curve: the record length T behind the curve, in samples.
+    #[arg(long, value_name = "N", requires = "curve")]
+    pub samples: Option<u64>,
     /// Output format: table, json or csv.
     #[arg(long, short, value_enum, default_value = "table")]
     pub format: super::Format,
@@ -187,10 +202,29 @@ pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
     }
     let robust = args.robust.efficiency()?;
     let settings = args.fit.settings();
-    let spec = args.input.spec();
-    let table = spec.read(ui)?;
-    let units = spec.units(&table)?;
-    let fits = fit_table(&table, &units, &settings, robust, ui)?;
+    let fits = if args.curve {
+        if robust.is_some() || !args.more.is_empty() {
+            return Err(Error::Usage(
+                "--curve fits one curve file as it is: without --robust (which needs the \
+                 samples) and without more files"
+                    .into(),
+            ));
+        }
+        let opts = crate::pipeline::curve::CurveOptions {
+            rate_hz: args.input.rate,
+            samples: args.samples,
+            alpha: settings.alpha,
+        };
+        let curves = crate::pipeline::curve::read_curve_file(&args.input.file, &opts)?;
+        let names: Vec<String> = curves.iter().map(|(n, _)| n.clone()).collect();
+        let units = crate::units::channel_units(&names, args.input.unit.as_deref())?;
+        fit_all(&curves, &units, &settings, ui)?
+    } else {
+        let spec = args.input.spec();
+        let table = spec.read(ui)?;
+        let units = spec.units(&table)?;
+        fit_table(&table, &units, &settings, robust, ui)?
+    };
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let r = match args.format {

@@ -374,7 +374,7 @@ pub fn write_curves_csv(out: &mut impl Write, curves: &[Curve]) -> std::io::Resu
                 opt(p.var_hi),
                 opt(p.dev_lo),
                 opt(p.dev_hi),
-                p.edf.map_or(String::new(), |e| format!("{e:.3}")),
+                p.edf.map_or(String::new(), |e| format!("{e}")),
                 p.n_terms,
                 c.stability.statistic,
                 p.alpha.map_or(String::new(), |a| a.to_string())
@@ -590,11 +590,13 @@ fn opt(v: Option<f64>) -> String {
 /// let mut lines = text.lines();
 /// let header = "channel,m,tau,avar,adev,avar_lo,avar_hi,adev_lo,adev_hi,edf,n_terms";
 /// assert_eq!(lines.next(), Some(header));
-/// // the AV is written in the shortest form that reads back to the same f64
+/// // every number is written in the shortest form that reads back to the same f64 (so that
+/// // `imunoise fit --curve` of this file fits exactly what was estimated)
 /// for (line, p) in lines.zip(&av.points) {
 ///     let cells: Vec<&str> = line.split(',').collect();
 ///     assert_eq!(cells[0], "gx");
 ///     assert_eq!(cells[3].parse::<f64>()?, p.avar);
+///     assert_eq!(cells[9].parse::<f64>()?, p.edf.unwrap());
 /// }
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
@@ -616,7 +618,7 @@ pub fn write_csv(out: &mut impl Write, curves: &[(String, AllanVariance)]) -> st
                 opt(p.avar_hi),
                 opt(p.adev_lo),
                 opt(p.adev_hi),
-                p.edf.map_or(String::new(), |e| format!("{e:.3}")),
+                p.edf.map_or(String::new(), |e| format!("{e}")),
                 p.n_terms
             )?;
         }

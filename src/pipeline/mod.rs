@@ -39,6 +39,7 @@
 //! ```
 
 pub mod analyze;
+pub mod curve;
 pub mod estimate;
 pub mod fit;
 pub mod read;

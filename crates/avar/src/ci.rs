@@ -224,6 +224,20 @@ fn basic_sum(j: f64, m: f64, s: f64, f: f64, alpha: i32) -> f64 {
     sum
 }
 
+/// The chi-square interval of an AV estimate `avar` with `edf` equivalent degrees of freedom
+/// at level 1 − `alpha`: [edf·AV / χ²_{1−α/2}(edf), edf·AV / χ²_{α/2}(edf)] (NaN bounds for
+/// edf ≤ 0), the interval of the default [`crate::CiMethod::ChiSquare`].
+///
+/// ```
+/// // 2 EDF: χ²₂ quantiles are −2 ln(1 − p), so the bounds are closed forms
+/// let (lo, hi) = avar::ci::chi_square_interval(1.0, 2.0, 0.05);
+/// assert!((lo - 2.0 / (-2.0 * 0.025f64.ln())).abs() < 1e-9);
+/// assert!((hi - 2.0 / (-2.0 * 0.975f64.ln())).abs() < 1e-9);
+/// ```
+pub fn chi_square_interval(avar: f64, edf: f64, alpha: f64) -> (f64, f64) {
+    chi2_interval(avar, edf, alpha)
+}
+
 /// Equivalent degrees of freedom of the (overlapping or non-overlapping) Allan variance for
 /// power-law noise S_y ∝ f^α, by Greenhall's general algorithm (Greenhall & Riley 2004) with
 /// d = 2 (second differences of phase), F = m (unmodified variance), stride S = m (overlapping)
