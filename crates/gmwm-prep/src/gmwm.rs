@@ -493,7 +493,8 @@ impl Problem {
             match k {
                 ProcessKind::WhiteNoise
                 | ProcessKind::QuantizationNoise
-                | ProcessKind::RandomWalk => {
+                | ProcessKind::RandomWalk
+                | ProcessKind::BiasInstability(_) => {
                     th[at] = eta[at].exp();
                     t[(at, at)] = th[at];
                 }
@@ -506,6 +507,17 @@ impl Problem {
                     t[(at, at)] = 1.0 - th[at] * th[at];
                     th[at + 1] = eta[at + 1].exp();
                     t[(at + 1, at + 1)] = th[at + 1];
+                }
+                ProcessKind::Sinusoid => {
+                    // α² = e^η, β = π·logistic(η) ∈ (0, π)
+                    th[at] = eta[at].exp();
+                    t[(at, at)] = th[at];
+                    let s = logistic(eta[at + 1]);
+                    th[at + 1] = std::f64::consts::PI * s;
+                    if !(th[at + 1] > 0.0 && th[at + 1] < std::f64::consts::PI) {
+                        return None;
+                    }
+                    t[(at + 1, at + 1)] = th[at + 1] * (1.0 - s);
                 }
                 ProcessKind::Ar1 | ProcessKind::GaussMarkov => {
                     if self.in_chain(c) {
@@ -569,11 +581,17 @@ impl Problem {
             match k {
                 ProcessKind::WhiteNoise
                 | ProcessKind::QuantizationNoise
-                | ProcessKind::RandomWalk => eta[at] = th[at].ln(),
+                | ProcessKind::RandomWalk
+                | ProcessKind::BiasInstability(_) => eta[at] = th[at].ln(),
                 ProcessKind::Drift => eta[at] = th[at].abs().ln(),
                 ProcessKind::Ma1 => {
                     eta[at] = th[at].clamp(-0.999, 0.999).atanh();
                     eta[at + 1] = th[at + 1].ln();
+                }
+                ProcessKind::Sinusoid => {
+                    eta[at] = th[at].ln();
+                    let r = (th[at + 1] / std::f64::consts::PI).clamp(1e-12, 1.0 - 1e-12);
+                    eta[at + 1] = (r / (1.0 - r)).ln();
                 }
                 ProcessKind::Ar1 | ProcessKind::GaussMarkov => {
                     if self.in_chain(c) {
@@ -892,6 +910,7 @@ fn shape(kind: ProcessKind, nonlin: f64, m: &[f64], rate: f64, factor: f64) -> V
                         kind_avar_grad(kind, &[nonlin * rate, 1.0], mj, rate, &mut g)
                     }
                     ProcessKind::Ma1 => kind_avar_grad(kind, &[nonlin, 1.0], mj, rate, &mut g),
+                    ProcessKind::Sinusoid => kind_avar_grad(kind, &[1.0, nonlin], mj, rate, &mut g),
                     k => kind_avar_grad(k, &[1.0], mj, rate, &mut g),
                 }
         })
@@ -954,6 +973,25 @@ impl Problem {
         } else {
             vec![0.0]
         };
+        // SIN: β whose AV peaks at a scale of the curve (sin⁴x/x² is largest at x ≈ 1.1656,
+        // x = βm/2), ordered increasing for several SINs
+        let n_sin = self
+            .kinds
+            .iter()
+            .filter(|k| **k == ProcessKind::Sinusoid)
+            .count();
+        let mut beta_grid: Vec<f64> = self
+            .m
+            .iter()
+            .rev()
+            .map(|&m| (2.0 * 1.1656 / m).min(3.0))
+            .collect();
+        beta_grid.dedup();
+        let budget = (MAX_GRID_COMBOS as f64 / combos.len().max(1) as f64).max(1.0);
+        while n_sin > 0 && n_choose_k(beta_grid.len(), n_sin) > budget && beta_grid.len() > n_sin {
+            beta_grid = beta_grid.iter().step_by(2).cloned().collect();
+        }
+        let sin_combos = combinations(beta_grid.len(), n_sin);
         let wb: Vec<f64> = {
             let b = Mat::from_fn(j, 1, |a, _| self.nu_hat[a]);
             let wb = &self.w * &b;
@@ -961,7 +999,10 @@ impl Problem {
         };
         let fixed: Vec<Option<Vec<f64>>> = (0..ncomp)
             .map(|c| match self.kinds[c] {
-                ProcessKind::Ar1 | ProcessKind::GaussMarkov | ProcessKind::Ma1 => None,
+                ProcessKind::Ar1
+                | ProcessKind::GaussMarkov
+                | ProcessKind::Ma1
+                | ProcessKind::Sinusoid => None,
                 kd => Some(shape(kd, 0.0, &self.m, self.rate, self.factor)),
             })
             .collect();
@@ -979,13 +1020,18 @@ impl Problem {
             .map(|g| g.as_ref().map(|g| whiten(g)))
             .collect();
         let mut scored: Vec<(f64, Vec<f64>, Vec<f64>, f64)> = Vec::new(); // (ss, coef, nonlin, ma)
-        for combo in &combos {
+        for (combo, sc) in combos
+            .iter()
+            .flat_map(|c| sin_combos.iter().map(move |s| (c, s)))
+        {
             // chain order: first AR1/GM gets the largest λ (fastest)
             let lams: Vec<f64> = combo.iter().map(|&i| lam[i]).collect();
+            let betas: Vec<f64> = sc.iter().map(|&i| beta_grid[i]).collect();
             for &th_ma in &ma_grid {
                 let mut cols = Vec::with_capacity(ncomp);
                 let mut nl = vec![0.0; ncomp];
                 let mut q = 0;
+                let mut qs = 0;
                 for c in 0..ncomp {
                     match &fixed_w[c] {
                         Some(g) => cols.push(g.clone()),
@@ -993,6 +1039,10 @@ impl Problem {
                             let kd = self.kinds[c];
                             let v = match kd {
                                 ProcessKind::Ma1 => th_ma,
+                                ProcessKind::Sinusoid => {
+                                    qs += 1;
+                                    betas[qs - 1]
+                                }
                                 ProcessKind::Ar1 => {
                                     let l = lams[q];
                                     q += 1;
@@ -1034,6 +1084,8 @@ impl Problem {
                     };
                     match kd {
                         ProcessKind::Drift => th[at] = self.drift_sign * cv.sqrt(),
+                        // AV ∝ B²: the linear coefficient is B²
+                        ProcessKind::BiasInstability(_) => th[at] = cv.sqrt(),
                         ProcessKind::Ar1 => {
                             th[at] = nl[c];
                             th[at + 1] = cv;
@@ -1045,6 +1097,10 @@ impl Problem {
                         ProcessKind::Ma1 => {
                             th[at] = nl[c];
                             th[at + 1] = cv;
+                        }
+                        ProcessKind::Sinusoid => {
+                            th[at] = cv;
+                            th[at + 1] = nl[c];
                         }
                         _ => th[at] = cv,
                     }
@@ -1071,6 +1127,23 @@ impl Problem {
         }
         best.ok_or_else(|| FitError::OptimizationFailed("no start gave a finite objective".into()))
     }
+}
+
+/// The template with every BI's AUTO band set to the curve's scales (first to last m).
+pub(crate) fn resolve_bands(curve: &AvCurve, template: &Model) -> Result<Model> {
+    let has_auto = template
+        .kinds()
+        .iter()
+        .any(|k| matches!(k, ProcessKind::BiasInstability(b) if b.is_auto()));
+    if !has_auto {
+        return Ok(template.clone());
+    }
+    let (lo, hi) = match (curve.points.first(), curve.points.last()) {
+        (Some(a), Some(b)) => (a.m, b.m),
+        _ => (0, 0),
+    };
+    let band = processes::BiBand::new(lo, hi)?;
+    Ok(template.with_bi_band(band)?)
 }
 
 /// Checks a template model for what the AV can identify.
@@ -1165,6 +1238,7 @@ fn problem_with_whitening(
 /// ```
 pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<GmwmFit> {
     crate::magnitude::check(curve)?;
+    let template = &resolve_bands(curve, template)?;
     if matches!(
         opts.weighting,
         Weighting::ModelDiagonal | Weighting::ModelFull
