@@ -25,6 +25,37 @@ pub(crate) fn kind_avar_grad(
     rate_hz: f64,
     grad: &mut [f64],
 ) -> f64 {
+    if let ProcessKind::BiasInstability(band) = kind
+        && !band.is_auto()
+        && params.len() == 1
+        && params[0].is_finite()
+        && params[0] > 0.0
+    {
+        // AV = B²·u(m) with u the band's unit AV: computed once per (band, m) and thread
+        // (the optimizer evaluates the same scales thousands of times; u needs one GM
+        // closed form per state)
+        let u = bi_unit_avar(band, m as u64);
+        if let Some(g) = grad.first_mut() {
+            *g = 2.0 * params[0] * u;
+        }
+        return params[0] * params[0] * u;
+    }
+    // the closed forms that are linear in one variance, without the validation and the
+    // allocation of the general route (the same formulas as `spectral::closed_form`)
+    if m >= 1.0 && params.iter().all(|x| x.is_finite()) {
+        let linear = match kind {
+            ProcessKind::WhiteNoise => Some(1.0 / m),
+            ProcessKind::QuantizationNoise => Some(3.0 / (m * m)),
+            ProcessKind::RandomWalk => Some(m / 3.0 + 1.0 / (6.0 * m)),
+            _ => None,
+        };
+        if let (Some(k), Some(g)) = (linear, grad.first_mut())
+            && params[0] > 0.0
+        {
+            *g = k;
+            return params[0] * k;
+        }
+    }
     let evaluated = Process::from_params(kind, params)
         .ok()
         .and_then(|p| spectral::allan_variance_with_gradient(&p, m as u64, rate_hz).ok());
@@ -39,6 +70,32 @@ pub(crate) fn kind_avar_grad(
             f64::NAN
         }
     }
+}
+
+thread_local! {
+    static BI_UNIT: std::cell::RefCell<std::collections::HashMap<(u64, u64, u64), f64>> =
+        std::cell::RefCell::new(std::collections::HashMap::new());
+}
+
+/// The AV at B = 1 of a BI over `band` at cluster size `m` (memoized per thread; NaN if the
+/// closed form fails).
+fn bi_unit_avar(band: processes::BiBand, m: u64) -> f64 {
+    let key = (band.m_lo(), band.m_hi(), m);
+    if let Some(u) = BI_UNIT.with(|c| c.borrow().get(&key).copied()) {
+        return u;
+    }
+    let u = processes::BiasInstability::new(1.0, band)
+        .ok()
+        .and_then(|b| spectral::allan_variance(&Process::from(b), m, 1.0).ok())
+        .unwrap_or(f64::NAN);
+    BI_UNIT.with(|c| {
+        let mut c = c.borrow_mut();
+        if c.len() > 1 << 16 {
+            c.clear();
+        }
+        c.insert(key, u);
+    });
+    u
 }
 
 /// AV of an AR1 with unit innovation variance, f(φ, m), and ∂f/∂φ.
