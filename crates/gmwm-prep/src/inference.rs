@@ -436,6 +436,8 @@ fn largest_fitting_submodel(curve: &AvCurve, full: &Model, opts: &GmwmOptions) -
 /// Largest number of distinct sub-models that [`select_by_wic`] fits all of; a larger class
 /// is searched by backward elimination (see there).
 pub const EXHAUSTIVE_MAX_SUBMODELS: usize = 24;
+/// Starting points of each candidate fit in the backward search (see [`select_by_wic`]).
+pub const CANDIDATE_STARTS: usize = 2;
 
 /// Ranks sub-models of `full` (subsets of its components) by WIC, each fitted with one
 /// common weighting matrix — the Ω of the full model's fit (of its largest sub-model that can
@@ -503,6 +505,13 @@ pub fn select_by_wic(
     };
     let kinds = full.kinds();
     let k = kinds.len();
+    // the backward search fits bigger models than the exhaustive one; its candidates start
+    // from the best CANDIDATE_STARTS grid points (the selected model is refitted by the
+    // caller with all of `opts.n_starts`)
+    let search = GmwmOptions {
+        n_starts: common.n_starts.min(CANDIDATE_STARTS),
+        ..common.clone()
+    };
     if k > 12 {
         return Err(FitError::InvalidArgument(
             "model selection over more than 12 components is not supported".into(),
@@ -511,7 +520,8 @@ pub fn select_by_wic(
     // one fit per distinct sub-model (memoized): Some(candidate), or None when it cannot be
     // fitted or identified
     let mut seen: Vec<(Vec<ProcessKind>, Option<Candidate>)> = Vec::new();
-    let mut evaluate = |sub: Vec<ProcessKind>| -> Result<Option<Candidate>> {
+    type Seen = Vec<(Vec<ProcessKind>, Option<Candidate>)>;
+    let evaluate = |seen: &mut Seen, sub: Vec<ProcessKind>| -> Result<Option<Candidate>> {
         if let Some((_, c)) = seen.iter().find(|(s, _)| *s == sub) {
             return Ok(c.clone());
         }
@@ -534,18 +544,38 @@ pub fn select_by_wic(
     };
     if subsets.len() <= EXHAUSTIVE_MAX_SUBMODELS {
         for sub in subsets {
-            evaluate(sub)?;
+            evaluate(&mut seen, sub)?;
         }
     } else {
         let wic_of = |c: &Option<Candidate>| c.as_ref().map_or(f64::INFINITY, |c| c.wic);
         let mut current = kinds.clone();
-        let mut current_wic = wic_of(&evaluate(current.clone())?);
+        let mut current_wic = wic_of(&evaluate(&mut seen, current.clone())?);
         while current.len() > 1 {
-            let mut best: Option<(Vec<ProcessKind>, f64)> = None;
+            // the children not fitted yet, in parallel (they are independent fits)
+            let mut children: Vec<Vec<ProcessKind>> = Vec::new();
             for drop in 0..current.len() {
                 let mut sub = current.clone();
                 sub.remove(drop);
-                let w = wic_of(&evaluate(sub.clone())?);
+                if !children.contains(&sub) {
+                    children.push(sub);
+                }
+            }
+            let todo: Vec<&Vec<ProcessKind>> = children
+                .iter()
+                .filter(|c| !seen.iter().any(|(s, _)| s == *c))
+                .collect();
+            let fitted: Vec<Result<Option<Candidate>>> = {
+                use rayon::prelude::*;
+                todo.par_iter()
+                    .map(|sub| fit_candidate(curve, sub, &search, v, j))
+                    .collect()
+            };
+            for (sub, c) in todo.iter().zip(fitted) {
+                seen.push(((*sub).clone(), c?));
+            }
+            let mut best: Option<(Vec<ProcessKind>, f64)> = None;
+            for sub in children {
+                let w = wic_of(&evaluate(&mut seen, sub.clone())?);
                 if best.as_ref().is_none_or(|(_, b)| w < *b) {
                     best = Some((sub, w));
                 }

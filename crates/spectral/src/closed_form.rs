@@ -227,6 +227,43 @@ fn ar1_factor(p: &Phi, m: u64, grad: bool) -> (f64, f64) {
     (f, fp)
 }
 
+/// The AR1 factor F(φ, m) = AV / v² (AV per unit innovation variance) and dF/dφ, for
+/// φ ∈ (−1, 1) and m ≥ 1 samples: the closed form of [`allan_variance`] without validation
+/// or allocation, for optimizers that evaluate it many times (NaN outside the domain).
+///
+/// ```
+/// use processes::{Ar1, Process};
+/// use spectral::{allan_variance_with_gradient, closed_form::ar1_unit_avar};
+/// let (f, df) = ar1_unit_avar(0.99, 16);
+/// let (av, g) = allan_variance_with_gradient(&Process::from(Ar1::new(0.99, 2.0)?), 16, 1.0)?;
+/// assert_eq!((2.0 * f, 2.0 * df), (av, g[0]));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn ar1_unit_avar(phi: f64, m: u64) -> (f64, f64) {
+    if !(phi > -1.0 && phi < 1.0) || m == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    ar1_factor(&Phi::from_phi(phi), m, true)
+}
+
+/// The GM factor H(L, m) = AV / σ_G² (AV per unit stationary variance) and dH/dL, for
+/// L = βΔt > 0 and m ≥ 1 samples, without validation or allocation (see [`ar1_unit_avar`]).
+///
+/// ```
+/// use processes::{GaussMarkov, Process};
+/// use spectral::{allan_variance, closed_form::gm_unit_avar};
+/// let (h, _) = gm_unit_avar(0.01, 64);
+/// let av = allan_variance(&Process::from(GaussMarkov::new(1.0, 3.0)?), 64, 100.0)?;
+/// assert_eq!(3.0 * h, av);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn gm_unit_avar(l: f64, m: u64) -> (f64, f64) {
+    if !(l > 0.0 && l.is_finite()) || m == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    gm_factor(l, m, true)
+}
+
 /// The GM factor H(L, m) = AV / σ_G² and dH/dL, L = βΔt.
 fn gm_factor(l: f64, m: u64, grad: bool) -> (f64, f64) {
     let p = Phi::from_l(l);
