@@ -32,7 +32,7 @@ fi
 html="$dir/report.html"
 [ -s "$html" ] || { echo "check-report: FAILED: $html missing"; exit 1; }
 n_svg=$(grep -o '<svg' "$html" | wc -l)
-grep -q 'Noise terms (IEEE Std 952 units)' "$html" || { echo "check-report: FAILED: no noise table"; exit 1; }
+grep -q 'Summary: the values a filter needs' "$html" || { echo "check-report: FAILED: no summary table"; exit 1; }
 [ "$n_svg" -ge 3 ] || { echo "check-report: FAILED: only $n_svg inline SVG plots"; exit 1; }
 
 shot="$out/report.png"

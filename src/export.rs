@@ -6,8 +6,14 @@
 //! - All values are continuous-time densities in SI units (ROS REP 103): white noise
 //!   N in rad/s/√Hz and m/s²/√Hz, bias random walk K in rad/s²/√Hz and m/s³/√Hz.
 //!   Channels in °/s or g are converted.
-//! - N = √(σ²_WN / f) and K = √(γ²_RW · f) from the fitted per-sample WN and RW at rate f;
-//!   a fitted model without WN (RW) falls back to the IEEE 952 read-off of its curve.
+//! - N, K and B are the analysis's own (`fit.noise_terms` in results.json, the values its
+//!   report and console show): N from every short-memory term of the fitted model (WN and
+//!   fast AR1/GM/MA1 as white-noise equivalents), K = √(γ²_RW · f), B from a bias-instability
+//!   term; where the model lacks the term, the IEEE 952 read-off, else an upper bound. Each
+//!   file says which. A results.json without `noise_terms` (older versions) gives
+//!   N = √(σ²_WN / f) and K = √(γ²_RW · f) from the fitted WN and RW, else the read-off.
+//! - A fit whose model does not describe its Allan variance (`fit.adequacy`) is named in a
+//!   WARNING line at the top of every file.
 //! - One value per sensor is the aggregate over its axes (`max`, `rms` or `mean`; default
 //!   max), except Basalt, which takes one value per axis.
 //! - Discrete equivalents at the file's rate: σ_d = N·√f (white), σ_bd = K/√f (walk).
@@ -158,6 +164,25 @@ impl Target {
     }
 }
 
+/// A finite factor > 0 (`--inflate-noise`, `--inflate-walk`): a number or a fraction `a/b`.
+///
+/// ```
+/// use imunoise::export::parse_inflation;
+/// assert_eq!(parse_inflation("2"), Ok(2.0));
+/// assert_eq!(parse_inflation("1/2"), Ok(0.5));
+/// assert!(parse_inflation("-1").is_err() && parse_inflation("0").is_err());
+/// ```
+pub fn parse_inflation(s: &str) -> std::result::Result<f64, String> {
+    let v = crate::pipeline::read::parse_factor(s)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "the factor must be > 0 (it multiplies a noise density), got {s}"
+        ))
+    }
+}
+
 /// The options shared by `imunoise export` and `analyze --export`.
 ///
 /// ```
@@ -176,10 +201,10 @@ pub struct ExportOptions {
     #[arg(long, value_enum, default_value = "max")]
     pub aggregate: Aggregate,
     /// Multiply the white-noise densities by F > 0 (e.g. 2 for a VIO; default 1).
-    #[arg(long, value_name = "F", default_value = "1", value_parser = crate::cli::parse_inflation)]
+    #[arg(long, value_name = "F", default_value = "1", value_parser = parse_inflation)]
     pub inflate_noise: f64,
     /// Multiply the random-walk densities by F > 0 (e.g. 10 for a VIO; default 1).
-    #[arg(long, value_name = "F", default_value = "1", value_parser = crate::cli::parse_inflation)]
+    #[arg(long, value_name = "F", default_value = "1", value_parser = parse_inflation)]
     pub inflate_walk: f64,
     /// The `rostopic` written into Kalibr/OpenVINS files (default: the analysed topic, else /imu0).
     #[arg(long, value_name = "TOPIC")]
@@ -263,6 +288,8 @@ pub struct AxisNoise {
     pub bias_instability: Option<(f64, f64)>,
     /// Fitted Gauss-Markov terms: stationary σ (SI) and correlation time (s).
     pub gauss_markov: Vec<(f64, f64)>,
+    /// The fit's verdict when it is not adequate (its reasons), from `fit.adequacy`.
+    pub not_adequate: Option<String>,
 }
 
 /// The noise of an IMU read from `results.json`: gyroscope and accelerometer axes.
@@ -433,6 +460,29 @@ impl ImuNoise {
                         .collect()
                 })
                 .unwrap_or_default();
+            // N, K, B of the analysis itself (`fit.noise_terms`, the one source the report and
+            // the console show); results.json files written before it had them are read as
+            // before
+            let terms = fit.get("noise_terms");
+            let term = |sym: &str| {
+                let t = terms?.get(sym)?;
+                Some((
+                    get_f64(t, "per_second")?,
+                    t.get("source")?.as_str()?.to_string(),
+                    t.get("basis")?.as_str()?.to_string(),
+                ))
+            };
+            let mut from_terms = Vec::new();
+            for (sym, slot) in [("n", &mut n), ("k", &mut k)] {
+                if let Some((v, _source, basis)) = term(sym) {
+                    *slot = Some(v * to_si); // the basis says when it is a bound
+                    from_terms.push(format!("{} from {basis}", sym.to_uppercase()));
+                }
+            }
+            if !from_terms.is_empty() {
+                source.push_str("; ");
+                source.push_str(&from_terms.join("; "));
+            }
             if n.is_none() || k.is_none() {
                 let (taus, adevs): (Vec<f64>, Vec<f64>) = points.iter().copied().unzip();
                 if let Ok(ro) = gmwm_prep::ieee::read_off_adev(&taus, &adevs, &unit) {
@@ -451,12 +501,26 @@ impl ImuNoise {
                     }
                 }
             }
-            let bias_instability = points
+            let minimum = points
                 .iter()
                 .copied()
                 .filter(|p| p.1.is_finite())
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|(tau, adev)| (adev / BIAS_INSTABILITY_FACTOR * to_si, tau));
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let bias_instability = match (term("b"), minimum) {
+                (Some((b, _, _)), Some((tau, _))) => Some((b * to_si, tau)),
+                (_, m) => m.map(|(tau, adev)| (adev / BIAS_INSTABILITY_FACTOR * to_si, tau)),
+            };
+            let not_adequate = fit
+                .get("adequacy")
+                .filter(|a| a.get("adequate").and_then(Value::as_bool) == Some(false))
+                .map(|a| {
+                    a.get("reasons")
+                        .and_then(Value::as_array)
+                        .and_then(|r| r.first())
+                        .and_then(Value::as_str)
+                        .unwrap_or("the fit is not adequate")
+                        .to_string()
+                });
             // AR1 (φ, innovation σ²): stationary σ² / (1 − φ²), τc = −Δt / ln φ (φ in (0, 1)).
             // GM (β in 1/s, stationary σ²): τc = 1/β.
             let of = |proc_: &str, pname: &str| -> Vec<f64> {
@@ -490,6 +554,7 @@ impl ImuNoise {
                 source,
                 bias_instability,
                 gauss_markov,
+                not_adequate,
             };
             if unit.is_angular_rate() {
                 out.gyro.push(axis);
@@ -622,6 +687,14 @@ impl ImuNoise {
         line("time convention: continuous-time densities (white noise N, bias random walk K), as in Kalibr's IMU noise model".into());
         line("units (SI, ROS REP 103): gyroscope N rad/s/sqrt(Hz), K rad/s^2/sqrt(Hz); accelerometer N m/s^2/sqrt(Hz), K m/s^3/sqrt(Hz)".into());
         line(format!("rate: {} Hz", rate_str(f)));
+        for ax in self.gyro.iter().chain(&self.acc) {
+            if let Some(why) = &ax.not_adequate {
+                line(format!(
+                    "WARNING: {}: the fitted model does not describe its Allan variance ({why}); its N and K below are the best this model gives, not a validated noise model",
+                    ax.name
+                ));
+            }
+        }
         line("per-axis values (before inflation):".into());
         for ax in self.gyro.iter().chain(&self.acc) {
             line(format!(

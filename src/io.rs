@@ -186,7 +186,7 @@ pub struct ReadOptions {
     pub names: Option<Vec<String>>,
 }
 
-/// One channel's samples: owned, or held by a [`crate::source::MappedSamples`] (a raw f64 file
+/// One channel's samples: owned, or held by a [`crate::mapped::MappedSamples`] (a raw f64 file
 /// used in place, or the copy its decoder made), read through `&[f64]` either way.
 ///
 /// ```
@@ -201,7 +201,7 @@ pub enum Column {
     /// Samples in a vector.
     Owned(Vec<f64>),
     /// Samples in a map (shared: a clone does not copy them).
-    Mapped(std::sync::Arc<crate::source::MappedSamples>),
+    Mapped(std::sync::Arc<crate::mapped::MappedSamples>),
 }
 
 impl Column {

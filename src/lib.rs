@@ -25,6 +25,7 @@ pub mod error;
 pub mod export;
 pub mod io;
 pub mod logs;
+mod mapped;
 pub mod output;
 pub mod pipeline;
 pub mod plot;

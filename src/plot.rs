@@ -95,6 +95,8 @@ pub struct AdevPlot {
     pub components: Vec<Series>,
     /// Read-off points marked on the curve (N at τ = 1 s, K at τ = 3 s, B at the minimum).
     pub marks: Vec<Mark>,
+    /// τ (s) of the observed points left out of the fit (`--tau-min`/`--tau-max`): drawn grey.
+    pub excluded: Vec<f64>,
 }
 
 /// A point marked and labelled on an Allan-deviation plot.
@@ -513,11 +515,13 @@ pub fn adev_svg(p: &AdevPlot, id: &str) -> String {
     let pts: Vec<(f64, f64)> = obs.iter().map(|q| (q.0, q.1)).collect();
     polyline(&mut s, &f, &pts, r##"stroke="#0072B2" stroke-width="2""##);
     for q in &pts {
+        let left_out = p.excluded.iter().any(|t| (t / q.0 - 1.0).abs() < 1e-9);
         let _ = writeln!(
             s,
-            r##"<circle cx="{:.2}" cy="{:.2}" r="2.8" fill="#0072B2"/>"##,
+            r##"<circle cx="{:.2}" cy="{:.2}" r="2.8" fill="{}"/>"##,
             f.px(q.0),
-            f.py(q.1)
+            f.py(q.1),
+            if left_out { "#b0b0b0" } else { "#0072B2" }
         );
     }
     if let Some(fit) = &p.fitted {
@@ -823,6 +827,74 @@ pub fn acf_svg(title: &str, acf: &[f64], n: usize, rate_hz: f64, id: &str) -> St
     s
 }
 
+/// The fit check of one channel: the standardised residual z = ln(AV / fitted AV) / s of each
+/// scale against τ (log axis), with the ±`z_crit` band of the CI (dashed); scales outside it
+/// are drawn in red. Points with a non-finite z are left out.
+///
+/// ```
+/// let svg = imunoise::plot::residuals_svg("gyro x: fit check", &[0.01, 0.1, 1.0], &[0.5, -3.0, 1.0], 1.96, "r0");
+/// assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+/// assert_eq!(svg.matches("<circle").count(), 3);
+/// assert_eq!(svg.matches("fill=\"#C00000\"").count(), 1); // one scale outside the band
+/// ```
+pub fn residuals_svg(title: &str, tau: &[f64], z: &[f64], z_crit: f64, id: &str) -> String {
+    let mut s = String::new();
+    header(&mut s, title, id);
+    let pts: Vec<(f64, f64)> = tau
+        .iter()
+        .zip(z)
+        .filter(|(t, z)| t.is_finite() && **t > 0.0 && z.is_finite())
+        .map(|(&t, &z)| (t, z))
+        .collect();
+    let (t0, t1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.0), b.max(p.0))
+    });
+    let (t0, t1) = if t0 < t1 {
+        (t0 / 1.5, t1 * 1.5)
+    } else {
+        (0.1, 10.0)
+    };
+    let zmax = pts.iter().fold(z_crit, |m, p| m.max(p.1.abs())) * 1.1;
+    let f = Frame {
+        x0: t0,
+        x1: t1,
+        y0: -zmax,
+        y1: zmax,
+        logx: true,
+        logy: false,
+    };
+    axes(&mut s, &f, "τ [s]", "standardised residual z");
+    for b in [z_crit, -z_crit] {
+        let _ = writeln!(
+            s,
+            r##"<line x1="{LEFT}" y1="{y:.2}" x2="{}" y2="{y:.2}" stroke="#555" stroke-dasharray="5 4"/>"##,
+            WIDTH - RIGHT,
+            y = f.py(b)
+        );
+    }
+    let _ = writeln!(
+        s,
+        r##"<line x1="{LEFT}" y1="{y:.2}" x2="{}" y2="{y:.2}" stroke="#999"/>"##,
+        WIDTH - RIGHT,
+        y = f.py(0.0)
+    );
+    for &(t, z) in &pts {
+        let colour = if z.abs() > z_crit {
+            "#C00000"
+        } else {
+            "#0072B2"
+        };
+        let (x, y) = (f.px(t), f.py(z));
+        let _ = writeln!(
+            s,
+            r##"<line x1="{x:.2}" y1="{:.2}" x2="{x:.2}" y2="{y:.2}" stroke="{colour}"/><circle cx="{x:.2}" cy="{y:.2}" r="4" fill="{colour}"/>"##,
+            f.py(0.0)
+        );
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
 /// Renders an SVG document to PNG bytes with the embedded DejaVu Sans font (no system
 /// fonts are consulted), at `zoom` × the SVG's size.
 ///
@@ -906,9 +978,13 @@ mod tests {
                         sigma: 1.0,
                     },
                 ],
+                excluded: vec![0.02],
             },
             "t",
         );
+        // the point left out of the fit is grey, the other nine blue
+        assert_eq!(svg.matches(r##"r="2.8" fill="#b0b0b0""##).count(), 1);
+        assert_eq!(svg.matches(r##"r="2.8" fill="#0072B2""##).count(), 9);
         assert!(svg.contains(">N = 0.01</text>"));
         assert!(!svg.contains("K = 1"));
         assert!(svg.contains("<polygon"));

@@ -416,6 +416,7 @@ fn fit_json_shape_and_white_noise_recovered() {
     assert_eq!(
         keys,
         [
+            "adequacy",
             "ci_level",
             "ci_method",
             "converged",
@@ -425,6 +426,7 @@ fn fit_json_shape_and_white_noise_recovered() {
             "method",
             "model",
             "name",
+            "noise_terms",
             "parameters"
         ]
     );
@@ -473,8 +475,9 @@ fn analyze_writes_report_plots_json_csv_yaml() {
         out_dir.to_str().unwrap(),
     ]);
     let html = std::fs::read_to_string(out_dir.join("report.html")).unwrap();
-    assert_eq!(html.matches("<svg").count(), 3);
-    assert!(html.contains("Noise terms (IEEE Std 952 units)"));
+    // the Allan deviation, the fit check, the time series and the ACF
+    assert_eq!(html.matches("<svg").count(), 4);
+    assert!(html.contains("Summary: the values a filter needs"));
     let res: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out_dir.join("results.json")).unwrap()).unwrap();
     assert_eq!(res["channels"][0]["name"], "gyro_x");
@@ -524,14 +527,15 @@ fn fit_says_which_ci_method_it_used() {
         table.contains("95% CI (delta method, V = 3-replicate parametric-bootstrap"),
         "{table}"
     );
-    // CSV: one row per parameter and IEEE term; IEEE N of a °/s channel is 60·√(σ²/rate) °/√h.
+    // CSV: one row per parameter and IEEE term (N, K of the model, B read off its minimum);
+    // IEEE N of a °/s channel is 60·√(σ²/rate) °/√h.
     let csv = fit(&["--unit", "deg/s", "-f", "csv"]);
     let rows: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
     assert_eq!(
         rows[0].join(","),
         "channel,process,name,value,ci_lo,ci_hi,unit,ci_method"
     );
-    assert_eq!(rows.len(), 1 + 2 + 2, "{csv}");
+    assert_eq!(rows.len(), 1 + 2 + 3, "{csv}");
     let cell = |r: usize, c: usize| rows[r][c].parse::<f64>().unwrap();
     let n = rows
         .iter()

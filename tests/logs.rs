@@ -292,8 +292,16 @@ fn no_imu_topic_empty_topic_truncated_and_corrupt_files_exit_2() {
     let bytes = std::fs::read(&good).unwrap();
     let trunc = p(&dir, "trunc.mcap");
     std::fs::write(&trunc, &bytes[..bytes.len() * 6 / 10]).unwrap();
-    let err = fails(&["avar", s(&trunc)]);
-    assert!(err.contains("truncated or corrupt MCAP"), "{err}");
+    // read up to its last complete chunk with a warning; refused under --strict
+    let out = imunoise(&["avar", s(&trunc), "--format", "json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("warning:") && err.contains("the file is cut off"),
+        "{err}"
+    );
+    let err = fails(&["avar", s(&trunc), "--strict"]);
+    assert!(err.contains("--strict refuses cut-off logs"), "{err}");
     // Corrupt: 4 KiB flipped a third into the file (inside the first zstd chunk, which
     // is written before its message index).
     let mut bad = bytes.clone();
@@ -694,16 +702,24 @@ fn ros1_bag_equals_csv_and_bad_bags_exit_2() {
     let bytes = std::fs::read(&bag).unwrap();
     let trunc = p(&dir, "trunc.bag");
     std::fs::write(&trunc, &bytes[..bytes.len() / 2]).unwrap();
-    let err = fails(&["avar", s(&trunc)]);
-    assert!(err.contains("truncated or corrupt bag"), "{err}");
+    let out = imunoise(&["avar", s(&trunc), "--format", "json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && err.contains("the file is cut off"),
+        "{err}"
+    );
+    assert!(fails(&["avar", s(&trunc), "--strict"]).contains("--strict refuses"));
     let mut unidx = bytes.clone();
     // version, header length, "op" field (4 + 4 bytes), field length, "index_pos=".
     let at = 13 + 4 + 8 + 4 + 10;
     unidx[at..at + 8].copy_from_slice(&0u64.to_le_bytes());
     let u = p(&dir, "unindexed.bag");
     std::fs::write(&u, &unidx).unwrap();
-    let err = fails(&["avar", s(&u)]);
-    assert!(err.contains("has no index"), "{err}");
+    // not closed: read by a walk over its records, the same values as through the index
+    assert_eq!(
+        ok(&["avar", s(&u), "--format", "json", "-q", "--strict"]),
+        a
+    );
     let junk = p(&dir, "junk.bag");
     std::fs::write(&junk, b"hello").unwrap();
     assert!(fails(&["topics", s(&junk)]).contains("not a ROS 1 bag"));
@@ -863,7 +879,13 @@ fn ulog_equals_csv_and_bad_files_exit_2() {
     let bytes = std::fs::read(&ul).unwrap();
     let trunc = p(&dir, "trunc.ulg");
     std::fs::write(&trunc, &bytes[..bytes.len() - 7]).unwrap();
-    assert!(fails(&["avar", s(&trunc)]).contains("truncated or corrupt ULog"));
+    assert!(fails(&["avar", s(&trunc), "--strict"]).contains("the file is cut off"));
+    let out = imunoise(&["topics", s(&trunc)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && err.contains("the 46 bytes from byte"),
+        "{err}"
+    );
     let junk = p(&dir, "junk.ulg");
     std::fs::write(&junk, b"not a ulog file at all").unwrap();
     assert!(fails(&["avar", s(&junk)]).contains("not a PX4 ULog"));
@@ -971,7 +993,13 @@ fn dataflash_equals_csv_and_bad_files_exit_2() {
     let bytes = std::fs::read(&df).unwrap();
     let trunc = p(&dir, "trunc.bin");
     std::fs::write(&trunc, &bytes[..bytes.len() - 5]).unwrap();
-    assert!(fails(&["avar", s(&trunc), "--topic", "IMU[0]"]).contains("cut short"));
+    assert!(fails(&["avar", s(&trunc), "--topic", "IMU[0]", "--strict"]).contains("cut off"));
+    let out = imunoise(&["topics", s(&trunc)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && err.contains("the 31 bytes from byte"),
+        "{err}"
+    );
     let mut bad = bytes.clone();
     let at = 89 * 3 + 2 * 36 + 16; // the header of the second time step's first IMU message
     bad[at] = 0;
@@ -1219,6 +1247,621 @@ mod fuzz {
             let mut b = magic.to_vec();
             b.extend_from_slice(&tail);
             read_all(format, ext, &b);
+        }
+    }
+}
+
+/// A fixture, its last message spans (start, end, stamp in ns, whether of `topic`), the number of `topic` messages before them, and whether a cut at a message boundary still
+/// leaves an unfinished record (a chunk: MCAP, bags).
+#[cfg(all(feature = "rosbag", feature = "ulog", feature = "dataflash"))]
+struct CutFixture {
+    format: imunoise::logs::LogFormat,
+    ext: &'static str,
+    topic: &'static str,
+    bytes: Vec<u8>,
+    /// The last four messages of the file: start, end, stamp (ns), whether of `topic`.
+    spans: Vec<(usize, usize, i64, bool)>,
+    /// Messages of `topic` before the first span.
+    before: usize,
+    in_chunk: bool,
+}
+
+#[cfg(all(feature = "rosbag", feature = "ulog", feature = "dataflash"))]
+fn find(hay: &[u8], needle: &[u8]) -> usize {
+    hay.windows(needle.len())
+        .position(|w| w == needle)
+        .expect("the record is in the file")
+}
+
+/// One fixture per reader, written by this file's writers; the spans of the last four
+/// messages are found from the bytes each writer writes for them (not from the readers).
+#[cfg(all(feature = "rosbag", feature = "ulog", feature = "dataflash"))]
+fn cut_fixtures() -> Vec<CutFixture> {
+    use imunoise::logs::LogFormat;
+    use imunoise::logs::imu_msg::encode_ros1;
+    let dir = tempfile::tempdir().unwrap();
+    let mut out = Vec::new();
+    // ULog: 250 sensor_combined (53-byte messages), vehicle_status at 0, 100, 200
+    let n = 250;
+    let cols = as_f32(&simulated(n, 250.0));
+    let us: Vec<u64> = (0..n as u64).map(|i| 1_000_000 + 4000 * i).collect();
+    let path = p(&dir, "c.ulg");
+    write_ulog(&path, &us, &cols);
+    let bytes = std::fs::read(&path).unwrap();
+    let len = bytes.len();
+    let spans = (0..4)
+        .map(|k| {
+            let end = len - 53 * (3 - k);
+            (end - 53, end, us[n - 4 + k] as i64 * 1000, true)
+        })
+        .collect();
+    out.push(CutFixture {
+        format: LogFormat::Ulog,
+        ext: "ulg",
+        topic: "sensor_combined",
+        bytes,
+        spans,
+        before: n - 4,
+        in_chunk: false,
+    });
+    // DataFlash: per step IMU[0] and IMU[1] (36 bytes each), BARO every 40 steps (16 bytes)
+    let n = 250;
+    let cols = as_f32(&simulated(n, 400.0));
+    let us: Vec<u64> = (0..n as u64).map(|i| 1_000_000 + 2500 * i).collect();
+    let path = p(&dir, "c.bin");
+    write_dataflash(&path, &us, &cols);
+    let bytes = std::fs::read(&path).unwrap();
+    let len = bytes.len();
+    // the last four messages: IMU[0], IMU[1] of steps n-2 and n-1 (read topic IMU[1])
+    let spans = (0..4)
+        .map(|k| {
+            let end = len - 36 * (3 - k);
+            (end - 36, end, us[n - 2 + k / 2] as i64 * 1000, k % 2 == 1)
+        })
+        .collect();
+    out.push(CutFixture {
+        format: LogFormat::Dataflash,
+        ext: "bin",
+        topic: "IMU[1]",
+        bytes,
+        spans,
+        before: n - 2,
+        in_chunk: false,
+    });
+    // ROS 1 bag: 60 messages on /imu0 in one uncompressed chunk, indexed
+    let mut t = imu("/imu0", 60, 100.0);
+    t.schema = "sensor_msgs/Imu";
+    let path = p(&dir, "c.bag");
+    write_bag(&path, std::slice::from_ref(&t));
+    let bytes = std::fs::read(&path).unwrap();
+    let spans = (56..60)
+        .map(|i| {
+            let rec = bag_record(
+                &[
+                    bag_field("op", &[2]),
+                    bag_field("conn", &0u32.to_le_bytes()),
+                    bag_field("time", &bag_time(t.stamps[i])),
+                ],
+                &encode_ros1(&sample(&t.stamps, &t.cols, i), i as u32, "imu_link"),
+            );
+            let at = find(&bytes, &rec);
+            (at, at + rec.len(), t.stamps[i], true)
+        })
+        .collect();
+    out.push(CutFixture {
+        format: LogFormat::Bag,
+        ext: "bag",
+        topic: "/imu0",
+        bytes,
+        spans,
+        before: 56,
+        in_chunk: true,
+    });
+    // MCAP: 60 messages on /imu0 in uncompressed chunks of about 4 kB
+    let t = imu("/imu0", 60, 100.0);
+    let path = p(&dir, "c.mcap");
+    let opts = mcap::WriteOptions::new()
+        .compression(None)
+        .chunk_size(Some(4000));
+    write_mcap_with(&path, std::slice::from_ref(&t), opts);
+    let bytes = std::fs::read(&path).unwrap();
+    let spans = (56..60)
+        .map(|i| {
+            // a message record: opcode, u64 length, channel, sequence, log and publish time
+            let data = encode_cdr(&sample(&t.stamps, &t.cols, i), "imu_link");
+            let tail = [
+                &(t.stamps[i] as u64).to_le_bytes()[..],
+                &(t.stamps[i] as u64).to_le_bytes(),
+                &data,
+            ]
+            .concat();
+            let at = find(&bytes, &tail) - 15;
+            assert_eq!(bytes[at], 0x05);
+            (at, at + 15 + tail.len(), t.stamps[i], true)
+        })
+        .collect();
+    out.push(CutFixture {
+        format: LogFormat::Mcap,
+        ext: "mcap",
+        topic: "/imu0",
+        bytes,
+        spans,
+        before: 56,
+        in_chunk: true,
+    });
+    out
+}
+
+/// Cut-off property: each reader, on its fixture cut at every byte of its last three
+/// messages (and at their ends), reads exactly the complete prefix of the full read (stamps
+/// and values), reports where the file is cut (offset, bytes dropped, stamp of the last
+/// complete message), and refuses the file under strict. A cut at the end of a message is no
+/// cut for ULog and DataFlash (nothing tells it from a complete file); inside an unfinished
+/// chunk (MCAP, bags) it is reported with no bytes dropped.
+#[cfg(all(feature = "rosbag", feature = "ulog", feature = "dataflash"))]
+#[test]
+fn cut_off_fixtures_give_the_complete_prefix_and_the_warning() {
+    use imunoise::logs::{Truncation, open, open_checked};
+    let dir = tempfile::tempdir().unwrap();
+    let quiet = imunoise::Ui::quiet();
+    for fx in cut_fixtures() {
+        let full_path = dir.path().join(format!("full.{}", fx.ext));
+        std::fs::write(&full_path, &fx.bytes).unwrap();
+        let full = open(&full_path, fx.format).unwrap();
+        assert_eq!(full.truncation(), None, "{:?}", fx.format);
+        let all = full.read_imu(fx.topic).unwrap();
+        let n_all = fx.before + fx.spans.iter().filter(|sp| sp.3).count();
+        assert_eq!(all.stamps_ns.len(), n_all, "{:?}", fx.format);
+        let path = dir.path().join(format!("cut.{}", fx.ext));
+        // every byte of the last three messages, and their ends
+        let cuts: std::collections::BTreeSet<usize> =
+            fx.spans[1..].iter().flat_map(|sp| sp.0..=sp.1).collect();
+        for cut in cuts {
+            std::fs::write(&path, &fx.bytes[..cut]).unwrap();
+            let r = open(&path, fx.format).unwrap();
+            let s = r.read_imu(fx.topic).unwrap();
+            // complete messages of the topic: those before the spans, and whole spans
+            let whole = fx.spans.iter().filter(|sp| sp.3 && sp.1 <= cut).count();
+            let k = fx.before + whole;
+            let what = format!("{:?} cut at {cut}", fx.format);
+            assert_eq!(s.stamps_ns, all.stamps_ns[..k], "{what}");
+            for (c, a) in s.columns.iter().zip(&all.columns) {
+                assert_eq!(c[..], a[..k], "{what}");
+            }
+            let inside = fx.spans.iter().find(|sp| sp.0 < cut && cut < sp.1);
+            let last_stamp = fx.spans.iter().rev().find(|sp| sp.1 <= cut).map(|sp| sp.2);
+            let want = match inside {
+                Some(sp) => Some(Truncation {
+                    offset: sp.0 as u64,
+                    dropped_bytes: (cut - sp.0) as u64,
+                    last_stamp_ns: last_stamp,
+                }),
+                None if fx.in_chunk && cut < fx.bytes.len() => Some(Truncation {
+                    offset: cut as u64,
+                    dropped_bytes: 0,
+                    last_stamp_ns: last_stamp,
+                }),
+                None => None,
+            };
+            assert_eq!(r.truncation(), want, "{what}");
+            let strict = open_checked(&path, fx.format, true, &quiet);
+            match want {
+                Some(t) => {
+                    let e = strict.err().expect("strict refuses a cut-off file");
+                    assert_eq!(e.exit_code(), 2);
+                    assert!(e.to_string().contains(&t.to_string()), "{what}: {e}");
+                }
+                None => assert!(strict.is_ok(), "{what}"),
+            }
+        }
+    }
+}
+
+/// A ULog written from message definitions: the header, the flag bits (with `appended` as
+/// the appended-data offset, patched in by [`UlogWriter::append_here`]), then messages.
+struct UlogWriter {
+    out: Vec<u8>,
+}
+
+impl UlogWriter {
+    fn new() -> Self {
+        let mut out = b"ULog\x01\x12\x35\x01".to_vec();
+        out.extend_from_slice(&0u64.to_le_bytes());
+        out.extend(ulog_msg(b'B', &[0u8; 40]));
+        UlogWriter { out }
+    }
+    fn msg(&mut self, ty: u8, body: &[u8]) {
+        self.out.extend(ulog_msg(ty, body));
+    }
+    fn add(&mut self, multi: u8, id: u16, name: &str) {
+        let mut b = vec![multi];
+        b.extend_from_slice(&id.to_le_bytes());
+        b.extend_from_slice(name.as_bytes());
+        self.msg(b'A', &b);
+    }
+    fn data(&mut self, id: u16, payload: &[u8]) {
+        self.msg(b'D', &[&id.to_le_bytes()[..], payload].concat());
+    }
+    /// Marks the data from here on as appended (flag bits: DATA_APPENDED, first offset).
+    fn append_here(&mut self) {
+        let at = self.out.len() as u64;
+        // the flag bits' body starts at 16 + 3: compat[8], incompat[8], offsets[3]
+        self.out[19 + 8] = 1;
+        self.out[19 + 16..19 + 24].copy_from_slice(&at.to_le_bytes());
+    }
+}
+
+/// ULog per the specification, in a fixture written from the definitions: a nested type
+/// before the fields read (offsets after it), three instances of `sensor_gyro` (`--instance`),
+/// messages with and without their trailing `_padding` bytes, appended data, and
+/// `sensor_gyro_fifo` (PX4 `msg/SensorGyroFifo.msg`): each sample a row, the last at
+/// `timestamp_sample` and the others `dt` µs before it, values × `scale`.
+#[cfg(feature = "ulog")]
+#[test]
+fn ulog_nested_instances_padding_appended_and_fifo() {
+    use imunoise::logs::{LogFormat, open};
+    let dir = tempfile::tempdir().unwrap();
+    let mut w = UlogWriter::new();
+    w.msg(b'F', b"esc_report:uint32_t rpm;float[2] v;");
+    w.msg(b'F', b"sensor_gyro:uint64_t timestamp;esc_report[2] esc;uint64_t timestamp_sample;uint32_t device_id;float x;float y;float z;float temperature;uint8_t[4] _padding0;");
+    w.msg(b'F', b"sensor_gyro_fifo:uint64_t timestamp;uint64_t timestamp_sample;uint32_t device_id;bool is_external;float dt;float scale;uint8_t samples;int16_t[32] x;int16_t[32] y;int16_t[32] z;uint8_t[2] _padding0;");
+    for k in 0..3u8 {
+        w.add(k, k as u16, "sensor_gyro");
+    }
+    w.add(0, 7, "sensor_gyro_fifo");
+    // sensor_gyro instance k, message i: x = k + i/8, stamp 1 s + 4 ms i (+ 100 µs k)
+    let gyro = |w: &mut UlogWriter, k: u16, i: u64| {
+        let mut d = (1_000_000 + 4000 * i + 100 * k as u64 + 7)
+            .to_le_bytes()
+            .to_vec();
+        d.extend((0..2).flat_map(|e| {
+            [
+                (e as u32).to_le_bytes(),
+                1.5f32.to_le_bytes(),
+                2.5f32.to_le_bytes(),
+            ]
+            .concat()
+        }));
+        d.extend_from_slice(&(1_000_000 + 4000 * i + 100 * k as u64).to_le_bytes());
+        d.extend_from_slice(&42u32.to_le_bytes());
+        for v in [k as f32 + i as f32 / 8.0, -0.25, 0.125, 40.0] {
+            d.extend_from_slice(&v.to_le_bytes());
+        }
+        if i % 2 == 1 {
+            d.extend_from_slice(&[0; 4]); // the padding, written for odd messages only
+        }
+        w.data(k, &d);
+    };
+    for i in 0..100 {
+        for k in 0..3 {
+            gyro(&mut w, k, i);
+        }
+    }
+    // FIFO: 10 messages of 32 samples at 2 kHz (dt 500 µs), the 5th with 20 valid samples
+    let fifo_n = |m: u64| if m == 4 { 20 } else { 32 };
+    let count = |m: u64, i: u64, a: u64| ((m * 37 + i * 5 + a * 11) % 2000) as i16 - 1000;
+    let scale = 1.0f32 / 4096.0;
+    for m in 0..10u64 {
+        let mut d = (2_000_000 + 16_000 * m).to_le_bytes().to_vec();
+        d.extend_from_slice(&(2_000_000 + 16_000 * m - 10).to_le_bytes()); // timestamp_sample
+        d.extend_from_slice(&7u32.to_le_bytes());
+        d.push(0);
+        d.extend_from_slice(&500f32.to_le_bytes());
+        d.extend_from_slice(&scale.to_le_bytes());
+        d.push(fifo_n(m) as u8);
+        for a in 0..3 {
+            for i in 0..32 {
+                d.extend_from_slice(&count(m, i, a).to_le_bytes());
+            }
+        }
+        w.data(7, &d); // without the padding
+    }
+    // appended data: 20 more messages of instance 1
+    w.append_here();
+    for i in 100..120 {
+        gyro(&mut w, 1, i);
+    }
+    let path = p(&dir, "spec.ulg");
+    std::fs::write(&path, &w.out).unwrap();
+
+    let r = open(&path, LogFormat::Ulog).unwrap();
+    let counts: Vec<(String, u64, bool)> = r
+        .topics()
+        .unwrap()
+        .into_iter()
+        .map(|t| (t.name, t.count, t.is_imu))
+        .collect();
+    let want = [
+        ("sensor_gyro", 100),
+        ("sensor_gyro[1]", 120),
+        ("sensor_gyro[2]", 100),
+        ("sensor_gyro_fifo", 10),
+    ];
+    assert_eq!(counts, want.map(|(n, c)| (n.to_string(), c, true)).to_vec());
+    for (k, topic) in ["sensor_gyro", "sensor_gyro[1]", "sensor_gyro[2]"]
+        .iter()
+        .enumerate()
+    {
+        let s = r.read_imu(topic).unwrap();
+        let n = if k == 1 { 120 } else { 100 };
+        let st: Vec<i64> = (0..n)
+            .map(|i| (1_000_000 + 4000 * i + 100 * k as i64) * 1000)
+            .collect();
+        assert_eq!(s.stamps_ns, st, "{topic}: timestamp_sample, not timestamp");
+        assert_eq!(s.names, ["gyro_x_rads", "gyro_y_rads", "gyro_z_rads"]);
+        let x: Vec<f64> = (0..n).map(|i| (k as f32 + i as f32 / 8.0) as f64).collect();
+        assert_eq!(s.columns[0], x, "{topic}");
+        assert!(s.columns[1].iter().all(|&v| v == -0.25));
+        assert!(s.columns[2].iter().all(|&v| v == 0.125));
+    }
+    let f = r.read_imu("sensor_gyro_fifo").unwrap();
+    let (mut st, mut xs) = (Vec::new(), vec![Vec::new(); 3]);
+    for m in 0..10u64 {
+        let n = fifo_n(m);
+        let last_ns = (2_000_000 + 16_000 * m as i64 - 10) * 1000;
+        for i in 0..n {
+            st.push(last_ns - (n - 1 - i) as i64 * 500_000);
+            for (a, x) in xs.iter_mut().enumerate() {
+                x.push(count(m, i, a as u64) as f64 * scale as f64);
+            }
+        }
+    }
+    assert_eq!(f.stamps_ns.len(), 9 * 32 + 20);
+    assert_eq!(f.stamps_ns, st);
+    assert_eq!(f.columns, xs);
+    // the same through the command: --topic and --instance
+    let a = ok(&[
+        "avar",
+        s(&path),
+        "--topic",
+        "sensor_gyro",
+        "--instance",
+        "2",
+        "--format",
+        "json",
+        "-q",
+    ]);
+    let b = ok(&[
+        "avar",
+        s(&path),
+        "--topic",
+        "sensor_gyro[2]",
+        "--format",
+        "json",
+        "-q",
+    ]);
+    assert_eq!(a, b);
+    let err = fails(&[
+        "avar",
+        s(&path),
+        "--topic",
+        "sensor_gyro",
+        "--instance",
+        "3",
+    ]);
+    assert!(
+        err.contains("its instances of sensor_gyro: sensor_gyro, sensor_gyro[1], sensor_gyro[2]"),
+        "{err}"
+    );
+}
+
+/// A DataFlash log with the batch sampler (ArduPilot `libraries/AP_InertialSensor/
+/// LogStructure.h`: `ISBH` "QHBBHHQf" TimeUS,N,type,instance,mul,smp_cnt,SampleUS,smp_rate;
+/// `ISBD` "QHHaaa" TimeUS,N,seqno,x,y,z) and a low-rate IMU: batches of `per` ISBD messages
+/// (32 samples each) at `rate`, gyro (type 1) and accelerometer (type 0) of instance 0 in turn,
+/// `skip` = (batch, seqno) of ISBD messages not written. Sample j of batch b, axis a: count
+/// `isb_count(b, j, a)`.
+fn write_isb(path: &Path, batches: u16, per: u16, rate: f32, skip: &[(u16, u16)]) {
+    let mut out = df_fmt(0x80, 89, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns");
+    out.extend(df_fmt(
+        0x40,
+        36,
+        "IMU",
+        "QBffffff",
+        "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ",
+    ));
+    out.extend(df_fmt(
+        0x50,
+        31,
+        "ISBH",
+        "QHBBHHQf",
+        "TimeUS,N,type,instance,mul,smp_cnt,SampleUS,smp_rate",
+    ));
+    out.extend(df_fmt(0x51, 207, "ISBD", "QHHaaa", "TimeUS,N,seqno,x,y,z"));
+    for b in 0..batches {
+        let t0 = isb_start_us(b, per, rate);
+        let ty = if b % 2 == 0 { 1u8 } else { 0 };
+        out.extend_from_slice(&[0xA3, 0x95, 0x50]);
+        out.extend_from_slice(&(t0 + 500).to_le_bytes());
+        out.extend_from_slice(&b.to_le_bytes());
+        out.extend_from_slice(&[ty, 0]);
+        out.extend_from_slice(&isb_mul(ty).to_le_bytes());
+        out.extend_from_slice(&(32 * per).to_le_bytes());
+        out.extend_from_slice(&t0.to_le_bytes());
+        out.extend_from_slice(&rate.to_le_bytes());
+        for k in 0..per {
+            // a low-rate IMU message now and then
+            out.extend_from_slice(&[0xA3, 0x95, 0x40]);
+            out.extend_from_slice(&(t0 + 1000 * k as u64).to_le_bytes());
+            out.push(0);
+            out.extend([0u8; 24]);
+            if skip.contains(&(b, k)) {
+                continue;
+            }
+            out.extend_from_slice(&[0xA3, 0x95, 0x51]);
+            out.extend_from_slice(&(t0 + 1000 * k as u64 + 700).to_le_bytes());
+            out.extend_from_slice(&b.to_le_bytes());
+            out.extend_from_slice(&k.to_le_bytes());
+            for a in 0..3 {
+                for i in 0..32 {
+                    out.extend_from_slice(&isb_count(b, 32 * k + i, a).to_le_bytes());
+                }
+            }
+        }
+    }
+    std::fs::write(path, out).unwrap();
+}
+
+fn isb_start_us(b: u16, per: u16, rate: f32) -> u64 {
+    // batches 10 s apart, well after the previous one ends
+    let _ = (per, rate);
+    5_000_000 + 10_000_000 * b as u64
+}
+
+fn isb_mul(ty: u8) -> u16 {
+    if ty == 1 { 1000 } else { 200 }
+}
+
+fn isb_count(b: u16, j: u16, a: u16) -> i16 {
+    ((b as i32 * 101 + j as i32 * 7 + a as i32 * 13) % 3000 - 1500) as i16
+}
+
+/// ArduPilot's batch sampler in a fixture written from its message definitions: each ISBD
+/// sample a row, stamped `SampleUS + (32 seqno + i) / smp_rate`, valued `x[i] / mul`, a
+/// missing ISBD message a gap of 32 samples; `topics` lists `ISB_gyro[0]` and `ISB_acc[0]` at
+/// the sample rate; `analyze` without `--topic` reads them (a note says so) rather than IMU.
+#[cfg(feature = "dataflash")]
+#[test]
+fn dataflash_batch_sampler_samples_stamps_and_preference() {
+    use imunoise::logs::{LogFormat, open};
+    let dir = tempfile::tempdir().unwrap();
+    let path = p(&dir, "isb.bin");
+    let (per, rate) = (40u16, 2000f32);
+    write_isb(&path, 3, per, rate, &[(2, 5)]);
+    let r = open(&path, LogFormat::Dataflash).unwrap();
+    let topics: Vec<(String, String, u64, bool)> = r
+        .topics()
+        .unwrap()
+        .into_iter()
+        .map(|t| (t.name, t.msg_type, t.count, t.is_imu))
+        .collect();
+    let t = |n: &str, ty: &str, c, imu| (n.to_string(), ty.to_string(), c, imu);
+    assert_eq!(
+        topics,
+        [
+            t("IMU[0]", "IMU", 3 * per as u64, true),
+            t("ISBH", "ISBH", 3, false),
+            t("ISB_acc[0]", "ISBD", per as u64, true),
+            t("ISB_gyro[0]", "ISBD", 2 * per as u64 - 1, true),
+        ]
+    );
+    for (topic, batches, ty) in [
+        ("ISB_gyro[0]", &[0u16, 2][..], 1u8),
+        ("ISB_acc[0]", &[1], 0),
+    ] {
+        let s = r.read_imu(topic).unwrap();
+        let (mut st, mut cols) = (Vec::new(), vec![Vec::new(); 3]);
+        for &b in batches {
+            for j in 0..32 * per {
+                if b == 2 && j / 32 == 5 {
+                    continue; // the ISBD not written
+                }
+                let dt = (j as f64 * 1e9 / rate as f64).round() as i64;
+                st.push(isb_start_us(b, per, rate) as i64 * 1000 + dt);
+                for (a, c) in cols.iter_mut().enumerate() {
+                    c.push(isb_count(b, j, a as u16) as f64 / isb_mul(ty) as f64);
+                }
+            }
+        }
+        assert_eq!(s.stamps_ns, st, "{topic}");
+        assert_eq!(s.columns, cols, "{topic}");
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["topics", s(&path), "--format", "json"])).unwrap();
+    assert_eq!(v[3]["name"], "ISB_gyro[0]");
+    assert_eq!(v[3]["rate_hz"], 2000.0);
+    // analyze prefers the batch topics; the gyro's missing message is a gap
+    let out = imunoise(&[
+        "analyze",
+        s(&path),
+        "--gaps",
+        "longest",
+        "--model",
+        "WN",
+        "--no-select",
+        "--out",
+        s(&p(&dir, "rep")),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("reading the high-rate IMU topics ISB_gyro[0], ISB_acc[0]"),
+        "{err}"
+    );
+    assert!(
+        err.contains("ISB_gyro[0]: 2528 messages") && err.contains("gaps"),
+        "{err}"
+    );
+}
+
+/// A simulated WN + RW gyro at 2 kHz written through PX4's `sensor_gyro_fifo` (int16 counts
+/// × `scale`, 32 samples a message): `analyze` of the log equals `analyze` of the same
+/// quantized samples as CSV, and the fitted parameters are within 4 standard errors of the
+/// simulated values (fixed seed; the quantization noise, scale²/12 = 2.3e-11 (rad/s)², is 4·10⁻⁵ of the
+/// white noise's variance).
+#[cfg(feature = "ulog")]
+#[test]
+fn fifo_gyro_at_2khz_recovers_wn_and_rw() {
+    let dir = tempfile::tempdir().unwrap();
+    let (n, rate) = (1usize << 19, 2000.0);
+    let model: imunoise::processes::Model = "WN(sigma2=1e-6)+RW(gamma2=1e-12)".parse().unwrap();
+    let sim = imunoise::cli::simulate::simulate_channels(&model, n, rate, 21, 3).unwrap();
+    let scale = 1.0f32 / 65536.0;
+    let counts: Vec<Vec<i16>> = sim
+        .iter()
+        .map(|c| {
+            c.iter()
+                .map(|&v| (v / scale as f64).round() as i16)
+                .collect()
+        })
+        .collect();
+    let mut w = UlogWriter::new();
+    w.msg(b'F', b"sensor_gyro_fifo:uint64_t timestamp;uint64_t timestamp_sample;uint32_t device_id;bool is_external;float dt;float scale;uint8_t samples;int16_t[32] x;int16_t[32] y;int16_t[32] z;uint8_t[2] _padding0;");
+    w.add(0, 0, "sensor_gyro_fifo");
+    for m in 0..n / 32 {
+        let last_us = 1_000_000 + 500 * (32 * m as u64 + 31);
+        let mut d = (last_us + 50).to_le_bytes().to_vec();
+        d.extend_from_slice(&last_us.to_le_bytes());
+        d.extend_from_slice(&1u32.to_le_bytes());
+        d.push(0);
+        d.extend_from_slice(&500f32.to_le_bytes());
+        d.extend_from_slice(&scale.to_le_bytes());
+        d.push(32);
+        for c in &counts {
+            for v in &c[32 * m..32 * m + 32] {
+                d.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        d.extend_from_slice(&[0, 0]);
+        w.data(0, &d);
+    }
+    let path = p(&dir, "fifo.ulg");
+    std::fs::write(&path, &w.out).unwrap();
+    let csv = p(&dir, "fifo.csv");
+    let names: Vec<String> = ["gyro_x_rads", "gyro_y_rads", "gyro_z_rads"]
+        .map(String::from)
+        .to_vec();
+    let cols: Vec<Vec<f64>> = counts
+        .iter()
+        .map(|c| c.iter().map(|&v| v as f64 * scale as f64).collect())
+        .collect();
+    let mut f = std::io::BufWriter::new(std::fs::File::create(&csv).unwrap());
+    imunoise::cli::simulate::write_csv(&mut f, &names, &cols).unwrap();
+    drop(f);
+    let res = analyze_equals_csv(&dir, &[s(&path)], &csv, "2000");
+    assert_eq!(res["rate_hz"], 2000.0);
+    for ch in res["channels"].as_array().unwrap() {
+        for prm in ch["fit"]["parameters"].as_array().unwrap() {
+            let truth = if prm["process"] == "WN" { 1e-6 } else { 1e-12 };
+            let (lo, hi) = (
+                prm["ci_lo"].as_f64().unwrap(),
+                prm["ci_hi"].as_f64().unwrap(),
+            );
+            // within 4 standard errors of the simulated value (the standard error from the
+            // fit's 95 % interval, half-width / 1.96): a chance of 6e-5 per parameter to fail
+            let se = (hi - lo) / 2.0 / 1.96;
+            let v = prm["value"].as_f64().unwrap();
+            assert!((v - truth).abs() <= 4.0 * se, "{}: {prm}", ch["name"]);
         }
     }
 }

@@ -164,14 +164,22 @@ class FitResult:
     Attributes: ``name``, ``method``, ``model`` (the fitted model with values, per-sample
     parameters), ``parameters`` (``{"WN.sigma2": (value, ci_lo, ci_hi), ...}``, per sample in
     the channel's unit, CI bounds NaN when absent), ``ieee`` (``{"N": (value, lo, hi, unit),
-    ...}``), ``converged``, ``warnings``. ``to_dict()`` gives the channel entry of
-    ``imunoise fit --format json``.
+    ...}``), ``noise_terms`` (``{"N": {...}, "K": {...}, "B": {...}}``: value, CI, unit and
+    ``source``, ``"model"``, ``"read_off"`` or ``"upper_bound"``: the values the report and
+    the configs use), ``adequate`` (does the model describe the Allan variance inside its
+    CIs at >= 90 % of the scales; None without CIs) with ``adequacy`` (its reasons, the τ
+    ranges not explained and each scale's residual), ``converged``, ``warnings``.
+    ``to_dict()`` gives the channel entry of ``imunoise fit --format json``.
 
     >>> import math, imunoise
     >>> x = imunoise.simulate("WN(sigma2=1e-4)", 4096, 100.0, seed=1)
     >>> f = imunoise.fit(x, 100.0, model="WN", unit="deg/s")
-    >>> f.method, list(f.parameters), list(f.ieee)
-    ('gmwm', ['WN.sigma2'], ['N'])
+    >>> f.method, list(f.parameters), "N" in f.ieee
+    ('gmwm', ['WN.sigma2'], True)
+    >>> f.noise_terms["N"]["source"], f.noise_terms["N"]["value"] == f.ieee["N"][0]
+    ('model', True)
+    >>> f.adequate == (f.adequacy["inside_fraction"] >= 0.9)
+    True
     >>> v, lo, hi = f.parameters["WN.sigma2"]
     >>> # the estimate's relative SE is about sqrt(2/4096) = 2.2 %: 10 % is 4.5 SE
     >>> bool(lo < v < hi and abs(v / 1e-4 - 1) < 0.1)
@@ -201,6 +209,14 @@ class FitResult:
             k: (v["value"], _nan(v.get("ci_lo")), _nan(v.get("ci_hi")), v.get("unit"))
             for k, v in d.get("ieee", {}).items()
         }
+        terms = d.get("noise_terms") or {}
+        self.noise_terms: Dict[str, Dict[str, Any]] = {
+            k.upper(): dict(v) for k, v in terms.items()
+        }
+        self.adequacy: Optional[Dict[str, Any]] = d.get("adequacy")
+        self.adequate: Optional[bool] = (
+            None if self.adequacy is None else bool(self.adequacy["adequate"])
+        )
 
     def to_dict(self) -> Dict[str, Any]:
         """The channel entry of ``imunoise fit --format json`` (a fresh copy).

@@ -349,6 +349,8 @@ fn fit_settings(
         bootstrap,
         seed,
         alpha,
+        tau_min: None,
+        tau_max: None,
     };
     // the model parses (and the rest holds) before any file is read
     settings.check().map_err(py_err)?;

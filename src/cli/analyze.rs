@@ -93,9 +93,14 @@ pub fn run(args: &AnalyzeArgs, ui: &Ui) -> Result<()> {
         .transpose()?;
     // a bad --out fails before the work, not after it
     crate::output::create_dir(&args.out, "--out")?;
-    // Several topics: one report per topic, in a folder named after it.
-    if args.input.topic.len() > 1 {
-        for topic in &args.input.topic {
+    // Several topics (given, or a flight log's high-rate topics): one report per topic, in
+    // a folder named after it.
+    let topics = match args.input.topic.len() {
+        0 => args.input.spec().preferred_topics(ui)?,
+        _ => args.input.topic.clone(),
+    };
+    if topics.len() > 1 {
+        for topic in &topics {
             let mut one = args.clone();
             one.input.topic = vec![topic.clone()];
             one.out = args.out.join(file_safe(topic.trim_start_matches('/')));

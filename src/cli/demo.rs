@@ -4,9 +4,9 @@
 //! accelerometers) are in [`DEMO_IMU`] and printed by `imunoise demo --help`.
 
 use super::Ui;
-use super::analyze::num;
-use super::fit::LevelCis;
 use crate::error::{Error, Result};
+use crate::pipeline::fit::LevelCis;
+use crate::pipeline::report::num;
 use avar::{AllanVariance, AvarConfig};
 use gmwm_prep::units::{IeeeTerm, process_ieee};
 
@@ -196,7 +196,7 @@ impl Comparison {
 pub fn compare(
     name: &str,
     truth: &Model,
-    fit: &super::fit::ChannelFit,
+    fit: &crate::pipeline::fit::ChannelFit,
     sim: Option<&LevelCis>,
 ) -> Vec<Comparison> {
     let true_params: Vec<f64> = truth
@@ -224,7 +224,7 @@ pub fn compare_ieee(
     name: &str,
     truth: &Model,
     unit: &Unit,
-    fit: &super::fit::ChannelFit,
+    fit: &crate::pipeline::fit::ChannelFit,
     sim: Option<&LevelCis>,
 ) -> Vec<Comparison> {
     [IeeeTerm::N, IeeeTerm::K]
@@ -258,7 +258,7 @@ pub struct DemoJson<'a> {
     /// Level of each simultaneous interval, 1 − alpha/K.
     pub simultaneous_level: f64,
     /// How the marginal intervals were computed (as `ci_method` of `imunoise fit`).
-    pub ci_method: super::fit::CiMethod,
+    pub ci_method: crate::pipeline::fit::CiMethod,
     /// Per-sample parameters.
     pub parameters: &'a [Comparison],
     /// IEEE 952 terms N and K (functions of WN σ² and RW γ², so in the same family).
@@ -302,7 +302,7 @@ pub struct DemoRun {
     /// Allan variance of each channel.
     pub curves: Vec<(String, AllanVariance)>,
     /// GMWM fit of each channel.
-    pub fits: Vec<super::fit::ChannelFit>,
+    pub fits: Vec<crate::pipeline::fit::ChannelFit>,
     /// Per-sample parameters, true against estimated.
     pub params: Vec<Comparison>,
     /// IEEE 952 N and K, true against estimated.
@@ -312,7 +312,7 @@ pub struct DemoRun {
     /// Number K of parameters in the Bonferroni family.
     pub k: usize,
     /// How the marginal CIs were computed.
-    pub ci_method: super::fit::CiMethod,
+    pub ci_method: crate::pipeline::fit::CiMethod,
 }
 
 impl DemoRun {
@@ -358,19 +358,21 @@ pub fn estimate(n: usize, seed: u64, bootstrap: usize, ui: &Ui) -> Result<DemoRu
         topic: None,
     };
     let curves: Vec<(String, AllanVariance)> =
-        super::avar_cmd::compute(&table, DEMO_RATE_HZ, &AvarConfig::default(), ui)?;
+        crate::pipeline::estimate::compute(&table, DEMO_RATE_HZ, &AvarConfig::default(), ui)?;
     // The true template (the structure is known; its values are estimated).
     let alpha = 0.05;
-    let settings = super::fit::FitSettings {
+    let settings = crate::pipeline::fit::FitSettings {
         model: data.models[0].template().to_string(),
-        method: super::fit::Method::Gmwm,
+        method: crate::pipeline::fit::Method::Gmwm,
         select: false,
         bootstrap,
         seed: seed.wrapping_add(1),
         alpha,
-        weighting: super::fit::FitWeighting::Diagonal,
+        weighting: crate::pipeline::fit::FitWeighting::Diagonal,
+        tau_min: None,
+        tau_max: None,
     };
-    let fits = super::fit::fit_all(&curves, &data.units, &settings, ui)?;
+    let fits = crate::pipeline::fit::fit_all(&curves, &data.units, &settings, ui)?;
     // Simultaneous intervals: Bonferroni over every parameter of every channel.
     let k: usize = fits.iter().map(|f| f.parameters.len()).sum();
     let sims = fits
@@ -392,7 +394,7 @@ pub fn estimate(n: usize, seed: u64, bootstrap: usize, ui: &Ui) -> Result<DemoRu
     }
     let ci_method = fits
         .first()
-        .map_or(super::fit::CiMethod::None, |f| f.ci_method);
+        .map_or(crate::pipeline::fit::CiMethod::None, |f| f.ci_method);
     Ok(DemoRun {
         table,
         units: data.units,
@@ -416,8 +418,8 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     let (params, ieee) = (&r.params, &r.ieee);
     let count = count_covered;
     let model = r.models[0].template().to_string();
-    let level = super::fit::percent(1.0 - alpha);
-    let sim_level = super::fit::percent(1.0 - alpha_sim);
+    let level = crate::pipeline::fit::percent(1.0 - alpha);
+    let sim_level = crate::pipeline::fit::percent(1.0 - alpha_sim);
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let mut w = |s: String| writeln!(out, "{s}").map_err(|e| Error::write("<stdout>", e));
@@ -533,7 +535,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         ));
     }
     extra.push_str("</table>\n");
-    let inp = super::analyze::ReportInput {
+    let inp = crate::pipeline::report::ReportInput {
         source: "imunoise demo (simulated 6-axis MEMS IMU)",
         rate_hz: DEMO_RATE_HZ,
         names: &r.table.names,
@@ -548,7 +550,7 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
         robust: None,
         record_halfwidth: 0.1,
     };
-    super::analyze::write_report(&args.out, &inp, ui)?;
+    crate::pipeline::report::write_report(&args.out, &inp, ui)?;
     w(format!(
         "report (plots, results.json, demo.json, avar.csv, imu.yaml) written to {}",
         args.out.join("report.html").display()

@@ -42,8 +42,18 @@ bootstrap_sd or none.
 
 JSON shape: {\"channels\":[{\"name\",\"method\",\"model\",\"converged\",\"parameters\":[{\"process\",
 \"name\",\"value\",\"ci_lo\",\"ci_hi\"}],\"ieee\":{\"N\":{\"value\",\"unit\",\"ci_lo\",\"ci_hi\"},…},
+\"noise_terms\":{\"n\",\"k\",\"b\":{\"value\",\"unit\",\"ci_lo\",\"ci_hi\",\"source\",\"basis\",
+\"read_off\",\"disagrees\",\"per_second\",\"per_second_unit\"}},\"adequacy\":{\"adequate\",
+\"inside_fraction\",\"n_scales\",\"n_inside\",\"unexplained\":[{\"tau_lo\",\"tau_hi\",\"n_scales\",
+\"model_above\"}],\"reasons\",\"scales\":[{\"tau\",\"z\",\"inside\"}]},
 \"j_test\":{\"statistic\",\"p_value\"},\"ci_method\",\"ci_level\",\"fitted\":[{\"m\",\"avar\"}]}]}
-(plus \"wic\" with --select). CSV: one row per parameter and IEEE term:
+(plus \"wic\" with --select, \"excluded_taus\" with --tau-min/--tau-max).
+N, K, B (\"noise_terms\"): from the fitted model where it has the term (N: white noise and
+every AR1/GM/MA1 faster than the smallest τ, as white-noise equivalents; K: the random walk),
+else the IEEE 952 read-off (N at τ = 1 s, K at 3 s, B at the minimum), else an upper bound;
+\"source\" says which. The verdict (\"adequacy\"): a fit is adequate when its Allan variance
+lies inside the estimate's CI at ≥ 90 % of the fitted scales; the τ ranges it does not
+explain are listed. CSV: one row per parameter and IEEE term:
 channel,process,name,value,ci_lo,ci_hi,unit,ci_method (process \"IEEE\" for N, K, …).";
 
 /// The fit flags shared by `fit` and `analyze` (the library's [`FitSettings`]).
@@ -75,6 +85,15 @@ pub struct FitFlags {
     /// CI level: intervals cover 1 − alpha.
     #[arg(long, default_value_t = 0.05)]
     pub alpha: f64,
+    /// Fit only the scales with τ ≥ SECONDS, e.g. to leave out the smallest scales when an
+    /// anti-aliasing or decimation filter shapes them (the AV falls below the white-noise
+    /// line there). The excluded scales are listed in the JSON (`excluded_taus`) and drawn
+    /// grey in the report's plot.
+    #[arg(long, value_name = "SECONDS")]
+    pub tau_min: Option<f64>,
+    /// Fit only the scales with τ ≤ SECONDS (e.g. to leave out the few, noisy largest ones).
+    #[arg(long, value_name = "SECONDS")]
+    pub tau_max: Option<f64>,
 }
 
 impl FitFlags {
@@ -88,6 +107,8 @@ impl FitFlags {
             bootstrap: self.bootstrap,
             seed: self.seed,
             alpha: self.alpha,
+            tau_min: self.tau_min,
+            tau_max: self.tau_max,
         }
     }
 }

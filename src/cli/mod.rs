@@ -94,50 +94,8 @@ pub fn run(cli: Cli) -> Result<()> {
 
 pub use crate::ui::Ui;
 
-/// A sampling rate in Hz: a finite number > 0.
-pub fn parse_rate(s: &str) -> std::result::Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("{s:?} is not a number"))?;
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(format!(
-            "the sampling rate must be a finite number > 0 Hz, got {s}"
-        ))
-    }
-}
-
-/// A finite non-zero factor: a number or a fraction `a/b`.
-pub fn parse_factor(s: &str) -> std::result::Result<f64, String> {
-    let num = |t: &str| {
-        t.trim()
-            .parse::<f64>()
-            .map_err(|_| format!("{s:?} is not a number or a fraction a/b"))
-    };
-    let v = match s.split_once('/') {
-        Some((a, b)) => num(a)? / num(b)?,
-        None => num(s)?,
-    };
-    if v.is_finite() && v != 0.0 {
-        Ok(v)
-    } else {
-        Err(format!("the factor must be finite and non-zero, got {s}"))
-    }
-}
-
-/// A finite factor > 0 (`--inflate-noise`, `--inflate-walk`): a number or a fraction `a/b`.
-pub fn parse_inflation(s: &str) -> std::result::Result<f64, String> {
-    let v = parse_factor(s)?;
-    if v > 0.0 {
-        Ok(v)
-    } else {
-        Err(format!(
-            "the factor must be > 0 (it multiplies a noise density), got {s}"
-        ))
-    }
-}
+pub use crate::export::parse_inflation;
+pub use crate::pipeline::read::{parse_factor, parse_rate};
 
 /// The input file and how to read it (shared by the analysis subcommands).
 #[derive(Debug, Clone, Args)]
@@ -211,6 +169,14 @@ pub struct InputArgs {
     /// refuse it (default), analyse the longest gap-free segment, or ignore the gaps.
     #[arg(long, value_name = "POLICY", value_enum, default_value = "refuse")]
     pub gaps: logs::GapPolicy,
+    /// Logs: the instance of the --topic message to read (ULog multi-instance topics such as
+    /// `--topic sensor_gyro --instance 1`, DataFlash `--topic IMU --instance 1`).
+    #[arg(long, value_name = "K")]
+    pub instance: Option<u32>,
+    /// Logs: refuse a cut-off file (one that ends inside a message, as when the power goes)
+    /// instead of reading every complete message before the cut with a warning.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 pub use crate::pipeline::read::TimeUnit;
@@ -232,6 +198,8 @@ impl InputArgs {
             time_column: self.time_column.clone(),
             time_unit: self.time_unit,
             gaps: self.gaps,
+            instance: self.instance,
+            strict: self.strict,
         }
     }
 

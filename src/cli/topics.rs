@@ -12,8 +12,17 @@ pub const EXAMPLES: &str = "Examples:
   imunoise topics run.mcap
   imunoise topics run.mcap --format json
 
+  imunoise topics flight.ulg
+  imunoise avar flight.ulg --topic sensor_gyro --instance 1
+
 IMU topics (sensor_msgs/Imu) are marked with *; pass one to the other subcommands with
---topic NAME (several --topic for analyze). The rate is 1 / median Δt of the header stamps.";
+--topic NAME (several --topic for analyze). The rate is 1 / median Δt of the header stamps.
+PX4 ULog: sensor_combined, sensor_gyro, sensor_accel and the FIFO topics sensor_gyro_fifo /
+sensor_accel_fifo (one row per sample); instance k is NAME[k] (or --topic NAME --instance k).
+ArduPilot DataFlash: IMU[k] (old logs' IMU, IMU2, IMU3 are IMU[0], IMU[1], IMU[2]) and the
+batch sampler's ISB_gyro[k] / ISB_acc[k]. Without --topic, analyze reads the high-rate
+topics (FIFO, batch sampler) when the log has them. A log cut off inside a message (the
+power went) is read up to its last complete message with a warning; --strict refuses it.";
 
 /// Arguments of `imunoise topics`.
 #[derive(Debug, Clone, clap::Args)]
@@ -24,6 +33,10 @@ pub struct TopicsArgs {
     /// The log format when the extension does not tell.
     #[arg(long, value_name = "FORMAT", value_enum)]
     pub log_format: Option<logs::LogFormat>,
+    /// Refuse a cut-off log (one that ends inside a message) instead of listing its complete
+    /// messages with a warning.
+    #[arg(long)]
+    pub strict: bool,
     /// Output format (table or json; csv is the table with commas).
     #[arg(long, value_enum, default_value = "table")]
     pub format: Format,
@@ -42,7 +55,7 @@ pub fn run(args: &TopicsArgs, ui: &Ui) -> Result<()> {
             ))
         })?;
     let pb = ui.spinner(format!("reading {file}"));
-    let reader = logs::open(&path, fmt)?;
+    let reader = logs::open_checked(&path, fmt, args.strict, ui)?;
     let all = logs::summarize(reader.as_ref());
     pb.finish_and_clear();
     let all = all?;

@@ -9,11 +9,23 @@
 //! Layout: each message is `A3 95 type` then a payload whose size and field types come
 //! from the FMT message (type 128: type u8, length u8, name `char[4]`, format `char[16]`,
 //! labels `char[64]`). IMU messages are those named `IMU…` with `TimeUS` (µs), `GyrX/Y/Z`
-//! (rad/s) and `AccX/Y/Z` (m/s²); an `I` field is the instance (`IMU[1]`), older logs use
-//! `IMU2`, `IMU3`.
+//! (rad/s) and `AccX/Y/Z` (m/s²); an `I` field is the instance (`IMU[1]`). Older firmware
+//! logs the instances as the messages `IMU`, `IMU2`, `IMU3` (no `I` field): these are the
+//! topics `IMU[0]`, `IMU[1]`, `IMU[2]` (type `IMU`, `IMU2`, `IMU3`).
+//!
+//! The batch sampler (ArduPilot `INS_LOG_BAT_*`; `libraries/AP_InertialSensor/LogStructure.h`):
+//! an `ISBH` header (`N` batch number, `type` 0 accelerometer or 1 gyro, `instance`, `mul`,
+//! `smp_cnt`, `SampleUS` the first sample's time, `smp_rate` Hz) then `ISBD` messages (`N`,
+//! `seqno` = index of the message in its batch, `x, y, z` 32 int16 samples each). Sample i of
+//! message `seqno` is at `SampleUS + (32 seqno + i) / smp_rate` with the value `x[i] / mul`
+//! (rad/s, m/s²): a missing message leaves a gap in the stamps. These are the topics
+//! `ISB_gyro[k]` and `ISB_acc[k]` (three channels each).
+//!
+//! A log cut off inside a message (the power went while it was written: the common case)
+//! is read up to its last complete message; [`LogReader::truncation`] says where it is cut.
 
 use super::imu_msg::ImuSample;
-use super::{ImuSeries, LogFormat, LogReader, TopicInfo, map_file};
+use super::{ImuSeries, LogFormat, LogReader, TopicInfo, Truncation, map_file};
 use crate::error::{Error, Result};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -54,6 +66,8 @@ use std::path::Path;
 pub struct DataflashReader {
     file: String,
     map: memmap2::Mmap,
+    /// Where the file is cut off (from the walk at open).
+    truncation: Option<Truncation>,
 }
 
 /// Size of a DataFlash field type character.
@@ -76,6 +90,91 @@ struct Fmt {
     len: usize,
     /// For IMU messages: offsets of TimeUS, GyrX..Z, AccX..Z (f32) and the instance byte.
     imu: Option<ImuLayout>,
+    /// Offset of a `TimeUS` field (u64 µs).
+    time: Option<usize>,
+    /// The instance of an old-style IMU message without an `I` field: 0 for `IMU`, k − 1
+    /// for `IMUk`.
+    old_instance: Option<u32>,
+    /// Batch sampler messages: their fields.
+    isb: Option<Isb>,
+}
+
+/// The field offsets of the batch sampler's messages.
+#[derive(Debug, Clone, Copy)]
+enum Isb {
+    /// `ISBH`: N, type, instance, mul, SampleUS, smp_rate.
+    Header {
+        n: usize,
+        ty: usize,
+        inst: usize,
+        mul: usize,
+        sample_us: usize,
+        rate: usize,
+    },
+    /// `ISBD`: N, seqno, x, y, z (32 int16 each).
+    Data {
+        n: usize,
+        seqno: usize,
+        xyz: [usize; 3],
+    },
+}
+
+/// A batch's header: sensor type (0 accelerometer, 1 gyro), instance, multiplier, first
+/// sample time (µs) and rate (Hz).
+#[derive(Debug, Clone, Copy)]
+struct Batch {
+    ty: u8,
+    inst: u8,
+    mul: f64,
+    sample_us: u64,
+    rate: f64,
+}
+
+impl Batch {
+    fn topic(&self) -> String {
+        format!(
+            "ISB_{}[{}]",
+            if self.ty == 1 { "gyro" } else { "acc" },
+            self.inst
+        )
+    }
+}
+
+/// Reads the batch sampler's messages as [`DataflashReader::walk`] passes them.
+#[derive(Default)]
+struct Batches {
+    /// Batch number → its header.
+    by_n: std::collections::HashMap<u16, Batch>,
+}
+
+impl Batches {
+    /// Records an `ISBH`; for an `ISBD`, its batch (if its header came before it).
+    fn see(&mut self, f: &Fmt, m: &[u8]) -> Option<Batch> {
+        let u16_at = |o: usize| u16::from_le_bytes([m[o], m[o + 1]]);
+        match f.isb? {
+            Isb::Header {
+                n,
+                ty,
+                inst,
+                mul,
+                sample_us,
+                rate,
+            } => {
+                self.by_n.insert(
+                    u16_at(n),
+                    Batch {
+                        ty: m[ty],
+                        inst: m[inst],
+                        mul: u16_at(mul) as f64,
+                        sample_us: u64::from_le_bytes(m[sample_us..sample_us + 8].try_into().ok()?),
+                        rate: f32::from_le_bytes(m[rate..rate + 4].try_into().ok()?) as f64,
+                    },
+                );
+                None
+            }
+            Isb::Data { n, .. } => self.by_n.get(&u16_at(n)).copied(),
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -119,6 +218,11 @@ fn parse_fmt(p: &[u8]) -> Option<(u8, Fmt)> {
             .filter(|(_, c)| *c == want)
             .map(|(o, _)| *o)
     };
+    let old_instance = match name.strip_prefix("IMU") {
+        Some("") => Some(0),
+        Some(k) if k.len() == 1 => k.parse::<u32>().ok().filter(|&k| k >= 2).map(|k| k - 1),
+        _ => None,
+    };
     let imu = (|| {
         if !name.starts_with("IMU") {
             return None;
@@ -130,7 +234,38 @@ fn parse_fmt(p: &[u8]) -> Option<(u8, Fmt)> {
             instance: at("I", b'B'),
         })
     })();
-    Some((ty, Fmt { name, len, imu }))
+    let old_instance = old_instance.filter(|_| imu.is_some_and(|l| l.instance.is_none()));
+    let isb = match name.as_str() {
+        "ISBH" => (|| {
+            Some(Isb::Header {
+                n: at("N", b'H')?,
+                ty: at("type", b'B')?,
+                inst: at("instance", b'B')?,
+                mul: at("mul", b'H')?,
+                sample_us: at("SampleUS", b'Q')?,
+                rate: at("smp_rate", b'f')?,
+            })
+        })(),
+        "ISBD" => (|| {
+            Some(Isb::Data {
+                n: at("N", b'H')?,
+                seqno: at("seqno", b'H')?,
+                xyz: [at("x", b'a')?, at("y", b'a')?, at("z", b'a')?],
+            })
+        })(),
+        _ => None,
+    };
+    Some((
+        ty,
+        Fmt {
+            time: at("TimeUS", b'Q'),
+            name,
+            len,
+            imu,
+            old_instance,
+            isb,
+        },
+    ))
 }
 
 impl DataflashReader {
@@ -176,7 +311,13 @@ impl DataflashReader {
                     .to_string(),
             });
         }
-        Ok(DataflashReader { file, map })
+        let mut r = DataflashReader {
+            file,
+            map,
+            truncation: None,
+        };
+        r.truncation = r.walk(|_, _| {})?;
+        Ok(r)
     }
 
     fn corrupt(&self, at: usize, what: &str) -> Error {
@@ -186,8 +327,9 @@ impl DataflashReader {
         }
     }
 
-    /// Walks every message; `on(fmt, message bytes including the header)`.
-    fn walk(&self, mut on: impl FnMut(&Fmt, &[u8])) -> Result<()> {
+    /// Walks every message; `on(fmt, message bytes including the header)`. Returns where
+    /// the file is cut off: a last message (or message header) that the file ends inside.
+    fn walk(&self, mut on: impl FnMut(&Fmt, &[u8])) -> Result<Option<Truncation>> {
         let b = &self.map[..];
         let mut fmts: Vec<Option<Fmt>> = vec![None; 256];
         // FMT describes itself; a log normally starts with that FMT, but be safe.
@@ -195,11 +337,25 @@ impl DataflashReader {
             name: "FMT".into(),
             len: 89,
             imu: None,
+            time: None,
+            old_instance: None,
+            isb: None,
         });
+        let mut last_stamp = None;
         let mut p = 0;
         while p < b.len() {
-            if b.len() - p < 3 {
-                return Err(self.corrupt(p, "a message header is cut short"));
+            let rest = &b[p..];
+            let cut = || Truncation {
+                offset: p as u64,
+                dropped_bytes: (b.len() - p) as u64,
+                last_stamp_ns: last_stamp,
+            };
+            if rest.len() < 3 {
+                // a message header cut short, if what is there can start one
+                if rest[0] == 0xA3 && rest.get(1).is_none_or(|&x| x == 0x95) {
+                    return Ok(Some(cut()));
+                }
+                return Err(self.corrupt(p, "expected a message header (A3 95)"));
             }
             if b[p] != 0xA3 || b[p + 1] != 0x95 {
                 return Err(self.corrupt(p, "expected a message header (A3 95)"));
@@ -208,27 +364,83 @@ impl DataflashReader {
             let Some(f) = &fmts[ty] else {
                 return Err(self.corrupt(p, &format!("message type {ty} has no FMT before it")));
             };
-            let m = b.get(p..p + f.len).ok_or_else(|| {
-                self.corrupt(p, &format!("the last {} message is cut short", f.name))
-            })?;
+            let Some(m) = b.get(p..p + f.len) else {
+                return Ok(Some(cut()));
+            };
             let len = f.len.max(3);
             if ty == 0x80 {
                 let (t, nf) = parse_fmt(&m[3..])
                     .ok_or_else(|| self.corrupt(p, "a FMT message that cannot be parsed"))?;
                 fmts[t as usize] = Some(nf);
             } else {
+                if let Some(o) = f.time {
+                    let us = u64::from_le_bytes(m[o..o + 8].try_into().expect("8"));
+                    last_stamp = Some((us as i64).saturating_mul(1000));
+                }
                 on(f, m);
             }
             p += len;
         }
-        Ok(())
+        Ok(None)
     }
 }
 
 fn topic_of(f: &Fmt, m: &[u8]) -> String {
-    match f.imu.and_then(|l| l.instance) {
-        Some(i) => format!("{}[{}]", f.name, m[i]),
-        None => f.name.clone(),
+    match (f.imu.and_then(|l| l.instance), f.old_instance) {
+        (Some(i), _) => format!("{}[{}]", f.name, m[i]),
+        (None, Some(k)) => format!("IMU[{k}]"),
+        (None, None) => f.name.clone(),
+    }
+}
+
+/// Whether message `m` of format `f` belongs to `topic` (`name[k]` split as `want`).
+fn is_topic(f: &Fmt, m: &[u8], topic: &str, want: Option<(&str, u32)>) -> bool {
+    match (f.imu.and_then(|l| l.instance), f.old_instance, want) {
+        (Some(i), _, Some((name, k))) => name == f.name && m[i] as u32 == k,
+        (None, Some(k), Some((name, kk))) => name == "IMU" && k == kk,
+        (None, None, _) => f.name == topic,
+        _ => false,
+    }
+}
+
+impl DataflashReader {
+    /// The samples of a batch sampler topic (`ISB_gyro[k]`, `ISB_acc[k]`).
+    fn read_batches(&self, topic: &str) -> Result<ImuSeries> {
+        let names = if topic.starts_with("ISB_gyro") {
+            ["gyro_x_rads", "gyro_y_rads", "gyro_z_rads"]
+        } else {
+            ["acc_x_mps2", "acc_y_mps2", "acc_z_mps2"]
+        };
+        let mut out = ImuSeries {
+            stamps_ns: Vec::new(),
+            names: names.iter().map(|s| s.to_string()).collect(),
+            columns: vec![Vec::new(); 3],
+        };
+        let mut batches = Batches::default();
+        self.walk(|f, m| {
+            let Some(b) = batches.see(f, m) else { return };
+            let Some(Isb::Data { seqno, xyz, .. }) = f.isb else {
+                return;
+            };
+            if b.topic() != topic {
+                return;
+            }
+            let k = u16::from_le_bytes([m[seqno], m[seqno + 1]]) as u64;
+            for i in 0..32u64 {
+                let dt_ns = ((32 * k + i) as f64 * 1e9 / b.rate).round() as i64;
+                out.stamps_ns.push(
+                    (b.sample_us as i64)
+                        .saturating_mul(1000)
+                        .saturating_add(dt_ns),
+                );
+                for (c, &o) in out.columns.iter_mut().zip(&xyz) {
+                    let at = o + 2 * i as usize;
+                    c.push(i16::from_le_bytes([m[at], m[at + 1]]) as f64 / b.mul);
+                }
+            }
+        })?;
+        out.check_finite(&format!("{} ({topic})", self.file))?;
+        Ok(out)
     }
 }
 
@@ -239,14 +451,16 @@ impl LogReader for DataflashReader {
 
     fn topics(&self) -> Result<Vec<TopicInfo>> {
         let mut by: BTreeMap<String, TopicInfo> = BTreeMap::new();
+        let mut batches = Batches::default();
         self.walk(|f, m| {
-            let t = topic_of(f, m);
+            let batch = batches.see(f, m);
+            let t = batch.map_or_else(|| topic_of(f, m), |b| b.topic());
             by.entry(t.clone())
                 .or_insert_with(|| TopicInfo {
                     name: t,
                     msg_type: f.name.clone(),
                     count: 0,
-                    is_imu: f.imu.is_some(),
+                    is_imu: f.imu.is_some() || batch.is_some(),
                 })
                 .count += 1;
         })?;
@@ -254,10 +468,17 @@ impl LogReader for DataflashReader {
     }
 
     fn read_imu(&self, topic: &str) -> Result<ImuSeries> {
+        if topic.starts_with("ISB_") {
+            return self.read_batches(topic);
+        }
         let mut out = ImuSeries::with_capacity(0);
+        let want = topic
+            .strip_suffix(']')
+            .and_then(|t| t.split_once('['))
+            .and_then(|(n, k)| Some((n, k.parse::<u32>().ok()?)));
         self.walk(|f, m| {
             let Some(l) = f.imu else { return };
-            if !topic.starts_with(f.name.as_str()) || topic_of(f, m) != topic {
+            if !is_topic(f, m, topic, want) {
                 return;
             }
             let g = |o: usize| f32::from_le_bytes(m[o..o + 4].try_into().expect("4")) as f64;
@@ -270,5 +491,9 @@ impl LogReader for DataflashReader {
         })?;
         out.check_finite(&format!("{} ({topic})", self.file))?;
         Ok(out)
+    }
+
+    fn truncation(&self) -> Option<Truncation> {
+        self.truncation
     }
 }

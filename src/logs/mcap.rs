@@ -4,9 +4,14 @@
 //! lz4 or none), the chunks holding the topic are decompressed and decoded in parallel, each
 //! into its place in the final columns when the message indexes give the counts; without
 //! one, the file is streamed.
+//!
+//! A file cut off while it was written (no summary, its last record incomplete) is streamed
+//! up to its last complete record; when that record is an uncompressed chunk, the complete
+//! records inside it are read too (a compressed chunk cut short cannot be decompressed and
+//! is dropped whole). [`LogReader::truncation`] says where the file is cut.
 
 use super::imu_msg::{ImuSample, decode_cdr, decode_ros1, is_imu_type};
-use super::{ImuSeries, LogFormat, LogReader, SamplePush, TopicInfo, map_file};
+use super::{ImuSeries, LogFormat, LogReader, SamplePush, TopicInfo, Truncation, map_file};
 use crate::error::{Error, Result};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -53,6 +58,17 @@ pub struct McapReader {
     /// The largest record or uncompressed chunk in the file (bytes): the record length limit
     /// of [`BoundedStream`].
     limit: usize,
+    /// Where a cut-off file is cut ([`Cut`]); `None` for a complete data section.
+    cut: Option<Cut>,
+}
+
+/// Where a file is cut off: the data section is streamed up to `end` (a record boundary),
+/// then the complete records of a cut uncompressed chunk, `tail` (file offsets).
+#[derive(Debug, Clone, Copy)]
+struct Cut {
+    end: usize,
+    tail: Option<(usize, usize)>,
+    truncation: Truncation,
 }
 
 impl Drop for McapReader {
@@ -114,7 +130,6 @@ impl<'a> BoundedStream<'a> {
             &mcap::read::ChannelAccumulator<'static>,
         ) -> Result<()>,
     ) -> std::result::Result<u64, Stop> {
-        use mcap::records::Record;
         let mut n = 0u64;
         while let Some(event) = self.reader.next_event() {
             match event.map_err(|e| Stop::Corrupt(n, e.to_string()))? {
@@ -125,24 +140,69 @@ impl<'a> BoundedStream<'a> {
                     self.buf = &self.buf[len..];
                 }
                 mcap::sans_io::LinearReadEvent::Record { data, opcode } => {
-                    match mcap::parse_record(opcode, data)
-                        .map_err(|e| Stop::Corrupt(n, e.to_string()))?
-                    {
-                        Record::Schema { header, data } => self
-                            .channels
-                            .add_schema(header, std::borrow::Cow::Owned(data.into_owned()))
-                            .map_err(|e| Stop::Corrupt(n, e.to_string()))?,
-                        Record::Channel(c) => self
-                            .channels
-                            .add_channel(c)
-                            .map_err(|e| Stop::Corrupt(n, e.to_string()))?,
-                        Record::Message { header, data } => {
-                            f(&header, &data, &self.channels).map_err(Stop::Message)?;
-                            n += 1;
-                        }
-                        Record::DataEnd(_) => break,
-                        _ => {}
+                    if !Self::record(&mut self.channels, opcode, data, &mut f, &mut n)? {
+                        break;
                     }
+                }
+            }
+        }
+        Ok(n)
+    }
+
+    /// Handles one record (schemas and channels kept, messages to `f`); false at the data
+    /// end record.
+    fn record(
+        channels: &mut mcap::read::ChannelAccumulator<'static>,
+        opcode: u8,
+        data: &[u8],
+        f: &mut impl FnMut(
+            &mcap::records::MessageHeader,
+            &[u8],
+            &mcap::read::ChannelAccumulator<'static>,
+        ) -> Result<()>,
+        n: &mut u64,
+    ) -> std::result::Result<bool, Stop> {
+        use mcap::records::Record;
+        match mcap::parse_record(opcode, data).map_err(|e| Stop::Corrupt(*n, e.to_string()))? {
+            Record::Schema { header, data } => channels
+                .add_schema(header, std::borrow::Cow::Owned(data.into_owned()))
+                .map_err(|e| Stop::Corrupt(*n, e.to_string()))?,
+            Record::Channel(c) => channels
+                .add_channel(c)
+                .map_err(|e| Stop::Corrupt(*n, e.to_string()))?,
+            Record::Message { header, data } => {
+                f(&header, &data, channels).map_err(Stop::Message)?;
+                *n += 1;
+            }
+            Record::DataEnd(_) => return Ok(false),
+            _ => {}
+        }
+        Ok(true)
+    }
+
+    /// [`Self::for_each`], then the records of `tail` (the complete records of a cut
+    /// uncompressed chunk, walked by [`walk_records_until_cut`]).
+    fn for_each_then(
+        &mut self,
+        tail: Option<&[u8]>,
+        mut f: impl FnMut(
+            &mcap::records::MessageHeader,
+            &[u8],
+            &mcap::read::ChannelAccumulator<'static>,
+        ) -> Result<()>,
+    ) -> std::result::Result<u64, Stop> {
+        let mut n = self.for_each(&mut f)?;
+        if let Some(t) = tail {
+            let (recs, _) = walk_records_until_cut(t);
+            for (op, start, len) in recs {
+                if !Self::record(
+                    &mut self.channels,
+                    op,
+                    &t[start..start + len],
+                    &mut f,
+                    &mut n,
+                )? {
+                    break;
                 }
             }
         }
@@ -177,6 +237,46 @@ fn walk_records(b: &[u8]) -> std::result::Result<Vec<(u8, usize, usize)>, String
         }
     }
     Ok(out)
+}
+
+/// The complete records (opcode, body start, body length) of `b`, up to a data end record
+/// or the first record that runs past the end of `b`, whose offset is returned too (a file
+/// cut off while it was written).
+fn walk_records_until_cut(b: &[u8]) -> (Vec<(u8, usize, usize)>, Option<usize>) {
+    let mut out = Vec::new();
+    let mut at = 0usize;
+    while at < b.len() {
+        let op = b[at];
+        let Some(len) = u64_at(b, at + 1) else {
+            return (out, Some(at));
+        };
+        let start = at + 9;
+        if len > (b.len() - start.min(b.len())) as u64 {
+            return (out, Some(at));
+        }
+        out.push((op, start, len as usize));
+        at = start + len as usize;
+        if op == 0x0F {
+            break;
+        }
+    }
+    (out, None)
+}
+
+/// The log time (ns) of the last message among the records `recs` of `b`: of a message
+/// record, or the end time of a chunk record that holds messages.
+fn last_log_time(b: &[u8], recs: &[(u8, usize, usize)]) -> Option<i64> {
+    recs.iter().rev().find_map(|&(op, start, len)| {
+        let body = b.get(start..start + len)?;
+        match op {
+            0x05 => u64_at(body, 6).map(|t| t as i64),
+            0x06 => {
+                let (t0, t1) = (u64_at(body, 0)?, u64_at(body, 8)?);
+                (t0 != 0 || t1 != 0).then_some(t1 as i64)
+            }
+            _ => None,
+        }
+    })
 }
 
 /// Checks the chunk record body `c`: a plausible uncompressed size (at most 1024 times its
@@ -226,16 +326,55 @@ fn check_chunk(c: &[u8], records: bool) -> std::result::Result<usize, String> {
 /// the 1.0 s read of a 4 GB file). Returns the chunks' offsets and the record length limit.
 fn check_records(
     map: &[u8],
-) -> std::result::Result<(std::collections::BTreeSet<u64>, usize), String> {
+) -> std::result::Result<(std::collections::BTreeSet<u64>, usize, Option<Cut>), String> {
     let body = &map[8..];
-    let top = walk_records(body)?;
+    let (top, cut_at) = walk_records_until_cut(body);
     let mut limit = top.iter().fold(1usize << 16, |l, &(_, _, len)| l.max(len));
     let mut chunks = std::collections::BTreeSet::new();
     for &(_, start, len) in top.iter().filter(|r| r.0 == 0x06) {
         limit = limit.max(check_chunk(&body[start..start + len], false)?);
         chunks.insert((8 + start - 9) as u64);
     }
-    Ok((chunks, limit))
+    // a data section that ends without its data end record is cut too (at a record boundary)
+    let ended = top.last().is_some_and(|r| r.0 == 0x0F);
+    let cut_at = cut_at.or((!ended).then_some(body.len()));
+    let cut = cut_at.map(|at| {
+        let end = 8 + at;
+        let mut last = last_log_time(body, &top);
+        // a cut uncompressed chunk: its complete records are read too
+        let rest = &map[end..];
+        let tail = (|| {
+            if rest.first() != Some(&0x06) {
+                return None;
+            }
+            let c = rest.get(9..)?;
+            let clen = u32::from_le_bytes(c.get(28..32)?.try_into().ok()?) as usize;
+            if clen != 0 || c.len() < 40 {
+                return None;
+            }
+            let from = end + 9 + 40;
+            let (recs, inner_cut) = walk_records_until_cut(&map[from..]);
+            let upto = inner_cut.map_or(map.len(), |c| from + c);
+            if let Some(t) = last_log_time(&map[from..], &recs) {
+                last = Some(t);
+            }
+            Some((from, upto))
+        })();
+        let drop_from = tail.map_or(end, |t| t.1);
+        Cut {
+            end,
+            tail,
+            truncation: Truncation {
+                offset: drop_from as u64,
+                dropped_bytes: (map.len() - drop_from) as u64,
+                last_stamp_ns: last,
+            },
+        }
+    });
+    if let Some(c) = &cut {
+        limit = limit.max(c.tail.map_or(0, |t| t.1 - t.0));
+    }
+    Ok((chunks, limit, cut))
 }
 
 type Decoder = fn(&[u8]) -> std::result::Result<ImuSample, String>;
@@ -293,7 +432,7 @@ impl McapReader {
                 message: "not an MCAP file (no MCAP magic at its start)".to_string(),
             });
         }
-        let (chunks, limit) = check_records(&map).map_err(|e| Error::File {
+        let (chunks, limit, cut) = check_records(&map).map_err(|e| Error::File {
             file: file.clone(),
             message: format!("truncated or corrupt MCAP file: {e}"),
         })?;
@@ -302,7 +441,18 @@ impl McapReader {
             map,
             chunks,
             limit,
+            cut,
         })
+    }
+
+    /// The file up to its cut (the whole map when it is complete).
+    fn data(&self) -> &[u8] {
+        &self.map[..self.cut.map_or(self.map.len(), |c| c.end)]
+    }
+
+    /// The complete records of a cut uncompressed chunk.
+    fn tail(&self) -> Option<&[u8]> {
+        self.cut.and_then(|c| c.tail).map(|(a, b)| &self.map[a..b])
     }
 
     fn stop(&self, s: Stop) -> Error {
@@ -353,10 +503,10 @@ impl McapReader {
     /// Topics by a full pass over the messages (when the file has no usable summary).
     fn scan_topics(&self) -> Result<Vec<TopicInfo>> {
         self.check_all_chunks()?;
-        let mut stream = BoundedStream::new(&self.map, self.limit);
+        let mut stream = BoundedStream::new(self.data(), self.limit);
         let mut counts: BTreeMap<u16, u64> = BTreeMap::new();
         stream
-            .for_each(|h, _, _| {
+            .for_each_then(self.tail(), |h, _, _| {
                 *counts.entry(h.channel_id).or_default() += 1;
                 Ok(())
             })
@@ -581,6 +731,10 @@ impl LogReader for McapReader {
         LogFormat::Mcap
     }
 
+    fn truncation(&self) -> Option<Truncation> {
+        self.cut.map(|c| c.truncation)
+    }
+
     fn topics(&self) -> Result<Vec<TopicInfo>> {
         // The summary (when the recording was closed properly) has the counts.
         if let Ok(Some(summary)) = mcap::Summary::read(&self.map)
@@ -618,10 +772,10 @@ impl LogReader for McapReader {
             .unwrap_or(0);
         self.check_all_chunks()?;
         let mut out = ImuSeries::with_capacity(hint.min(1 << 28) as usize);
-        let mut stream = BoundedStream::new(&self.map, self.limit);
+        let mut stream = BoundedStream::new(self.data(), self.limit);
         // Per channel id: None = not looked up yet, Some(None) = not this topic.
         let mut dec: Vec<Option<Option<Decoder>>> = vec![None; 1 << 16];
-        let r = stream.for_each(|h, data, channels| {
+        let r = stream.for_each_then(self.tail(), |h, data, channels| {
             let id = h.channel_id as usize;
             let d = match dec[id] {
                 Some(d) => d,

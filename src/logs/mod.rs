@@ -345,6 +345,180 @@ impl ImuSeries {
     }
 }
 
+/// Where a log is cut off (the power went while it was written): the reader keeps every
+/// complete message before the cut and drops the incomplete bytes after it.
+///
+/// ```
+/// use imunoise::logs::Truncation;
+/// let t = Truncation { offset: 65_515, dropped_bytes: 21, last_stamp_ns: Some(84_000_000_000) };
+/// assert_eq!(
+///     t.to_string(),
+///     "the file is cut off: the 21 bytes from byte 65515 on are an incomplete message and \
+///      were dropped; every complete message before them was read (the last one stamped \
+///      84.000000 s)"
+/// );
+/// // under --strict the same finding refuses the file, as an input error
+/// assert_eq!(t.refuse("ap.bin").exit_code(), 2);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Truncation {
+    /// File offset of the first byte dropped (the start of the incomplete message or record).
+    pub offset: u64,
+    /// Bytes dropped, from `offset` to the end of the file (or of the data section).
+    pub dropped_bytes: u64,
+    /// Stamp of the last complete message before the cut (ns, on the log's clock), if known.
+    pub last_stamp_ns: Option<i64>,
+}
+
+impl std::fmt::Display for Truncation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.dropped_bytes == 0 {
+            write!(
+                f,
+                "the file is cut off at byte {}, after a complete message (no bytes dropped; \
+                 the records a closed file ends with are missing); every message before it \
+                 was read",
+                self.offset
+            )?;
+        } else {
+            write!(
+                f,
+                "the file is cut off: the {} bytes from byte {} on are an incomplete message \
+                 and were dropped; every complete message before them was read",
+                self.dropped_bytes, self.offset
+            )?;
+        }
+        match self.last_stamp_ns {
+            Some(t) => write!(f, " (the last one stamped {:.6} s)", t as f64 * 1e-9),
+            None => write!(f, " (none of them carries a stamp)"),
+        }
+    }
+}
+
+impl Truncation {
+    /// The error `--strict` gives for a cut-off `file` (exit code 2).
+    ///
+    /// ```
+    /// use imunoise::logs::Truncation;
+    /// let t = Truncation { offset: 100, dropped_bytes: 7, last_stamp_ns: None };
+    /// assert!(t.refuse("x.ulg").to_string().contains("--strict refuses cut-off logs"));
+    /// ```
+    pub fn refuse(&self, file: &str) -> Error {
+        Error::File {
+            file: file.to_string(),
+            message: format!(
+                "{self}; --strict refuses cut-off logs (without it the complete messages are read)"
+            ),
+        }
+    }
+}
+
+/// Opens a log as [`open`] does and reports a cut-off file ([`LogReader::truncation`]): an
+/// error under `strict`, else a warning through `ui` (the notes on stderr).
+///
+/// ```
+/// # #[cfg(feature = "dataflash")] {
+/// use imunoise::logs::{LogFormat, open_checked};
+/// let pad = |s: &str, n: usize| {
+///     let mut v = s.as_bytes().to_vec();
+///     v.resize(n, 0);
+///     v
+/// };
+/// // a DataFlash log: a FMT for BARO (TimeUS, Alt), two BARO messages, half of a third
+/// let mut log = vec![0xA3, 0x95, 0x80, 0x41, 15];
+/// log.extend([pad("BARO", 4), pad("Qf", 16), pad("TimeUS,Alt", 64)].concat());
+/// for t in [1_000_000u64, 1_100_000, 1_200_000] {
+///     log.extend([&[0xA3, 0x95, 0x41][..], &t.to_le_bytes(), &2.5f32.to_le_bytes()].concat());
+/// }
+/// log.truncate(log.len() - 6);
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("cut.bin");
+/// std::fs::write(&path, &log)?;
+/// let ui = imunoise::Ui::quiet();
+/// let r = open_checked(&path, LogFormat::Dataflash, false, &ui)?;
+/// assert_eq!(r.topics()?[0].count, 2);
+/// let t = r.truncation().unwrap();
+/// assert_eq!((t.offset, t.dropped_bytes, t.last_stamp_ns), (89 + 30, 9, Some(1_100_000_000)));
+/// assert!(open_checked(&path, LogFormat::Dataflash, true, &ui).is_err());
+/// # }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn open_checked(
+    path: &Path,
+    format: LogFormat,
+    strict: bool,
+    ui: &crate::ui::Ui,
+) -> Result<Box<dyn LogReader>> {
+    let reader = open(path, format)?;
+    if let Some(t) = reader.truncation() {
+        let file = path.display().to_string();
+        if strict {
+            return Err(t.refuse(&file));
+        }
+        ui.note(format!("warning: {file}: {t}"));
+    }
+    Ok(reader)
+}
+
+/// The topic of instance `k` of message `name`: `name[k]`, or `name` itself for instance 0
+/// when the log names it so (ULog's first instance). `None` when `topics` has neither.
+///
+/// ```
+/// use imunoise::logs::{TopicInfo, instance_topic};
+/// let t = |name: &str| TopicInfo { name: name.into(), msg_type: "sensor_gyro".into(), count: 6, is_imu: true };
+/// let topics = [t("sensor_gyro"), t("sensor_gyro[1]"), t("sensor_gyro[2]")];
+/// assert_eq!(instance_topic(&topics, "sensor_gyro", 1).as_deref(), Some("sensor_gyro[1]"));
+/// assert_eq!(instance_topic(&topics, "sensor_gyro", 0).as_deref(), Some("sensor_gyro"));
+/// assert_eq!(instance_topic(&topics, "sensor_gyro", 3), None);
+/// ```
+pub fn instance_topic(topics: &[TopicInfo], name: &str, k: u32) -> Option<String> {
+    let with = format!("{name}[{k}]");
+    topics
+        .iter()
+        .find(|t| t.name == with)
+        .or_else(|| {
+            (k == 0)
+                .then(|| topics.iter().find(|t| t.name == name))
+                .flatten()
+        })
+        .map(|t| t.name.clone())
+}
+
+/// The high-rate IMU topics of a flight log, which analyses prefer when no `--topic` is
+/// given: PX4's `sensor_gyro_fifo` and `sensor_accel_fifo`, ArduPilot's batch sampler
+/// `ISB_gyro[k]` and `ISB_acc[k]`; of each, the first instance present. Empty when the log has
+/// none of them.
+///
+/// ```
+/// use imunoise::logs::{TopicInfo, preferred_topics};
+/// let t = |name: &str| TopicInfo { name: name.into(), msg_type: String::new(), count: 9, is_imu: true };
+/// let topics = [t("ISB_acc[1]"), t("ISB_gyro[0]"), t("ISB_gyro[1]"), t("IMU[0]")];
+/// assert_eq!(preferred_topics(&topics), ["ISB_gyro[0]", "ISB_acc[1]"]);
+/// assert!(preferred_topics(&[t("sensor_combined")]).is_empty());
+/// ```
+pub fn preferred_topics(topics: &[TopicInfo]) -> Vec<String> {
+    let mut out = Vec::new();
+    for family in [
+        "sensor_gyro_fifo",
+        "sensor_accel_fifo",
+        "ISB_gyro[",
+        "ISB_acc[",
+    ] {
+        let mut of: Vec<&TopicInfo> = topics
+            .iter()
+            .filter(|t| t.is_imu && t.count > 0 && t.name.starts_with(family))
+            .filter(|t| {
+                family.ends_with('[') || t.name == family || t.name[family.len()..].starts_with('[')
+            })
+            .collect();
+        of.sort_by_key(|t| (t.name.len(), t.name.clone()));
+        if let Some(t) = of.first() {
+            out.push(t.name.clone());
+        }
+    }
+    out
+}
+
 /// What every log reader offers.
 ///
 /// ```
@@ -393,6 +567,11 @@ pub trait LogReader {
     /// The samples of one IMU topic, in recording order. The topic exists and is an IMU
     /// topic ([`select_topics`] checks that first).
     fn read_imu(&self, topic: &str) -> Result<ImuSeries>;
+    /// Where the file is cut off, if it is: the readers keep every complete message before
+    /// the cut ([`open_checked`] warns, or refuses under `--strict`). `None` by default.
+    fn truncation(&self) -> Option<Truncation> {
+        None
+    }
 }
 
 /// Opens a log with the reader of `format`; the file is mapped, not read.

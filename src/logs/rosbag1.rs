@@ -5,11 +5,15 @@
 //! one after the other.
 //!
 //! Counts come from the index section (chunk info records). The bag header is checked
-//! here before the crate slices the file with it, so that a truncated or unindexed bag
-//! (a recording that was not closed) is an error, not a panic.
+//! here before the crate slices the file with it. A bag without a usable index (a recording
+//! that was not closed, or a file cut off while it was written: its index, written last, is
+//! missing) is read by a walk of our own over its records instead: connection records, and
+//! chunks (none, bz2 or lz4) with their connection and message records. The walk stops at
+//! the first incomplete record; in an uncompressed chunk cut short, its complete records are
+//! read too ([`LogReader::truncation`] says where the file is cut).
 
 use super::imu_msg::{decode_ros1, is_imu_type};
-use super::{ImuSeries, LogFormat, LogReader, SamplePush, TopicInfo};
+use super::{ImuSeries, LogFormat, LogReader, SamplePush, TopicInfo, Truncation};
 use crate::error::{Error, Result};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -94,6 +98,8 @@ type Connections = BTreeMap<u32, (String, String)>;
 /// ```
 pub struct BagReader {
     file: String,
+    /// Without a usable index: the bag read by a walk over its records.
+    walked: Option<Walked>,
     bag: rosbag::RosBag,
     /// The file, for the walk over the chunk section's record headers
     /// ([`Self::chunk_starts`]; positioned reads: mapping them would keep whole page-cache
@@ -118,8 +124,9 @@ type ChunkInfos = Vec<(u64, Vec<(u32, u32)>)>;
 const VERSION: &[u8] = b"#ROSBAG V2.0\n";
 
 /// Reads `index_pos` from the bag header record and checks it lies inside the file; returns
-/// the chunk section (from the end of the header record to the index).
-fn check_header(b: &[u8], file: &str) -> Result<(usize, usize)> {
+/// the chunk section (from the end of the header record to the index) and whether the index
+/// is there (without it, the section runs to the end of the file).
+fn check_header(b: &[u8], file: &str) -> Result<((usize, usize), bool)> {
     let bad = |m: &str| Error::File {
         file: file.to_string(),
         message: m.to_string(),
@@ -151,16 +158,17 @@ fn check_header(b: &[u8], file: &str) -> Result<(usize, usize)> {
     }
     let data_len = u32_at(h0 + hlen).ok_or_else(|| bad("truncated bag header"))?;
     let start = h0 + hlen + 4 + data_len;
+    if start > b.len() {
+        return Err(bad("truncated bag header"));
+    }
     match index_pos {
         None => Err(bad("corrupt bag header (no index_pos)")),
-        Some(0) => Err(bad(
-            "the bag has no index (the recording was not closed); run `rosbag reindex` on it first",
-        )),
-        Some(i) if (i as usize) < start || i as usize > b.len() => Err(bad(&format!(
-            "truncated or corrupt bag: its index starts at byte {i}, but the file has {} bytes",
-            b.len()
+        // not closed (0), or cut off before its index
+        Some(i) if i == 0 || i > b.len() as u64 => Ok(((start, b.len()), false)),
+        Some(i) if (i as usize) < start => Err(bad(&format!(
+            "corrupt bag: its index starts at byte {i}, inside its header"
         ))),
-        Some(i) => Ok((start, i as usize)),
+        Some(i) => Ok(((start, i as usize), true)),
     }
 }
 
@@ -230,21 +238,38 @@ impl BagReader {
     /// // `path`: a ROS 1 bag with 100 IMU messages at 100 Hz on /imu0 (one uncompressed chunk)
     /// use imunoise::logs::rosbag1::BagReader;
     /// assert!(BagReader::open(&path).is_ok());
-    /// // a bag whose recording was not closed has no index: refused, saying what to do
+    /// // a bag whose recording was not closed has no index: read by a walk over its records
     /// let open = dir.path().join("open.bag");
     /// let mut bytes = std::fs::read(&path)?;
     /// let at = bytes.windows(10).position(|w| w == b"index_pos=").unwrap() + 10;
     /// bytes[at..at + 8].copy_from_slice(&0u64.to_le_bytes());
-    /// std::fs::write(&open, bytes)?;
-    /// let e = BagReader::open(&open).err().unwrap();
-    /// assert!(e.to_string().contains("run `rosbag reindex` on it first"));
+    /// std::fs::write(&open, &bytes)?;
+    /// use imunoise::logs::LogReader;
+    /// let r = BagReader::open(&open)?;
+    /// assert_eq!(r.read_imu("/imu0")?.stamps_ns.len(), 100);
+    /// assert!(r.truncation().is_none());
+    /// // cut off 10 bytes into its chunk's last message: the 99 before it are read
+    /// let last = [&b"time="[..], &time(stamp(99))].concat();
+    /// // the record: header length (4), op (4 + 4), conn (4 + 9), time field length (4), time=
+    /// let msg = bytes.windows(13).position(|w| w == last).unwrap() - 29;
+    /// std::fs::write(&open, &bytes[..msg + 10])?;
+    /// let r = BagReader::open(&open)?;
+    /// assert_eq!(r.read_imu("/imu0")?.stamps_ns.len(), 99);
+    /// let t = r.truncation().unwrap();
+    /// assert_eq!((t.offset, t.dropped_bytes, t.last_stamp_ns), (msg as u64, 10, Some(stamp(98))));
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn open(path: &Path) -> Result<Self> {
         let file = path.display().to_string();
         let map = super::map_file(path)?;
-        let section = check_header(&map, &file)?;
-        drop(map);
+        let (section, indexed) = check_header(&map, &file)?;
+        let walked = if indexed {
+            drop(map);
+            None
+        } else {
+            let cut = index_beyond_end(&map);
+            Some(Walked::new(map, section.0, &file, cut)?)
+        };
         let fh = std::fs::File::open(path).map_err(|e| Error::File {
             file: file.clone(),
             message: e.to_string(),
@@ -255,6 +280,7 @@ impl BagReader {
         })?;
         Ok(BagReader {
             file,
+            walked,
             bag,
             fh,
             section,
@@ -421,8 +447,18 @@ impl LogReader for BagReader {
         LogFormat::Bag
     }
 
+    fn truncation(&self) -> Option<Truncation> {
+        self.walked.as_ref().and_then(|w| w.truncation)
+    }
+
     fn topics(&self) -> Result<Vec<TopicInfo>> {
-        let (conns, counts, _) = self.index()?;
+        let (conns, counts) = match &self.walked {
+            Some(w) => (w.conns.clone(), w.counts.clone()),
+            None => {
+                let (c, n, _) = self.index()?;
+                (c, n)
+            }
+        };
         let mut by_topic: BTreeMap<String, TopicInfo> = BTreeMap::new();
         for (id, (topic, tp)) in conns {
             let e = by_topic.entry(topic.clone()).or_insert_with(|| TopicInfo {
@@ -437,6 +473,29 @@ impl LogReader for BagReader {
     }
 
     fn read_imu(&self, topic: &str) -> Result<ImuSeries> {
+        if let Some(w) = &self.walked {
+            let ids = imu_ids(&w.conns, topic);
+            let n: u64 = ids
+                .iter()
+                .map(|i| w.counts.get(i).copied().unwrap_or(0))
+                .sum();
+            let mut out = ImuSeries::with_capacity(n.min(1 << 28) as usize);
+            w.walk(&self.file, &mut |_, _| {}, &mut |conn, _, data| {
+                if ids.contains(&conn) {
+                    let s = decode_ros1(data).map_err(|why| Error::File {
+                        file: self.file.clone(),
+                        message: format!(
+                            "message {} on {topic} is not a valid sensor_msgs/Imu: {why}",
+                            out.stamps_ns.len() + 1
+                        ),
+                    })?;
+                    out.push(&s);
+                }
+                Ok(())
+            })?;
+            out.check_finite(&format!("{} ({topic})", self.file))?;
+            return Ok(out);
+        }
         let (conns, counts, chunks) = self.index()?;
         let ids = imu_ids(&conns, topic);
         if let Some(out) = self.read_parallel(&ids, chunks, topic)? {
@@ -457,5 +516,254 @@ impl LogReader for BagReader {
         }
         out.check_finite(&format!("{} ({topic})", self.file))?;
         Ok(out)
+    }
+}
+
+/// A bag read by a walk over its records (no usable index).
+struct Walked {
+    map: memmap2::Mmap,
+    /// Where the records start (after the bag header record).
+    start: usize,
+    conns: Connections,
+    counts: BTreeMap<u32, u64>,
+    truncation: Option<Truncation>,
+    /// The record time of the last message (ns).
+    last_stamp: Option<i64>,
+}
+
+/// Whether the bag header's `index_pos` lies beyond the end of `b` (cut off before its index).
+fn index_beyond_end(b: &[u8]) -> bool {
+    let at = b.windows(10).position(|w| w == b"index_pos=");
+    at.and_then(|a| b.get(a + 10..a + 18))
+        .map(|v| u64::from_le_bytes(v.try_into().expect("8")))
+        .is_some_and(|i| i > b.len() as u64)
+}
+
+/// A record of `b` at `at`: its header fields (name, value), its data range and the offset
+/// after it; `None` when it runs past the end of `b` (or its header is malformed).
+/// A record's header fields (name, value), its data range and the offset after it.
+type RecordAt<'a> = (Vec<(&'a [u8], &'a [u8])>, (usize, usize), usize);
+
+fn bag_record(b: &[u8], at: usize) -> Option<RecordAt<'_>> {
+    let u32_at = |o: usize| -> Option<usize> {
+        Some(u32::from_le_bytes(b.get(o..o.checked_add(4)?)?.try_into().ok()?) as usize)
+    };
+    let hlen = u32_at(at)?;
+    let h0 = at.checked_add(4)?;
+    let header = b.get(h0..h0.checked_add(hlen)?)?;
+    let dlen = u32_at(h0 + hlen)?;
+    let d0 = h0 + hlen + 4;
+    let d1 = d0.checked_add(dlen)?;
+    if d1 > b.len() {
+        return None;
+    }
+    Some((fields(header)?, (d0, d1), d1))
+}
+
+/// The `name=value` fields of a record header (each after its u32 length).
+fn fields(h: &[u8]) -> Option<Vec<(&[u8], &[u8])>> {
+    let mut out = Vec::new();
+    let mut p = 0;
+    while p < h.len() {
+        let n = u32::from_le_bytes(h.get(p..p + 4)?.try_into().ok()?) as usize;
+        let f = h.get(p + 4..(p + 4).checked_add(n)?)?;
+        let eq = f.iter().position(|&c| c == b'=')?;
+        out.push((&f[..eq], &f[eq + 1..]));
+        p += 4 + n;
+    }
+    Some(out)
+}
+
+fn field<'a>(f: &[(&[u8], &'a [u8])], name: &str) -> Option<&'a [u8]> {
+    f.iter().find(|(n, _)| *n == name.as_bytes()).map(|x| x.1)
+}
+
+fn u32_of(v: Option<&[u8]>) -> Option<u32> {
+    Some(u32::from_le_bytes(v?.try_into().ok()?))
+}
+
+/// Callbacks of [`Walked::walk`]: a connection (id, topic, type); a message (connection,
+/// record time in ns, serialized data).
+type OnConn<'a> = dyn FnMut(u32, (String, String)) + 'a;
+type OnMsg<'a> = dyn FnMut(u32, i64, &[u8]) -> Result<()> + 'a;
+
+impl Walked {
+    /// Walks the bag from `start`; `cut` says its header points at an index beyond the end
+    /// of the file (so a walk that ends cleanly still found a file cut off, between records).
+    fn new(map: memmap2::Mmap, start: usize, file: &str, cut: bool) -> Result<Walked> {
+        let mut w = Walked {
+            map,
+            start,
+            conns: Connections::new(),
+            counts: BTreeMap::new(),
+            truncation: None,
+            last_stamp: None,
+        };
+        let mut conns = Connections::new();
+        let mut counts: BTreeMap<u32, u64> = BTreeMap::new();
+        let mut last = None;
+        w.truncation = w.walk(
+            file,
+            &mut |id, c| {
+                conns.insert(id, c);
+            },
+            &mut |conn, t, _| {
+                *counts.entry(conn).or_default() += 1;
+                last = Some(t);
+                Ok(())
+            },
+        )?;
+        w.last_stamp = last;
+        w.conns = conns;
+        w.counts = counts;
+        if cut && w.truncation.is_none() {
+            w.truncation = Some(Truncation {
+                offset: w.map.len() as u64,
+                dropped_bytes: 0,
+                last_stamp_ns: w.last_stamp,
+            });
+        }
+        Ok(w)
+    }
+
+    /// Walks the records from `start`; returns where the file is cut off.
+    fn walk(
+        &self,
+        file: &str,
+        on_conn: &mut OnConn<'_>,
+        on_msg: &mut OnMsg<'_>,
+    ) -> Result<Option<Truncation>> {
+        let b = &self.map[..];
+        let bad = |at: usize, m: &str| Error::File {
+            file: file.to_string(),
+            message: format!("corrupt ROS 1 bag at byte {at}: {m}"),
+        };
+        let mut last: Option<i64> = None;
+        // the records of `r` (a chunk's data, or the file): connections and messages;
+        // returns the offset in `r` of an incomplete record
+        let inner = |r: &[u8],
+                     last: &mut Option<i64>,
+                     on_conn: &mut OnConn<'_>,
+                     on_msg: &mut OnMsg<'_>|
+         -> Result<Option<usize>> {
+            let mut at = 0;
+            while at < r.len() {
+                let Some((f, (d0, d1), next)) = bag_record(r, at) else {
+                    return Ok(Some(at));
+                };
+                match field(&f, "op") {
+                    Some([7]) => conn_record(&f, &r[d0..d1], on_conn),
+                    Some([2]) => {
+                        let conn = u32_of(field(&f, "conn")).unwrap_or(u32::MAX);
+                        let t = field(&f, "time")
+                            .filter(|t| t.len() == 8)
+                            .map(|t| {
+                                let s = u32::from_le_bytes(t[..4].try_into().expect("4"));
+                                let ns = u32::from_le_bytes(t[4..].try_into().expect("4"));
+                                s as i64 * 1_000_000_000 + ns as i64
+                            })
+                            .unwrap_or(0);
+                        *last = Some(t);
+                        on_msg(conn, t, &r[d0..d1])?;
+                    }
+                    _ => {}
+                }
+                at = next;
+            }
+            Ok(None)
+        };
+        let mut at = self.start;
+        while at < b.len() {
+            let cut = |offset: usize, last: Option<i64>| Truncation {
+                offset: offset as u64,
+                dropped_bytes: (b.len() - offset) as u64,
+                last_stamp_ns: last,
+            };
+            let Some((f, (d0, d1), next)) = bag_record(b, at) else {
+                // incomplete: an uncompressed chunk's complete records are read
+                let h = b
+                    .get(at..at + 4)
+                    .map(|x| u32::from_le_bytes(x.try_into().expect("4")));
+                let head = h.and_then(|n| {
+                    let h0 = at + 4;
+                    let f = fields(b.get(h0..h0.checked_add(n as usize)?)?)?;
+                    Some((f, h0 + n as usize + 4))
+                });
+                if let Some((f, d0)) = head
+                    && field(&f, "op") == Some(&[5])
+                    && field(&f, "compression") == Some(b"none")
+                    && d0 <= b.len()
+                {
+                    let r = &b[d0..];
+                    return Ok(Some(match inner(r, &mut last, on_conn, on_msg)? {
+                        Some(c) => cut(d0 + c, last),
+                        None => cut(b.len(), last),
+                    }));
+                }
+                return Ok(Some(cut(at, last)));
+            };
+            match field(&f, "op") {
+                Some([7]) => conn_record(&f, &b[d0..d1], on_conn),
+                Some([5]) => {
+                    let data = &b[d0..d1];
+                    let size = u32_of(field(&f, "size")).unwrap_or(0) as usize;
+                    let plain: std::borrow::Cow<'_, [u8]> = match field(&f, "compression") {
+                        Some(b"none") => data.into(),
+                        Some(b"lz4") => decompress(lz4_read(data), size)
+                            .map_err(|e| bad(at, &format!("an lz4 chunk: {e}")))?
+                            .into(),
+                        Some(b"bz2") => {
+                            decompress(Ok(Box::new(bzip2::read::BzDecoder::new(data))), size)
+                                .map_err(|e| bad(at, &format!("a bz2 chunk: {e}")))?
+                                .into()
+                        }
+                        _ => return Err(bad(at, "a chunk of unknown compression")),
+                    };
+                    if let Some(c) = inner(&plain, &mut last, on_conn, on_msg)? {
+                        return Err(bad(
+                            at,
+                            &format!("a record {c} bytes into a chunk runs past it"),
+                        ));
+                    }
+                }
+                _ => {}
+            }
+            at = next;
+        }
+        Ok(None)
+    }
+}
+
+fn lz4_read(data: &[u8]) -> std::io::Result<Box<dyn std::io::Read + '_>> {
+    Ok(Box::new(lz4::Decoder::new(data)?))
+}
+
+/// Reads a chunk's decoder to its end: at most `size` bytes (the chunk's uncompressed size).
+fn decompress(
+    r: std::io::Result<Box<dyn std::io::Read + '_>>,
+    size: usize,
+) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut out = Vec::with_capacity(size.min(1 << 28));
+    r?.take(size as u64 + 1).read_to_end(&mut out)?;
+    if out.len() != size {
+        return Err(std::io::Error::other(format!(
+            "{} bytes uncompressed, its header says {size}",
+            out.len()
+        )));
+    }
+    Ok(out)
+}
+
+/// A connection record (header: conn, topic; data: fields with the type).
+fn conn_record(f: &[(&[u8], &[u8])], data: &[u8], on_conn: &mut OnConn<'_>) {
+    let Some(id) = u32_of(field(f, "conn")) else {
+        return;
+    };
+    let topic = field(f, "topic").map(|t| String::from_utf8_lossy(t).into_owned());
+    let df = fields(data).unwrap_or_default();
+    let tp = field(&df, "type").map(|t| String::from_utf8_lossy(t).into_owned());
+    if let (Some(topic), Some(tp)) = (topic, tp) {
+        on_conn(id, (topic, tp));
     }
 }

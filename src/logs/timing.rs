@@ -103,6 +103,8 @@ pub struct Timing {
     /// With `--gaps longest`: the analysed segment, first and one-past-last sample index
     /// (after sorting and de-duplication).
     pub segment: Option<[usize; 2]>,
+    /// Logs: where the file is cut off, when it is (its complete messages were read).
+    pub truncated: Option<super::Truncation>,
 }
 
 impl Timing {
@@ -300,6 +302,7 @@ pub fn prepare(
         longest_gap_s: longest_gap as f64 * 1e-9,
         gap_policy: policy,
         segment: None,
+        truncated: None,
     };
     let too_many = missing as f64 > MAX_MISSING_FRACTION * used_n as f64;
     match policy {

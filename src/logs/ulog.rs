@@ -1,17 +1,38 @@
 //! PX4 ULog (`.ulg`), read by a small reader of our own over the memory-mapped file.
 //!
 //! Why not `yule_log`: it pulls `env_logger`, `regex` and `lazy_static` into the tree for a
-//! format whose parts we need fit in a page: the 16-byte header, then messages of
-//! `u16 size, u8 type, payload`. We use `F` (format: `name:type field;…`), `A` (subscription:
-//! multi id, message id, name) and `D` (data: message id, then the packed fields), and count
-//! `O` (dropout) messages. Fields are packed in definition order; nested types and arrays are
-//! sized from their formats.
+//! format whose parts we need fit in a page. The facts used, from the ULog specification
+//! (PX4 `docs/en/dev_log/ulog_file_format.md`) and checked against pyulog on PX4's own logs:
 //!
-//! IMU topics: `sensor_combined` (`timestamp` µs, `gyro_rad[3]` rad/s,
-//! `accelerometer_m_s2[3]` m/s²); instance k > 0 is named `sensor_combined[k]`.
+//! - a 16-byte header (magic, version, start time), then messages of `u16 size, u8 type,
+//!   payload`;
+//! - `B` (flag bits, the first message): bit 0 of the first incompatible-flag byte says data
+//!   is appended, at the (up to three) non-zero file offsets that follow; the messages of one
+//!   part end where the next part starts, and a message that runs past that point is dropped
+//!   (as pyulog does). Other incompatible flags are refused;
+//! - `F` (format: `name:type field;…`), with nested types by format name and arrays
+//!   `type[n]`; the fields are packed in definition order, and flattened as pyulog names them
+//!   (`gyro_rad[0]`, `nested.field`);
+//! - `A` (subscription: multi id = instance, message id, name) and `R` (unsubscription);
+//! - `D` (data: message id, then the packed fields). The trailing fields whose flattened
+//!   names start with `_padding` may be omitted by the logger (PX4 does), so a message may be
+//!   shorter than its format by them, never by more;
+//! - other message types (`I M P Q L C S O`, and types this reader does not know) are skipped.
+//!
+//! A file that ends inside a message (the power went while it was written) is read up to
+//! the last complete message ([`LogReader::truncation`] says where it is cut).
+//!
+//! IMU topics, fields by name (instance k > 0 is the topic `name[k]`):
+//! - `sensor_combined`: `timestamp` (µs), `gyro_rad[0..3]` (rad/s),
+//!   `accelerometer_m_s2[0..3]` (m/s²);
+//! - `sensor_gyro` / `sensor_accel`: `timestamp_sample` (µs; `timestamp` without it) and
+//!   `x, y, z` (rad/s, m/s²): three channels;
+//! - `sensor_gyro_fifo` / `sensor_accel_fifo` (PX4 `msg/SensorGyroFifo.msg`): up to 32 int16
+//!   samples per message in `x[32], y[32], z[32]`, `samples` of them valid, `dt` µs apart,
+//!   the last one at `timestamp_sample`; values × `scale` (rad/s or m/s² per count; 1 when
+//!   the format has no `scale`). Each sample becomes one stamped row.
 
-use super::imu_msg::ImuSample;
-use super::{ImuSeries, LogFormat, LogReader, TopicInfo, map_file};
+use super::{ImuSeries, LogFormat, LogReader, TopicInfo, Truncation, map_file};
 use crate::error::{Error, Result};
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
@@ -50,70 +71,294 @@ const MAGIC: &[u8] = b"ULog\x01\x12\x35";
 /// let s = reader.read_imu("sensor_combined")?;
 /// assert_eq!(s.stamps_ns[1], 4_000_000); // µs × 1000
 /// assert_eq!((s.columns[0][0], s.columns[5][0]), (0.5, -9.75)); // f32 values, exact in f64
+/// assert!(reader.truncation().is_none());
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub struct UlogReader {
     file: String,
     map: memmap2::Mmap,
+    /// What the pass at open found.
+    scan: Scan,
 }
 
-/// Byte size of a field type (`float`, `uint64_t`, a nested format, …), arrays excluded.
-fn type_size(t: &str, formats: &HashMap<String, String>, depth: usize) -> Option<usize> {
-    Some(match t {
-        "int8_t" | "uint8_t" | "bool" | "char" => 1,
-        "int16_t" | "uint16_t" => 2,
-        "int32_t" | "uint32_t" | "float" => 4,
-        "int64_t" | "uint64_t" | "double" => 8,
-        nested if depth < 8 => fields(formats.get(nested)?, formats, depth + 1)?
-            .last()
-            .map_or(0, |f| f.offset + f.size),
-        _ => return None,
-    })
+/// A primitive field type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Prim {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    I64,
+    U64,
+    F32,
+    F64,
 }
 
-/// A field of a format: name, base type, byte offset and total size.
+impl Prim {
+    fn parse(t: &str) -> Option<Prim> {
+        Some(match t {
+            "int8_t" | "char" => Prim::I8,
+            "uint8_t" | "bool" => Prim::U8,
+            "int16_t" => Prim::I16,
+            "uint16_t" => Prim::U16,
+            "int32_t" => Prim::I32,
+            "uint32_t" => Prim::U32,
+            "int64_t" => Prim::I64,
+            "uint64_t" => Prim::U64,
+            "float" => Prim::F32,
+            "double" => Prim::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Prim::I8 | Prim::U8 => 1,
+            Prim::I16 | Prim::U16 => 2,
+            Prim::I32 | Prim::U32 | Prim::F32 => 4,
+            Prim::I64 | Prim::U64 | Prim::F64 => 8,
+        }
+    }
+
+    /// The value at `b[o..]` (the caller checked the bounds) as f64.
+    fn get(self, b: &[u8], o: usize) -> f64 {
+        let a = |n: usize| -> [u8; 8] {
+            let mut x = [0u8; 8];
+            x[..n].copy_from_slice(&b[o..o + n]);
+            x
+        };
+        match self {
+            Prim::I8 => b[o] as i8 as f64,
+            Prim::U8 => b[o] as f64,
+            Prim::I16 => i16::from_le_bytes([b[o], b[o + 1]]) as f64,
+            Prim::U16 => u16::from_le_bytes([b[o], b[o + 1]]) as f64,
+            Prim::I32 => i32::from_le_bytes(a(4)[..4].try_into().expect("4")) as f64,
+            Prim::U32 => u32::from_le_bytes(a(4)[..4].try_into().expect("4")) as f64,
+            Prim::F32 => f32::from_le_bytes(a(4)[..4].try_into().expect("4")) as f64,
+            Prim::I64 => i64::from_le_bytes(a(8)) as f64,
+            Prim::U64 => u64::from_le_bytes(a(8)) as f64,
+            Prim::F64 => f64::from_le_bytes(a(8)),
+        }
+    }
+
+    /// An integer stamp at `b[o..]` (µs).
+    fn get_u64(self, b: &[u8], o: usize) -> Option<u64> {
+        match self {
+            Prim::U64 | Prim::I64 => Some(u64::from_le_bytes(b[o..o + 8].try_into().ok()?)),
+            Prim::U32 => Some(u32::from_le_bytes(b[o..o + 4].try_into().ok()?) as u64),
+            _ => None,
+        }
+    }
+}
+
+/// A primitive field of a flattened format: name as pyulog gives it (`gyro_rad[0]`,
+/// `nested.field`), type and byte offset.
 #[derive(Debug, Clone)]
 struct Field {
     name: String,
-    base: String,
+    prim: Prim,
     offset: usize,
-    size: usize,
 }
 
-/// The fields of a format body `type name;type[3] name;…`.
-fn fields(body: &str, formats: &HashMap<String, String>, depth: usize) -> Option<Vec<Field>> {
-    let mut out = Vec::new();
-    let mut off = 0;
-    for item in body.split(';').filter(|s| !s.trim().is_empty()) {
-        let (ty, name) = item.trim().split_once(' ')?;
-        let (base, count) = match ty.split_once('[') {
-            Some((b, rest)) => (b, rest.strip_suffix(']')?.parse::<usize>().ok()?),
-            None => (ty, 1),
-        };
-        let size = type_size(base, formats, depth)? * count;
-        out.push(Field {
-            name: name.to_string(),
-            base: base.to_string(),
-            offset: off,
-            size,
-        });
-        off += size;
+/// The fields of format `name`, flattened (nested formats expanded, arrays element by
+/// element), appended to `out` from byte `off`; returns the end offset. `None` when a
+/// format is missing or malformed, or nesting is deeper than 16.
+fn flatten(
+    name: &str,
+    formats: &HashMap<String, String>,
+    prefix: &str,
+    mut off: usize,
+    out: &mut Vec<Field>,
+    depth: usize,
+) -> Option<usize> {
+    if depth > 16 {
+        return None;
     }
-    Some(out)
+    let body = formats.get(name)?;
+    for item in body.split(';').filter(|s| !s.trim().is_empty()) {
+        let (ty, fname) = item.trim().split_once(' ')?;
+        let (base, count) = match ty.split_once('[') {
+            Some((b, rest)) => (b, Some(rest.strip_suffix(']')?.parse::<usize>().ok()?)),
+            None => (ty, None),
+        };
+        if count.is_some_and(|n| n > 1 << 16) {
+            return None;
+        }
+        let full = format!("{prefix}{}", fname.trim());
+        let names: Vec<String> = match count {
+            None => vec![full],
+            Some(n) => (0..n).map(|i| format!("{full}[{i}]")).collect(),
+        };
+        for n in names {
+            match Prim::parse(base) {
+                Some(p) => {
+                    out.push(Field {
+                        name: n,
+                        prim: p,
+                        offset: off,
+                    });
+                    off += p.size();
+                }
+                None => off = flatten(base, formats, &format!("{n}."), off, out, depth + 1)?,
+            }
+        }
+    }
+    Some(off)
+}
+
+/// A subscription (`A` message) with its format's layout.
+#[derive(Debug, Clone)]
+struct Sub {
+    /// The topic: the message name, `name[k]` for instance k > 0.
+    topic: String,
+    /// The message (format) name.
+    name: String,
+    /// The flattened fields; empty when the format is missing or malformed.
+    fields: Vec<Field>,
+    /// The format's size without and with its trailing `_padding` fields (bytes).
+    min_size: usize,
+    max_size: usize,
+    /// Offset of a `uint64_t timestamp` field.
+    stamp: Option<usize>,
+}
+
+impl Sub {
+    fn new(topic: String, name: String, formats: &HashMap<String, String>) -> Sub {
+        let mut fields = Vec::new();
+        let max = flatten(&name, formats, "", 0, &mut fields, 0);
+        let Some(max_size) = max else {
+            return Sub {
+                topic,
+                name,
+                fields: Vec::new(),
+                min_size: 0,
+                max_size: usize::MAX,
+                stamp: None,
+            };
+        };
+        let kept = fields
+            .iter()
+            .rposition(|f| !f.name.starts_with("_padding"))
+            .map_or(0, |i| i + 1);
+        let min_size = fields
+            .get(kept.wrapping_sub(1))
+            .map_or(0, |f| f.offset + f.prim.size());
+        fields.truncate(kept);
+        let stamp = fields
+            .iter()
+            .find(|f| f.name == "timestamp" && f.prim == Prim::U64)
+            .map(|f| f.offset);
+        Sub {
+            topic,
+            name,
+            fields,
+            min_size,
+            max_size,
+            stamp,
+        }
+    }
+
+    fn field(&self, name: &str) -> Option<&Field> {
+        self.fields.iter().find(|f| f.name == name)
+    }
 }
 
 /// What one pass over the file finds.
 struct Scan {
-    /// message name → format body.
-    formats: HashMap<String, String>,
-    /// msg_id → (topic name, message name).
-    subs: HashMap<u16, (String, String)>,
-    /// msg_id → number of data messages.
-    counts: HashMap<u16, u64>,
+    /// Topic → (message name, number of data messages, whether imunoise reads it).
+    topics: BTreeMap<String, (String, u64, bool)>,
+    truncation: Option<Truncation>,
+}
+
+/// How an IMU topic's messages become rows.
+#[derive(Debug, Clone)]
+struct ImuLayout {
+    /// The stamp field (µs).
+    stamp: Field,
+    /// Channel names (`gyro_x_rads`, …) and their fields.
+    channels: Vec<(&'static str, Field)>,
+    /// FIFO topics: the fields `samples` and `dt` (µs), the scale (from `scale`, else 1) and
+    /// the 32 elements of each channel's array.
+    fifo: Option<Fifo>,
+}
+
+#[derive(Debug, Clone)]
+struct Fifo {
+    samples: Field,
+    dt: Field,
+    scale: Option<Field>,
+    /// Per channel, the array elements `x[0..n]` etc.
+    elems: Vec<Vec<Field>>,
+}
+
+const GYRO: [&str; 3] = ["gyro_x_rads", "gyro_y_rads", "gyro_z_rads"];
+const ACC: [&str; 3] = ["acc_x_mps2", "acc_y_mps2", "acc_z_mps2"];
+
+/// The layout of an IMU topic by its fields' names, or `None` for other messages.
+fn imu_layout(sub: &Sub) -> Option<ImuLayout> {
+    let f = |n: &str| sub.field(n).cloned();
+    let stamp_of = |names: &[&str]| names.iter().find_map(|n| f(n));
+    let xyz = |names: [&'static str; 3]| -> Option<Vec<(&'static str, Field)>> {
+        ["x", "y", "z"]
+            .iter()
+            .zip(names)
+            .map(|(a, n)| Some((n, f(a)?)))
+            .collect()
+    };
+    match sub.name.as_str() {
+        "sensor_combined" => {
+            let mut channels = Vec::new();
+            for (k, n) in GYRO.iter().enumerate() {
+                channels.push((*n, f(&format!("gyro_rad[{k}]"))?));
+            }
+            for (k, n) in ACC.iter().enumerate() {
+                channels.push((*n, f(&format!("accelerometer_m_s2[{k}]"))?));
+            }
+            Some(ImuLayout {
+                stamp: stamp_of(&["timestamp"])?,
+                channels,
+                fifo: None,
+            })
+        }
+        "sensor_gyro" | "sensor_accel" => Some(ImuLayout {
+            stamp: stamp_of(&["timestamp_sample", "timestamp"])?,
+            channels: xyz(if sub.name == "sensor_gyro" { GYRO } else { ACC })?,
+            fifo: None,
+        }),
+        "sensor_gyro_fifo" | "sensor_accel_fifo" => {
+            let names = if sub.name == "sensor_gyro_fifo" {
+                GYRO
+            } else {
+                ACC
+            };
+            let mut elems = Vec::new();
+            for a in ["x", "y", "z"] {
+                let e: Vec<Field> = (0..).map_while(|i| f(&format!("{a}[{i}]"))).collect();
+                if e.is_empty() {
+                    return None;
+                }
+                elems.push(e);
+            }
+            Some(ImuLayout {
+                stamp: stamp_of(&["timestamp_sample", "timestamp"])?,
+                channels: names.iter().map(|n| (*n, elems[0][0].clone())).collect(),
+                fifo: Some(Fifo {
+                    samples: f("samples")?,
+                    dt: f("dt")?,
+                    scale: f("scale"),
+                    elems,
+                }),
+            })
+        }
+        _ => None,
+    }
 }
 
 impl UlogReader {
-    /// Maps `path` and checks the ULog header.
+    /// Maps `path`, checks the ULog header and walks the messages once (topics, counts and
+    /// where the file is cut off, if it is).
     ///
     /// ```
     /// # let dir = tempfile::tempdir()?;
@@ -136,10 +381,18 @@ impl UlogReader {
     /// #     }
     /// #     msg(b'D', &d);
     /// # }
-    /// # std::fs::write(&path, log)?;
-    /// // `path`: a PX4 ULog with 100 `sensor_combined` messages at 250 Hz
-    /// use imunoise::logs::ulog::UlogReader;
+    /// # std::fs::write(&path, &log)?;
+    /// // `path`: a PX4 ULog with 100 `sensor_combined` messages of 37 bytes at 250 Hz
+    /// use imunoise::logs::{LogReader, ulog::UlogReader};
     /// assert!(UlogReader::open(&path).is_ok());
+    /// // cut 14 bytes into its last message: the 99 complete ones are read
+    /// let cut = dir.path().join("cut.ulg");
+    /// std::fs::write(&cut, &log[..log.len() - 23])?;
+    /// let r = UlogReader::open(&cut)?;
+    /// assert_eq!(r.read_imu("sensor_combined")?.stamps_ns.len(), 99);
+    /// let t = r.truncation().unwrap();
+    /// assert_eq!((t.offset, t.dropped_bytes), (log.len() as u64 - 37, 14));
+    /// assert_eq!(t.last_stamp_ns, Some(98 * 4_000_000));
     /// let junk = dir.path().join("junk.ulg");
     /// std::fs::write(&junk, b"not a ulog file at all")?;
     /// let e = UlogReader::open(&junk).err().unwrap();
@@ -155,97 +408,196 @@ impl UlogReader {
                 message: "not a PX4 ULog file (no ULog header)".to_string(),
             });
         }
-        Ok(UlogReader { file, map })
+        let mut r = UlogReader {
+            file,
+            map,
+            scan: Scan {
+                topics: BTreeMap::new(),
+                truncation: None,
+            },
+        };
+        let mut topics: BTreeMap<String, (String, u64, bool)> = BTreeMap::new();
+        // topics subscribed to without data are listed too
+        let mut subscribed: Vec<(String, String, bool)> = Vec::new();
+        let truncation = r.walk_inner(
+            &mut |sub, _| {
+                let e = topics
+                    .entry(sub.topic.clone())
+                    .or_insert_with(|| (sub.name.clone(), 0, imu_layout(sub).is_some()));
+                e.1 += 1;
+                Ok(())
+            },
+            &mut |sub| {
+                subscribed.push((
+                    sub.topic.clone(),
+                    sub.name.clone(),
+                    imu_layout(sub).is_some(),
+                ))
+            },
+        )?;
+        for (topic, name, is_imu) in subscribed {
+            topics.entry(topic).or_insert((name, 0, is_imu));
+        }
+        r.scan = Scan { topics, truncation };
+        Ok(r)
     }
 
     fn corrupt(&self, at: usize, what: &str) -> Error {
         Error::File {
             file: self.file.clone(),
-            message: format!("truncated or corrupt ULog at byte {at}: {what}"),
+            message: format!("corrupt ULog at byte {at}: {what}"),
         }
     }
 
-    /// Walks the messages; `on_data(msg_id, payload after the id)` for each `D`.
-    fn walk(&self, mut on_data: impl FnMut(u16, &[u8]) -> Result<()>) -> Result<Scan> {
+    /// The parts of the data: the main part from byte 16, then each appended part (from the
+    /// flag bits message), as (start, end) file offsets.
+    fn parts(&self) -> Result<Vec<(usize, usize)>> {
         let b = &self.map[..];
-        let mut p = 16;
-        let mut scan = Scan {
-            formats: HashMap::new(),
-            subs: HashMap::new(),
-            counts: HashMap::new(),
-        };
-        while p < b.len() {
-            if p + 3 > b.len() {
-                return Err(self.corrupt(p, "a message header is cut short"));
-            }
-            let size = u16::from_le_bytes([b[p], b[p + 1]]) as usize;
-            let ty = b[p + 2];
-            let body = b
-                .get(p + 3..p + 3 + size)
-                .ok_or_else(|| self.corrupt(p, "the last message is cut short"))?;
-            match ty {
-                b'F' => {
-                    let s = std::str::from_utf8(body)
-                        .map_err(|_| self.corrupt(p, "format message is not text"))?;
-                    let (name, fmt) = s
-                        .split_once(':')
-                        .ok_or_else(|| self.corrupt(p, "format message without ':'"))?;
-                    scan.formats.insert(name.to_string(), fmt.to_string());
+        let len = b.len();
+        let mut starts = vec![16usize];
+        if len >= 19 && b[18] == b'B' {
+            let size = u16::from_le_bytes([b[16], b[17]]) as usize;
+            if let Some(body) = b.get(19..19 + size).filter(|x| x.len() >= 40) {
+                let incompat = &body[8..16];
+                if incompat[0] & !1 != 0 || incompat[1..].iter().any(|&x| x != 0) {
+                    return Err(self.corrupt(
+                        16,
+                        "unknown incompatible flags are set: this ULog cannot be read",
+                    ));
                 }
-                b'A' => {
-                    if body.len() < 3 {
-                        return Err(self.corrupt(p, "subscription message too short"));
+                if incompat[0] & 1 == 1 {
+                    for k in 0..3 {
+                        let o =
+                            u64::from_le_bytes(body[16 + 8 * k..24 + 8 * k].try_into().expect("8"));
+                        if o == 0 {
+                            break;
+                        }
+                        let o = o.min(len as u64) as usize;
+                        if o < *starts.last().expect("non-empty") {
+                            return Err(
+                                self.corrupt(19, "appended data offsets are not increasing")
+                            );
+                        }
+                        starts.push(o);
                     }
-                    let multi = body[0];
-                    let id = u16::from_le_bytes([body[1], body[2]]);
-                    let name = String::from_utf8_lossy(&body[3..]).into_owned();
-                    let topic = if multi == 0 {
-                        name.clone()
-                    } else {
-                        format!("{name}[{multi}]")
-                    };
-                    scan.subs.insert(id, (topic, name));
-                }
-                b'D' => {
-                    if body.len() < 2 {
-                        return Err(self.corrupt(p, "data message too short"));
-                    }
-                    let id = u16::from_le_bytes([body[0], body[1]]);
-                    if !scan.subs.contains_key(&id) {
-                        return Err(self.corrupt(p, &format!("data for unknown message id {id}")));
-                    }
-                    *scan.counts.entry(id).or_default() += 1;
-                    on_data(id, &body[2..])?;
-                }
-                b'B' | b'I' | b'M' | b'P' | b'Q' | b'L' | b'C' | b'S' | b'O' | b'R' => {}
-                other => {
-                    return Err(self.corrupt(p, &format!("unknown message type {other:#04x}")));
                 }
             }
-            p += 3 + size;
         }
-        Ok(scan)
+        Ok(starts
+            .iter()
+            .enumerate()
+            .map(|(i, &s)| (s, starts.get(i + 1).copied().unwrap_or(len)))
+            .filter(|(s, e)| s < e)
+            .collect())
     }
-}
 
-/// Offsets of `timestamp`, `gyro_rad[3]` and `accelerometer_m_s2[3]` in a format.
-fn imu_layout(
-    body: &str,
-    formats: &HashMap<String, String>,
-) -> Option<(usize, usize, usize, usize)> {
-    let f = fields(body, formats, 0)?;
-    let get = |n: &str, base: &str, size: usize| {
-        f.iter()
-            .find(|x| x.name == n && x.base == base && x.size == size)
-            .map(|x| x.offset)
-    };
-    let total = f.last().map_or(0, |x| x.offset + x.size);
-    Some((
-        get("timestamp", "uint64_t", 8)?,
-        get("gyro_rad", "float", 12)?,
-        get("accelerometer_m_s2", "float", 12)?,
-        total,
-    ))
+    /// Walks the messages; `on_data(subscription, payload after the id)` for each `D`
+    /// message (its size checked against the format). Returns where the file is cut off.
+    fn walk(
+        &self,
+        mut on_data: impl FnMut(&Sub, &[u8]) -> Result<()>,
+    ) -> Result<Option<Truncation>> {
+        self.walk_inner(&mut on_data, &mut |_| {})
+    }
+
+    fn walk_inner(
+        &self,
+        on_data: &mut dyn FnMut(&Sub, &[u8]) -> Result<()>,
+        on_sub: &mut dyn FnMut(&Sub),
+    ) -> Result<Option<Truncation>> {
+        let b = &self.map[..];
+        let mut formats: HashMap<String, String> = HashMap::new();
+        let mut subs: HashMap<u16, Sub> = HashMap::new();
+        let mut truncation = None;
+        let mut last_stamp: Option<i64> = None;
+        for (start, end) in self.parts()? {
+            let mut p = start;
+            while p < end {
+                let size = if p + 3 <= end {
+                    u16::from_le_bytes([b[p], b[p + 1]]) as usize
+                } else {
+                    usize::MAX
+                };
+                if size == usize::MAX || p + 3 + size > end {
+                    // an incomplete message: the end of the file, or of a part before
+                    // appended data (the last one found is reported)
+                    truncation = Some(Truncation {
+                        offset: p as u64,
+                        dropped_bytes: (end - p) as u64,
+                        last_stamp_ns: last_stamp,
+                    });
+                    break;
+                }
+                let ty = b[p + 2];
+                let body = &b[p + 3..p + 3 + size];
+                match ty {
+                    b'F' => {
+                        let s = std::str::from_utf8(body)
+                            .map_err(|_| self.corrupt(p, "a format message is not text"))?;
+                        let (name, fmt) = s
+                            .split_once(':')
+                            .ok_or_else(|| self.corrupt(p, "a format message without ':'"))?;
+                        formats.insert(name.to_string(), fmt.trim_end_matches('\0').to_string());
+                    }
+                    b'A' => {
+                        if body.len() < 3 {
+                            return Err(self.corrupt(p, "a subscription message is too short"));
+                        }
+                        let multi = body[0];
+                        let id = u16::from_le_bytes([body[1], body[2]]);
+                        let name = String::from_utf8_lossy(&body[3..])
+                            .trim_end_matches('\0')
+                            .to_string();
+                        let topic = if multi == 0 {
+                            name.clone()
+                        } else {
+                            format!("{name}[{multi}]")
+                        };
+                        let sub = Sub::new(topic, name, &formats);
+                        on_sub(&sub);
+                        subs.insert(id, sub);
+                    }
+                    b'R' if body.len() >= 2 => {
+                        subs.remove(&u16::from_le_bytes([body[0], body[1]]));
+                    }
+                    b'D' => {
+                        if body.len() < 2 {
+                            return Err(self.corrupt(p, "a data message is too short"));
+                        }
+                        let id = u16::from_le_bytes([body[0], body[1]]);
+                        let sub = subs.get(&id).ok_or_else(|| {
+                            self.corrupt(p, &format!("data for unknown message id {id}"))
+                        })?;
+                        let d = &body[2..];
+                        if d.len() < sub.min_size || d.len() > sub.max_size {
+                            return Err(self.corrupt(
+                                p,
+                                &format!(
+                                    "a {} message of {} bytes; its format has {} ({} without \
+                                     its trailing padding)",
+                                    sub.topic,
+                                    d.len(),
+                                    sub.max_size,
+                                    sub.min_size
+                                ),
+                            ));
+                        }
+                        if let Some(o) = sub.stamp {
+                            last_stamp = Some(
+                                (u64::from_le_bytes(d[o..o + 8].try_into().expect("8")) as i64)
+                                    .saturating_mul(1000),
+                            );
+                        }
+                        on_data(sub, d)?;
+                    }
+                    0 => return Err(self.corrupt(p, "a message of type 0")),
+                    _ => {}
+                }
+                p += 3 + size;
+            }
+        }
+        Ok(truncation)
+    }
 }
 
 impl LogReader for UlogReader {
@@ -254,101 +606,92 @@ impl LogReader for UlogReader {
     }
 
     fn topics(&self) -> Result<Vec<TopicInfo>> {
-        let scan = self.walk(|_, _| Ok(()))?;
-        let mut by: BTreeMap<String, TopicInfo> = BTreeMap::new();
-        for (id, (topic, name)) in &scan.subs {
-            let is_imu = name == "sensor_combined"
-                && scan
-                    .formats
-                    .get(name)
-                    .and_then(|b| imu_layout(b, &scan.formats))
-                    .is_some();
-            let e = by.entry(topic.clone()).or_insert_with(|| TopicInfo {
+        Ok(self
+            .scan
+            .topics
+            .iter()
+            .map(|(topic, (name, count, is_imu))| TopicInfo {
                 name: topic.clone(),
                 msg_type: name.clone(),
-                count: 0,
-                is_imu,
-            });
-            e.count += scan.counts.get(id).copied().unwrap_or(0);
-        }
-        Ok(by.into_values().collect())
+                count: *count,
+                is_imu: *is_imu,
+            })
+            .collect())
     }
 
     fn read_imu(&self, topic: &str) -> Result<ImuSeries> {
-        let mut out = ImuSeries::with_capacity(0);
-        // Subscriptions and formats come before their data, so the layout is known by the
-        // first data message of the topic.
-        let mut layout: HashMap<u16, Option<(usize, usize, usize, usize)>> = HashMap::new();
-        let mut formats: HashMap<String, String> = HashMap::new();
-        let mut subs: HashMap<u16, (String, String)> = HashMap::new();
-        let b = &self.map[..];
-        let mut p = 16;
-        while p < b.len() {
-            if p + 3 > b.len() {
-                return Err(self.corrupt(p, "a message header is cut short"));
+        let mut out: Option<ImuSeries> = None;
+        // the layout per subscription (by topic and format size), looked up once
+        let mut layouts: HashMap<(String, usize), Option<ImuLayout>> = HashMap::new();
+        let expected = self.scan.topics.get(topic).map_or(0, |t| t.1 as usize);
+        self.walk(|sub, d| {
+            if sub.topic != topic {
+                return Ok(());
             }
-            let size = u16::from_le_bytes([b[p], b[p + 1]]) as usize;
-            let ty = b[p + 2];
-            let body = b
-                .get(p + 3..p + 3 + size)
-                .ok_or_else(|| self.corrupt(p, "the last message is cut short"))?;
-            match ty {
-                b'F' => {
-                    if let Some((n, f)) = std::str::from_utf8(body)
-                        .ok()
-                        .and_then(|s| s.split_once(':'))
-                    {
-                        formats.insert(n.to_string(), f.to_string());
-                    }
+            let lay = layouts
+                .entry((sub.name.clone(), sub.max_size))
+                .or_insert_with(|| imu_layout(sub));
+            let Some(lay) = lay else { return Ok(()) };
+            let s = out.get_or_insert_with(|| {
+                let n = expected.saturating_mul(if lay.fifo.is_some() { 32 } else { 1 });
+                ImuSeries {
+                    stamps_ns: Vec::with_capacity(n.min(1 << 28)),
+                    names: lay.channels.iter().map(|c| c.0.to_string()).collect(),
+                    columns: lay
+                        .channels
+                        .iter()
+                        .map(|_| Vec::with_capacity(n.min(1 << 28)))
+                        .collect(),
                 }
-                b'A' if body.len() >= 3 => {
-                    let multi = body[0];
-                    let id = u16::from_le_bytes([body[1], body[2]]);
-                    let name = String::from_utf8_lossy(&body[3..]).into_owned();
-                    let t = if multi == 0 {
-                        name.clone()
-                    } else {
-                        format!("{name}[{multi}]")
-                    };
-                    subs.insert(id, (t, name));
-                }
-                b'D' if body.len() >= 2 => {
-                    let id = u16::from_le_bytes([body[0], body[1]]);
-                    let lay = *layout.entry(id).or_insert_with(|| {
-                        subs.get(&id)
-                            .filter(|(t, _)| t == topic)
-                            .and_then(|(_, name)| imu_layout(formats.get(name)?, &formats))
-                    });
-                    if let Some((ts, g, a, total)) = lay {
-                        let d = &body[2..];
-                        if d.len() < total {
-                            return Err(self.corrupt(
-                                p,
-                                &format!(
-                                    "{topic} message shorter than its format ({} < {total} bytes)",
-                                    d.len()
-                                ),
-                            ));
-                        }
-                        let f = |o: usize| {
-                            f32::from_le_bytes(d[o..o + 4].try_into().expect("4")) as f64
-                        };
-                        out.push(&ImuSample {
-                            stamp_ns: (u64::from_le_bytes(d[ts..ts + 8].try_into().expect("8"))
-                                as i64)
-                                .saturating_mul(1000),
-                            gyro: [f(g), f(g + 4), f(g + 8)],
-                            acc: [f(a), f(a + 4), f(a + 8)],
-                        });
-                    }
-                }
-                _ => {}
-            }
-            p += 3 + size;
-        }
-        // The same strict pass as topics() for corrupt files.
-        self.walk(|_, _| Ok(()))?;
+            });
+            push_rows(s, lay, d);
+            Ok(())
+        })?;
+        let out = out.unwrap_or_else(|| ImuSeries::with_capacity(0));
         out.check_finite(&format!("{} ({topic})", self.file))?;
         Ok(out)
+    }
+
+    fn truncation(&self) -> Option<Truncation> {
+        self.scan.truncation
+    }
+}
+
+/// Appends the rows of one data message `d` (at least the format's size without padding).
+fn push_rows(s: &mut ImuSeries, lay: &ImuLayout, d: &[u8]) {
+    let get = |f: &Field| {
+        if f.offset + f.prim.size() <= d.len() {
+            f.prim.get(d, f.offset)
+        } else {
+            0.0
+        }
+    };
+    let stamp_us = if lay.stamp.offset + lay.stamp.prim.size() <= d.len() {
+        lay.stamp.prim.get_u64(d, lay.stamp.offset).unwrap_or(0)
+    } else {
+        0
+    };
+    let stamp_ns = (stamp_us as i64).saturating_mul(1000);
+    match &lay.fifo {
+        None => {
+            s.stamps_ns.push(stamp_ns);
+            for (c, (_, f)) in s.columns.iter_mut().zip(&lay.channels) {
+                c.push(get(f));
+            }
+        }
+        Some(fifo) => {
+            let cap = fifo.elems.iter().map(Vec::len).min().unwrap_or(0);
+            let n = (get(&fifo.samples) as usize).min(cap);
+            let dt_us = get(&fifo.dt);
+            let scale = fifo.scale.as_ref().map_or(1.0, get);
+            for i in 0..n {
+                // the last sample is at timestamp_sample, the others dt before each other
+                let back_ns = ((n - 1 - i) as f64 * dt_us * 1e3).round() as i64;
+                s.stamps_ns.push(stamp_ns.saturating_sub(back_ns));
+                for (c, e) in s.columns.iter_mut().zip(&fifo.elems) {
+                    c.push(get(&e[i]) * scale);
+                }
+            }
+        }
     }
 }

@@ -7,9 +7,12 @@ use super::read::Input;
 use crate::error::{Error, Result};
 use crate::ui::Ui;
 use avar::AllanVariance;
+use gmwm_prep::adequacy::{Adequacy, assess};
 use gmwm_prep::bootstrap::{BootstrapOptions, parametric_bootstrap_with_progress};
 use gmwm_prep::gmwm::{self, CovMatrix, GmwmFit, GmwmOptions};
+use gmwm_prep::inference::Inference;
 use gmwm_prep::inference::{delta_method, diagonal_covariance, fit_covariance, select_by_wic};
+use gmwm_prep::noise_terms::{NoiseTerms, noise_terms_of};
 use gmwm_prep::report::{FitReport, IeeeValue};
 use gmwm_prep::{AvCurve, FitError};
 use processes::{Model, Process, ProcessKind, Unit};
@@ -218,6 +221,11 @@ pub struct FitSettings {
     pub seed: u64,
     /// CI level: intervals cover 1 − alpha.
     pub alpha: f64,
+    /// Smallest averaging time τ (s) fitted; scales below it are left out of the fit (and
+    /// listed in `excluded_taus`). None: from the first scale.
+    pub tau_min: Option<f64>,
+    /// Largest averaging time τ (s) fitted. None: up to the last scale.
+    pub tau_max: Option<f64>,
 }
 
 /// The default model template of `fit`.
@@ -233,6 +241,8 @@ impl Default for FitSettings {
             bootstrap: 0,
             seed: 1,
             alpha: 0.05,
+            tau_min: None,
+            tau_max: None,
         }
     }
 }
@@ -267,6 +277,22 @@ impl FitSettings {
             return Err(Error::Usage(
                 "--select works with --method gmwm only (it compares GMWM fits by WIC)".into(),
             ));
+        }
+        for (flag, v) in [("--tau-min", self.tau_min), ("--tau-max", self.tau_max)] {
+            if let Some(t) = v
+                && !(t.is_finite() && t > 0.0)
+            {
+                return Err(Error::Usage(format!(
+                    "{flag} must be a positive number of seconds, got {t}"
+                )));
+            }
+        }
+        if let (Some(a), Some(b)) = (self.tau_min, self.tau_max)
+            && a >= b
+        {
+            return Err(Error::Usage(format!(
+                "--tau-min ({a} s) must be below --tau-max ({b} s)"
+            )));
         }
         let most = gmwm_prep::bootstrap::MAX_REPLICATIONS;
         if self.bootstrap > most {
@@ -460,6 +486,17 @@ pub struct ChannelFit {
     /// determine, data-quality findings (level shifts, trends, spikes). Empty: omitted.
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub warnings: Vec<String>,
+    /// N, K and B with their CIs and where each comes from: the one source of these numbers
+    /// for the console, the report and the config files (None only if they could not be
+    /// computed).
+    pub noise_terms: Option<NoiseTerms>,
+    /// The verdict on the fit: does the model describe the AV inside its CIs? (None when the
+    /// curve has no CIs to check against.)
+    pub adequacy: Option<Adequacy>,
+    /// Averaging times τ (s) of the scales left out of the fit by `tau_min`/`tau_max`
+    /// (omitted when none).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub excluded_taus: Vec<f64>,
     /// The fitted curve.
     pub fitted: Vec<FittedJson>,
     /// Each component's fitted curve (for plots; not in the JSON).
@@ -474,6 +511,29 @@ pub struct ChannelFit {
 }
 
 impl ChannelFit {
+    /// The fitted model for people: parameters to 4 significant digits (the JSON keeps
+    /// `model` at full precision).
+    ///
+    /// ```
+    /// # use imunoise::avar::{AvarConfig, allan_variance};
+    /// # use imunoise::pipeline::{fit, simulate};
+    /// # use imunoise::processes::Unit;
+    /// # let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse()?;
+    /// # let x = simulate::simulate_channels(&model, 1 << 13, 100.0, 1, 1)?.remove(0);
+    /// # let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+    /// let settings = fit::FitSettings { model: "WN+RW".into(), ..Default::default() };
+    /// let f = fit::fit_channel("gyro_x", &av, &Unit::RadPerSec, &settings, &|| {})?;
+    /// let m: imunoise::processes::Model = f.model.parse()?;
+    /// assert_eq!(f.model_display(), format!("{m:.4}"));
+    /// assert!(f.model_display().len() < f.model.len());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn model_display(&self) -> String {
+        self.model
+            .parse::<Model>()
+            .map_or_else(|_| self.model.clone(), |m| format!("{m:.4}"))
+    }
+
     /// The delta-method intervals of a GMWM fit at level 1 − `alpha` (None for other
     /// methods, which keep only the intervals they were computed with).
     ///
@@ -569,6 +629,9 @@ fn from_report(
             .collect(),
         ieee: r.ieee.clone(),
         warnings: Vec::new(),
+        noise_terms: None,
+        adequacy: None,
+        excluded_taus: Vec::new(),
         j_test: r.j_test.map(|j| JTestJson {
             statistic: j.statistic,
             p_value: j.p_value,
@@ -661,6 +724,8 @@ pub fn fit_channel_robust(
     on_replicate: &(dyn Fn() + Sync),
 ) -> Result<ChannelFit> {
     let e = |x| fit_err(name, x);
+    let (restricted, excluded_taus) = within_tau_range(name, av, settings)?;
+    let av = &restricted;
     let curve = AvCurve::from_avar(av).map_err(e)?;
     let template: Model = settings.model.parse()?;
     if robust.is_some() && settings.bootstrap > 0 {
@@ -670,6 +735,69 @@ pub fn fit_channel_robust(
                 .into(),
         ));
     }
+    let mut out = fit_restricted(
+        name,
+        av,
+        &curve,
+        template,
+        unit,
+        settings,
+        robust,
+        on_replicate,
+    )?;
+    out.excluded_taus = excluded_taus;
+    Ok(out)
+}
+
+/// The scales of `av` inside the τ range of `settings`, and the τ of those left out; fewer
+/// than two scales left is an error naming the range.
+fn within_tau_range(
+    name: &str,
+    av: &AllanVariance,
+    settings: &FitSettings,
+) -> Result<(AllanVariance, Vec<f64>)> {
+    let (lo, hi) = (
+        settings.tau_min.unwrap_or(0.0),
+        settings.tau_max.unwrap_or(f64::INFINITY),
+    );
+    let mut kept = av.clone();
+    // a relative margin so that a τ typed from a printed grid (0.64 for 64/100) matches
+    let inside = |t: f64| t >= lo * (1.0 - 1e-9) && t <= hi * (1.0 + 1e-9);
+    kept.points.retain(|p| inside(p.tau));
+    let excluded: Vec<f64> = av
+        .points
+        .iter()
+        .map(|p| p.tau)
+        .filter(|&t| !inside(t))
+        .collect();
+    if kept.points.len() < 2 {
+        return Err(Error::Usage(format!(
+            "channel {name:?}: --tau-min/--tau-max ({} … {} s) leave {} of its {} scales (τ = {} … {} s); at least 2 are needed",
+            processes::number::sig(lo, 4),
+            processes::number::sig(hi, 4),
+            kept.points.len(),
+            av.points.len(),
+            av.points.first().map_or(f64::NAN, |p| p.tau),
+            av.points.last().map_or(f64::NAN, |p| p.tau),
+        )));
+    }
+    Ok((kept, excluded))
+}
+
+/// [`fit_channel_robust`] on a curve already restricted to the τ range.
+#[allow(clippy::too_many_arguments)]
+fn fit_restricted(
+    name: &str,
+    av: &AllanVariance,
+    curve: &AvCurve,
+    template: Model,
+    unit: &Unit,
+    settings: &FitSettings,
+    robust: Option<f64>,
+    on_replicate: &(dyn Fn() + Sync),
+) -> Result<ChannelFit> {
+    let e = |x| fit_err(name, x);
+    let curve = curve.clone();
     match settings.method {
         Method::Gmwm => {
             let opts = GmwmOptions {
@@ -707,6 +835,7 @@ pub fn fit_channel_robust(
             let inf = delta_method(&f, &v, settings.alpha).map_err(e)?;
             let r = FitReport::from_gmwm(&f, Some(&inf), unit);
             let kinds = f.kinds.clone();
+            let theta = f.theta.clone();
             let mut warnings = undetermined(&f);
             if kinds.iter().all(|k| *k == processes::ProcessKind::Drift) {
                 warnings.push(
@@ -723,7 +852,7 @@ pub fn fit_channel_robust(
             };
             let mut out = from_report(name, &r, wic, &kinds, ci);
             out.warnings = warnings;
-            Ok(out)
+            Ok(with_verdict(out, &curve, &kinds, &theta, Some(&inf)))
         }
         Method::Avlr => {
             let w = gmwm_prep::avlr::AvlrWindows::auto(&curve).map_err(e)?;
@@ -738,15 +867,83 @@ pub fn fit_channel_robust(
             }
             let r = FitReport::from_avlr(&f, &curve.m(), unit);
             let kinds = f.model.kinds();
+            let theta: Vec<f64> = r.parameters.iter().map(|p| p.value).collect();
             let ci = CiInfo {
                 method,
                 alpha: settings.alpha,
                 inference: None,
             };
-            Ok(from_report(name, &r, None, &kinds, ci))
+            let out = from_report(name, &r, None, &kinds, ci);
+            Ok(with_verdict(out, &curve, &kinds, &theta, None))
         }
-        Method::Ieee952 => ieee952(name, av, unit),
+        Method::Ieee952 => {
+            let out = ieee952(name, av, unit)?;
+            let model: Model = out.model.parse()?;
+            let theta: Vec<f64> = out.parameters.iter().map(|p| p.value).collect();
+            Ok(with_verdict(out, &curve, &model.kinds(), &theta, None))
+        }
     }
+}
+
+/// Attaches N, K, B ([`NoiseTerms`]) and the verdict ([`Adequacy`]) to a channel's fit of
+/// `curve` by the model of component `kinds` and per-sample parameters `theta`; a fit that
+/// is not adequate also gets a warning with the reasons, so every place that shows warnings
+/// shows it.
+fn with_verdict(
+    mut out: ChannelFit,
+    curve: &AvCurve,
+    kinds: &[ProcessKind],
+    theta: &[f64],
+    inference: Option<&Inference>,
+) -> ChannelFit {
+    let tau_min = curve.points.first().map_or(f64::INFINITY, |p| p.tau);
+    out.noise_terms = noise_terms_of(
+        kinds,
+        theta,
+        curve.rate_hz,
+        tau_min,
+        inference,
+        curve,
+        &out.unit,
+    )
+    .ok();
+    // one source: the IEEE map carries the same N, K, B (bounds are not values: left out)
+    if let Some(t) = &out.noise_terms {
+        for term in t.all() {
+            if term.source == gmwm_prep::noise_terms::TermSource::UpperBound {
+                out.ieee.remove(&term.symbol);
+            } else {
+                out.ieee.insert(
+                    term.symbol.clone(),
+                    IeeeValue {
+                        value: term.value,
+                        unit: term.unit.clone(),
+                        ci_lo: term.ci_lo,
+                        ci_hi: term.ci_hi,
+                    },
+                );
+            }
+        }
+    }
+    if let Some(t) = gmwm_prep::adequacy::filtered_small_scales(curve) {
+        out.warnings.push(format!(
+            "the smallest scales (τ < {} s) lie below the white-noise line of the scales after \
+             them: an anti-aliasing or decimation filter shapes them, which no noise model \
+             here reproduces; try --tau-min {}",
+            processes::number::sig(t, 4),
+            processes::number::sig(t, 4)
+        ));
+    }
+    let fitted: Vec<f64> = out.fitted.iter().map(|p| p.avar).collect();
+    out.adequacy = assess(curve, &fitted, out.j_test.as_ref().map(|j| j.p_value)).ok();
+    if let Some(a) = out.adequacy.as_ref().filter(|a| !a.adequate) {
+        out.warnings.push(format!(
+            "the model does not describe the Allan variance ({}); N, K, B from it and the \
+             configs made from them rest on a model the data reject",
+            a.reasons[0]
+        ));
+    }
+    out
 }
 
 /// Warnings for the components of a GMWM fit that the data do not determine.
@@ -855,6 +1052,9 @@ pub fn ieee952(name: &str, av: &AllanVariance, unit: &Unit) -> Result<ChannelFit
             .collect(),
         ieee,
         warnings: Vec::new(),
+        noise_terms: None,
+        adequacy: None,
+        excluded_taus: Vec::new(),
         j_test: None,
         ci_method: CiMethod::None,
         ci_level: None,
@@ -1048,8 +1248,25 @@ pub fn write_table(
             },
             f.method,
             if f.converged { "" } else { " (NOT converged)" },
-            f.model
+            f.model_display()
         )?;
+        if let Some(a) = &f.adequacy {
+            writeln!(
+                out,
+                "  verdict: {}: {}",
+                if a.adequate {
+                    "adequate"
+                } else {
+                    "NOT ADEQUATE"
+                },
+                a.reasons.join("; ")
+            )?;
+        }
+        if let Some(t) = &f.noise_terms {
+            for term in t.all() {
+                write_term_line(out, term)?;
+            }
+        }
         let ci_head = match f.ci_method {
             CiMethod::None => "no CI".to_string(),
             m => format!("{} CI ({})", percent(1.0 - alpha), m.describe(bootstrap)),
@@ -1063,6 +1280,9 @@ pub fn write_table(
             write_param_row(out, "  ", p)?;
         }
         for (k, v) in &f.ieee {
+            if f.noise_terms.is_some() && matches!(k.as_str(), "N" | "K" | "B") {
+                continue; // printed above with their sources
+            }
             writeln!(
                 out,
                 "  IEEE {k} = {:.4e} {}  {}",
@@ -1086,6 +1306,41 @@ pub fn write_table(
         }
     }
     Ok(())
+}
+
+/// One line of N, K or B for the console: value, CI, source, and the read-off beside it.
+fn write_term_line(
+    out: &mut impl Write,
+    t: &gmwm_prep::noise_terms::NoiseTerm,
+) -> std::io::Result<()> {
+    let s = |x| processes::number::sig(x, 4);
+    let beside = t.read_off.as_ref().map_or(String::new(), |r| {
+        let ci = match (r.ci_lo, r.ci_hi) {
+            (Some(a), Some(b)) => format!(" [{}, {}]", s(a), s(b)),
+            _ => String::new(),
+        };
+        format!(
+            "; IEEE read-off {}{ci}{}",
+            s(r.value),
+            if t.disagrees {
+                " — DISAGREES beyond the CIs"
+            } else {
+                ""
+            }
+        )
+    });
+    let eq = if t.source == gmwm_prep::noise_terms::TermSource::UpperBound {
+        ""
+    } else {
+        "= "
+    };
+    writeln!(
+        out,
+        "  {} {eq}{}  ({}{beside})",
+        t.symbol,
+        t.display(),
+        t.basis
+    )
 }
 
 fn csv_field(s: &str) -> String {

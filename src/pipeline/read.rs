@@ -47,6 +47,11 @@ pub struct Input {
     pub time_unit: TimeUnit,
     /// What to do with gaps in time-stamped input.
     pub gaps: logs::GapPolicy,
+    /// Logs: the instance of each `topic` (ULog multi id, DataFlash `I`): `--topic
+    /// sensor_gyro` with instance 1 reads `sensor_gyro[1]` (see [`logs::instance_topic`]).
+    pub instance: Option<u32>,
+    /// Logs: refuse a cut-off file instead of reading its complete messages with a warning.
+    pub strict: bool,
 }
 
 impl Input {
@@ -75,6 +80,8 @@ impl Input {
             time_column: None,
             time_unit: TimeUnit::S,
             gaps: logs::GapPolicy::Refuse,
+            instance: None,
+            strict: false,
         }
     }
 
@@ -473,8 +480,13 @@ impl Input {
         }
         let path = logs::storage_file(&self.file)?;
         let file = path.display().to_string();
-        let reader = logs::open(&path, fmt)?;
-        let topics = logs::select_topics(reader.as_ref(), &file, &self.topic)?;
+        let reader = logs::open_checked(&path, fmt, self.strict, ui)?;
+        let mut requested = self.instance_topics(reader.as_ref(), &file)?;
+        if requested.is_empty() {
+            requested = preferred(reader.as_ref(), &file, ui)?;
+        }
+        let topics = logs::select_topics(reader.as_ref(), &file, &requested)?;
+        let truncated = reader.truncation();
         let mut out = Vec::new();
         for topic in topics {
             let series = reader.read_imu(&topic)?;
@@ -486,6 +498,10 @@ impl Input {
                 self.gaps,
                 &what,
             )?;
+            let timing = logs::Timing {
+                truncated,
+                ..timing
+            };
             ui.note(format!("{topic}: {}", timing.summary()));
             let mut t = Table {
                 file: file.clone(),
@@ -504,6 +520,85 @@ impl Input {
             out.push(t);
         }
         Ok(out)
+    }
+}
+
+/// A flight log's high-rate IMU topics ([`logs::preferred_topics`]), with a note saying they
+/// are read.
+fn preferred(reader: &dyn logs::LogReader, file: &str, ui: &Ui) -> Result<Vec<String>> {
+    let preferred = logs::preferred_topics(&reader.topics()?);
+    if !preferred.is_empty() {
+        ui.note(format!(
+            "note: {file}: reading the high-rate IMU topics {} (choose others with --topic; \
+             `imunoise topics {file}` lists them)",
+            preferred.join(", ")
+        ));
+    }
+    Ok(preferred)
+}
+
+impl Input {
+    /// With no `topic` given, a log's high-rate IMU topics (PX4 FIFO, ArduPilot batch
+    /// sampler; see [`logs::preferred_topics`]), which the readers use then; a note says so.
+    /// Empty for other input, or when topics are given or the log has none.
+    ///
+    /// ```
+    /// use imunoise::pipeline::read::Input;
+    /// let ui = imunoise::Ui::quiet();
+    /// assert!(Input::new("imu.csv").preferred_topics(&ui)?.is_empty());
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
+    pub fn preferred_topics(&self, ui: &Ui) -> Result<Vec<String>> {
+        let Some(fmt) = self.log_format() else {
+            return Ok(Vec::new());
+        };
+        if !self.topic.is_empty() {
+            return Ok(Vec::new());
+        }
+        let path = logs::storage_file(&self.file)?;
+        let file = path.display().to_string();
+        let reader = logs::open_checked(&path, fmt, self.strict, &Ui::quiet())?;
+        preferred(reader.as_ref(), &file, ui)
+    }
+
+    /// The topics asked for, with `instance` applied (`--topic sensor_gyro --instance 1` is
+    /// `sensor_gyro[1]`).
+    fn instance_topics(&self, reader: &dyn logs::LogReader, file: &str) -> Result<Vec<String>> {
+        let Some(k) = self.instance else {
+            return Ok(self.topic.clone());
+        };
+        if self.topic.is_empty() {
+            return Err(Error::Usage(
+                "--instance needs --topic NAME (the message whose instance to read)".to_string(),
+            ));
+        }
+        let all = reader.topics()?;
+        self.topic
+            .iter()
+            .map(|name| {
+                logs::instance_topic(&all, name, k).ok_or_else(|| {
+                    let have: Vec<&str> = all
+                        .iter()
+                        .filter(|t| {
+                            t.name == *name
+                                || t.name
+                                    .strip_prefix(name.as_str())
+                                    .is_some_and(|r| r.starts_with('[') && r.ends_with(']'))
+                        })
+                        .map(|t| t.name.as_str())
+                        .collect();
+                    Error::Usage(format!(
+                        "--topic {name} --instance {k}: {file} has no such instance; its \
+                         instances of {name}: {}",
+                        if have.is_empty() {
+                            "none".to_string()
+                        } else {
+                            have.join(", ")
+                        }
+                    ))
+                })
+            })
+            .collect()
     }
 }
 
@@ -529,4 +624,50 @@ pub fn unique_names(what: &str, names: &[String]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// A sampling rate in Hz (`--rate`): a finite number > 0.
+///
+/// ```
+/// use imunoise::pipeline::read::parse_rate;
+/// assert_eq!(parse_rate(" 200 "), Ok(200.0));
+/// assert!(parse_rate("0").is_err() && parse_rate("inf").is_err() && parse_rate("x").is_err());
+/// ```
+pub fn parse_rate(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "the sampling rate must be a finite number > 0 Hz, got {s}"
+        ))
+    }
+}
+
+/// A finite non-zero factor (`--scale`): a number or a fraction `a/b`.
+///
+/// ```
+/// use imunoise::pipeline::read::parse_factor;
+/// assert_eq!(parse_factor("1/131"), Ok(1.0 / 131.0));
+/// assert_eq!(parse_factor("-2"), Ok(-2.0));
+/// assert!(parse_factor("0").is_err() && parse_factor("1/0").is_err());
+/// ```
+pub fn parse_factor(s: &str) -> std::result::Result<f64, String> {
+    let num = |t: &str| {
+        t.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("{s:?} is not a number or a fraction a/b"))
+    };
+    let v = match s.split_once('/') {
+        Some((a, b)) => num(a)? / num(b)?,
+        None => num(s)?,
+    };
+    if v.is_finite() && v != 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("the factor must be finite and non-zero, got {s}"))
+    }
 }

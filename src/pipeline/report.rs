@@ -5,9 +5,11 @@
 
 use super::fit::ChannelFit;
 use crate::error::{Error, Result};
-use crate::plot::{AdevPlot, Series, acf_svg, adev_svg, timeseries_svg};
+use crate::plot::{AdevPlot, Series, acf_svg, adev_svg, residuals_svg, timeseries_svg};
 use crate::ui::Ui;
 use avar::AllanVariance;
+use gmwm_prep::noise_terms::{NoiseTerm, TermSource};
+use processes::number::sig;
 use processes::{Sensor, Unit};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -277,15 +279,132 @@ pub fn num(x: f64) -> String {
     }
 }
 
+/// Where the Allan deviation plots go in the page: right below the summary table.
+const FIRST_SCREEN_END: &str = "<!--first-screen-end-->\n";
+
+/// One N, K or B cell of the summary: value, CI and unit, its source underneath, and a flag
+/// when the model's value and the read-off disagree beyond their CIs.
+fn term_cell(t: &NoiseTerm) -> String {
+    let ci = match (t.source, t.ci_lo, t.ci_hi) {
+        (TermSource::UpperBound, ..) => String::new(),
+        (_, Some(a), Some(b)) => format!("<br><small>[{}, {}]</small>", sig(a, 4), sig(b, 4)),
+        _ => String::new(),
+    };
+    let value = match t.source {
+        TermSource::UpperBound => format!("≤ {}", sig(t.value, 4)),
+        _ => sig(t.value, 4),
+    };
+    let from = match t.source {
+        TermSource::Model => format!("model: {}", t.basis),
+        TermSource::ReadOff => "IEEE read-off".to_string(),
+        TermSource::UpperBound => "upper bound".to_string(),
+    };
+    let flag = match (&t.read_off, t.disagrees) {
+        (Some(r), true) => format!(
+            "<br><small class=no>read-off {} disagrees</small>",
+            sig(r.value, 4)
+        ),
+        _ => String::new(),
+    };
+    format!(
+        "{value} {}{ci}<br><small title=\"{}\">{}</small>{flag}",
+        html_esc(&t.unit),
+        html_esc(&t.basis),
+        html_esc(&from)
+    )
+}
+
+/// The report's first screen: per channel N, K, B with CIs and sources, the verdict on the
+/// fit and the model in 4 significant digits; then [`FIRST_SCREEN_END`], where the plots go.
+fn summary_table(inp: &ReportInput<'_>) -> String {
+    let mut h = String::from(
+        "<h2>Summary: the values a filter needs</h2><table><tr><th class=l>channel</th><th class=l>unit</th><th class=l>verdict</th><th>N (ARW/VRW)</th><th>K (RRW)</th><th>B (bias instability)</th><th class=l>fitted model (per sample)</th></tr>\n",
+    );
+    for (k, f) in inp.fits.iter().enumerate() {
+        let verdict = match &f.adequacy {
+            Some(a) if a.adequate => format!(
+                "<span style=\"color:#007a3d\">adequate</span><br><small>inside the CI at {}/{}</small>",
+                a.n_inside, a.n_scales
+            ),
+            Some(a) => format!(
+                "<span class=no>not adequate</span><br><small>inside the CI at {}/{}{}</small>",
+                a.n_inside,
+                a.n_scales,
+                {
+                    // the three widest ranges, the rest counted
+                    let mut r: Vec<_> = a.unexplained.iter().collect();
+                    r.sort_by_key(|x| std::cmp::Reverse(x.n_scales));
+                    let more = r.len().saturating_sub(3);
+                    let mut t: String = r
+                        .iter()
+                        .take(3)
+                        .map(|x| format!("<br>{}", html_esc(&x.describe())))
+                        .collect();
+                    if more > 0 {
+                        t.push_str(&format!("<br>and {more} more (see the fit check)"));
+                    }
+                    t
+                }
+            ),
+            None => "-<br><small>no CIs to check against</small>".into(),
+        };
+        let cells = match &f.noise_terms {
+            Some(t) => t.all().map(term_cell),
+            None => ["-".to_string(), "-".to_string(), "-".to_string()],
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td class=l>{}</td><td class=l>{}</td><td class=l>{verdict}</td><td>{}</td><td>{}</td><td>{}</td><td class=l><small>{}</small></td></tr>",
+            html_esc(&inp.names[k]),
+            html_esc(inp.units[k].symbol()),
+            cells[0],
+            cells[1],
+            cells[2],
+            html_esc(&f.model_display()),
+        );
+    }
+    h.push_str("</table>\n<p><small>N: white-noise density from every short-memory term of the model (white noise, and AR1/GM/MA1 terms faster than the smallest τ as their white-noise equivalents); K: rate random walk; B: bias instability. Each is the fitted model's value where the model has the term, else the IEEE 952 read-off of the curve, else an upper bound; brackets: 95 % CIs. A fit is adequate when its Allan variance lies inside the estimate's 95 % CI at ≥ 90 % of the scales.</small></p>\n");
+    h.push_str(FIRST_SCREEN_END);
+    h
+}
+
+/// The fit-check section: the residual panels, open when a fit is not adequate, else one line
+/// with the panels folded away.
+fn fit_check_section(inp: &ReportInput<'_>, panels: &str) -> String {
+    if panels.is_empty() {
+        return String::new();
+    }
+    let bad: Vec<&str> = inp
+        .fits
+        .iter()
+        .filter(|f| f.adequacy.as_ref().is_some_and(|a| !a.adequate))
+        .map(|f| f.name.as_str())
+        .collect();
+    let (line, open) = if bad.is_empty() {
+        ("every fit is adequate".to_string(), "")
+    } else {
+        (
+            format!("not adequate: {}", html_esc(&bad.join(", "))),
+            " open",
+        )
+    };
+    format!(
+        "<h2>Fit check</h2><details{open}><summary>{line}: standardised residual ln(AV / fitted AV) per scale, in units of the estimate's log-scale SD; dashed: the 95 % CI</summary><div class=plots>\n{panels}</div></details>\n"
+    )
+}
+
 fn html_esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
 }
 
-/// The Kalibr `imu.yaml` text: noise density N (from WN) and random walk K (from RW) of
-/// gyroscopes (rad/s/√Hz, rad/s²/√Hz) and accelerometers (m/s²/√Hz, m/s³/√Hz), the
-/// largest over the axes of each sensor (conservative, as Kalibr takes one value per sensor).
+/// The Kalibr `imu.yaml` text: noise density N and random walk K of gyroscopes (rad/s/√Hz,
+/// rad/s²/√Hz) and accelerometers (m/s²/√Hz, m/s³/√Hz), the largest over the axes of each
+/// sensor (conservative, as Kalibr takes one value per sensor). N and K are the fits'
+/// [`noise_terms`](super::fit::ChannelFit::noise_terms) (the values the report shows; a
+/// comment names each one not taken from a plain WN or RW), and a fit that is not adequate
+/// is named in a WARNING comment.
 ///
 /// ```
 /// # use imunoise::pipeline::{estimate, fit, report, simulate};
@@ -347,6 +466,25 @@ pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
             _ => continue,
         };
         let base = if unit.is_angular_rate() { 0 } else { 2 };
+        if let Some(a) = f.adequacy.as_ref().filter(|a| !a.adequate) {
+            fallbacks.push(format!(
+                "WARNING: {}: the fitted model does not describe its Allan variance ({}); its N and K are the best this model gives, not a validated noise model",
+                inp.names[k], a.reasons[0]
+            ));
+        }
+        // N and K of the analysis (the report's and the console's values): one source
+        if let Some(t) = &f.noise_terms {
+            for (term, slot) in [(&t.n, base), (&t.k, base + 1)] {
+                vals[slot].push(term.per_second * to_si);
+                if term.basis != "WN" && term.basis != "RW" {
+                    fallbacks.push(format!(
+                        "{} {} from {}",
+                        inp.names[k], term.symbol, term.basis
+                    ));
+                }
+            }
+            continue;
+        }
         let (mut has_n, mut has_k) = (false, false);
         for p in &f.parameters {
             match (p.process.as_str(), p.name.as_str()) {
@@ -398,7 +536,11 @@ pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
     let _ = writeln!(s, "# source: {}", inp.source);
     s.push_str("# continuous-time values, largest over the axes of each sensor\n");
     for f in &fallbacks {
-        let _ = writeln!(s, "# note: {f}");
+        if f.starts_with("WARNING") {
+            let _ = writeln!(s, "# {f}");
+        } else {
+            let _ = writeln!(s, "# note: {f}");
+        }
     }
     s.push_str("rostopic: /imu0\n");
     let _ = writeln!(s, "update_rate: {:.6}   # [Hz]", inp.rate_hz);
@@ -814,36 +956,8 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
             format!("{}, {}", f.method, html_esc(&ci))
         })
     );
-    // IEEE noise table.
-    html.push_str("<h2>Noise terms (IEEE Std 952 units)</h2><table><tr><th class=l>channel</th><th class=l>unit</th><th class=l>fitted model (per sample)</th><th>N (ARW/VRW)</th><th>K (RRW)</th><th>Q</th><th>R</th><th class=l>J-test p</th></tr>\n");
-    for (k, f) in inp.fits.iter().enumerate() {
-        let cell = |key: &str| {
-            f.ieee.get(key).map_or("-".to_string(), |v| {
-                let ci = match (v.ci_lo, v.ci_hi) {
-                    (Some(a), Some(b)) => {
-                        format!("<br><small>[{}, {}]</small>", num(a), num(b))
-                    }
-                    _ => String::new(),
-                };
-                format!("{} {}{ci}", num(v.value), html_esc(&v.unit))
-            })
-        };
-        let _ = writeln!(
-            html,
-            "<tr><td class=l>{}</td><td class=l>{}</td><td class=l><small>{}</small></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
-            html_esc(&inp.names[k]),
-            html_esc(inp.units[k].symbol()),
-            html_esc(&f.model),
-            cell("N"),
-            cell("K"),
-            cell("Q"),
-            cell("R"),
-            f.j_test
-                .as_ref()
-                .map_or("-".into(), |j| format!("{:.3}", j.p_value))
-        );
-    }
-    html.push_str("</table>\n");
+    // The first screen: per channel the values a filter needs, the verdict, then the plots.
+    html.push_str(&summary_table(inp));
     // What the user should know before trusting the numbers: data quality, undetermined terms.
     let remarks: Vec<String> = inp
         .fits
@@ -909,20 +1023,20 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
     );
     for (k, f) in inp.fits.iter().enumerate() {
         for p in &f.parameters {
-            let o = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4e}"));
+            let o = |v: Option<f64>| v.map_or("-".to_string(), |x| sig(x, 4));
             let _ = writeln!(
                 html,
-                "<tr><td class=l>{}</td><td class=l>{}</td><td class=l>{}</td><td>{:.4e}</td><td>{}</td><td>{}</td></tr>",
+                "<tr><td class=l>{}</td><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
                 html_esc(&inp.names[k]),
                 p.process,
                 p.name,
-                p.value,
+                sig(p.value, 4),
                 o(p.ci_lo),
                 o(p.ci_hi)
             );
         }
     }
-    html.push_str("</table>\n<h2>Allan deviation</h2><div class=plots>\n");
+    html.push_str("</table>\n");
     let mut series_html = String::from("<h2>Time series</h2><div class=plots>\n");
     let mut acf_html = String::from("<h2>Autocorrelation</h2><div class=plots>\n");
     // the channels' plots in parallel (each renders three SVGs and PNGs), appended in order
@@ -931,11 +1045,10 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         .names
         .par_iter()
         .enumerate()
-        .map(|(k, name)| -> Result<[String; 3]> {
+        .map(|(k, name)| -> Result<[String; 4]> {
             let stem = &stems[k];
             let (_, av) = &inp.curves[k];
             let f = &inp.fits[k];
-            let tau: Vec<f64> = av.points.iter().map(|p| p.tau).collect();
             let tau_of = |m: u64| m as f64 / inp.rate_hz;
             let plot = AdevPlot {
                 title: format!("{name}: Allan deviation"),
@@ -954,14 +1067,18 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
                     .iter()
                     .map(|(code, v)| Series {
                         label: code.clone(),
-                        points: tau
+                        // the components' scales are the fit's (all of them, or those in
+                        // --tau-min/--tau-max)
+                        points: f
+                            .fitted
                             .iter()
                             .zip(v)
-                            .map(|(&t, &a)| (t, a.max(0.0).sqrt()))
+                            .map(|(p, &a)| (tau_of(p.m), a.max(0.0).sqrt()))
                             .collect(),
                     })
                     .collect(),
                 marks: read_off_marks(av, f, &inp.units[k], inp.rate_hz),
+                excluded: f.excluded_taus.clone(),
             };
             let svg = adev_svg(&plot, &format!("ad{k}"));
             write_plot(dir, &format!("adev_{stem}"), &svg)?;
@@ -987,15 +1104,41 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
                 &format!("acf{k}"),
             );
             write_plot(dir, &format!("acf_{stem}"), &a)?;
-            Ok([svg, ts, a])
+            let check = match &f.adequacy {
+                Some(adq) => {
+                    let z_crit = gmwm_prep::stats::z_two_sided(1.0 - adq.ci_level);
+                    let taus: Vec<f64> = adq.scales.iter().map(|c| c.tau).collect();
+                    let zs: Vec<f64> = adq.scales.iter().map(|c| c.z).collect();
+                    let r = residuals_svg(
+                        &format!("{name}: fit check"),
+                        &taus,
+                        &zs,
+                        z_crit,
+                        &format!("rz{k}"),
+                    );
+                    write_plot(dir, &format!("fitcheck_{stem}"), &r)?;
+                    r
+                }
+                None => String::new(),
+            };
+            Ok([svg, ts, a, check])
         })
         .collect::<Result<Vec<_>>>()?;
-    for [ad, ts, acf] in parts {
-        html.push_str(&ad);
+    let mut ad_html = String::from("<h2>Allan deviation</h2><div class=plots>\n");
+    let mut check_html = String::new();
+    for [ad, ts, acf, check] in parts {
+        ad_html.push_str(&ad);
         series_html.push_str(&ts);
         acf_html.push_str(&acf);
+        check_html.push_str(&check);
     }
-    html.push_str("</div>\n");
+    ad_html.push_str("</div>\n");
+    ad_html.push_str(&fit_check_section(inp, &check_html));
+    let at = html.find(FIRST_SCREEN_END).unwrap_or(html.len());
+    html.replace_range(
+        at..at + FIRST_SCREEN_END.len().min(html.len() - at),
+        &ad_html,
+    );
     html.push_str(&series_html);
     html.push_str("</div>\n");
     html.push_str(&acf_html);
@@ -1231,6 +1374,7 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
             fitted: robust_fits.map(|rf| adev_series("robust fit", rate, &rf[k].fitted)),
             components,
             marks: Vec::new(),
+            excluded: Vec::new(),
         };
         let svg = adev_svg(&plot, &format!("rob{k}"));
         write_plot(dir, &format!("adev_robust_{}", stems[k]), &svg)?;

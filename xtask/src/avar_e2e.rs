@@ -24,8 +24,6 @@ use std::time::Instant;
 
 use avar::{AvarConfig, CiMethod, allan_variance};
 
-use crate::avar_speed::one_pass;
-
 /// The same white series as the speed report's `data` (seed `seed`), generated in blocks.
 fn gen_block(state: &mut u64, out: &mut [f64]) {
     let mut s = *state;
@@ -397,4 +395,16 @@ pub fn run(args: &[String], root: &Path) -> Result<(), String> {
         std::fs::remove_file(&file).map_err(|e| e.to_string())?;
     }
     Ok(())
+}
+
+/// One vectorised summing pass over `x` (16 lanes): the memory-bandwidth baseline.
+pub(crate) fn one_pass(x: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 16];
+    let mut it = x.chunks_exact(16);
+    for c in &mut it {
+        for l in 0..16 {
+            acc[l] += c[l];
+        }
+    }
+    acc.iter().sum::<f64>() + it.remainder().iter().sum::<f64>()
 }

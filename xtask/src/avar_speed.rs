@@ -1,5 +1,10 @@
-//! `cargo xtask avar-speed [--sizes 1e6,1e7,1e8] [--python PATH] [--all-n 1e6]`: the MOAV speed
-//! report of issue 4, run in one go on this machine.
+//! `cargo xtask avar-speed [--sizes 1e6,1e7,1e8] [--python PATH] [--all-n 1e6] [--simd LEVEL]`:
+//! the MOAV speed report of issue 4, run in one go on this machine.
+//!
+//! The report names the SIMD level the kernels ran at (`avar::simd::level`). `--simd
+//! scalar|avx2|avx512` caps it for this run, as `IMUNOISE_SIMD` does (a cap above what the CPU
+//! has leaves the CPU's level); without it `IMUNOISE_SIMD` applies. `--end-to-end` runs the
+//! command in child processes: cap those with `IMUNOISE_SIMD` instead.
 //!
 //! For each size T the same synthetic rate series (white noise around an offset, written to
 //! `target/avar-speed/`) is processed by
@@ -72,18 +77,6 @@ fn vm_hwm_mb() -> f64 {
         .unwrap_or(f64::NAN)
 }
 
-/// One vectorised summing pass over `x` (16 lanes): the memory-bandwidth baseline.
-pub(crate) fn one_pass(x: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 16];
-    let mut it = x.chunks_exact(16);
-    for c in &mut it {
-        for l in 0..16 {
-            acc[l] += c[l];
-        }
-    }
-    acc.iter().sum::<f64>() + it.remainder().iter().sum::<f64>()
-}
-
 const PY: &str = r#"
 import sys, time, json, resource
 import numpy as np, allantools
@@ -151,7 +144,13 @@ print(json.dumps({"seconds": min(ts), "first": ts[0], "taus": list(map(float, ta
 "#;
 
 /// The `--family` report.
-fn run_family(args: &[String], sizes: &[usize], python: &Path, dir: &Path) -> Result<(), String> {
+fn run_family(
+    args: &[String],
+    sizes: &[usize],
+    python: &Path,
+    dir: &Path,
+    simd: &str,
+) -> Result<(), String> {
     use avar::stability::{Statistic, stability};
     let py_max = value(args, "--py-max")
         .map(|s| s.parse::<f64>().map(|v| v as usize))
@@ -171,7 +170,7 @@ fn run_family(args: &[String], sizes: &[usize], python: &Path, dir: &Path) -> Re
     };
     println!(
         "# stability family speed ({} threads; octave τ, no CI; best of 3, alternated with OADEV; \
-         load average at start: {})\n",
+         {simd}; load average at start: {})\n",
         rayon::current_num_threads(),
         load()
     );
@@ -256,7 +255,31 @@ fn run_family(args: &[String], sizes: &[usize], python: &Path, dir: &Path) -> Re
 }
 
 /// Runs the report.
+/// Applies `--simd LEVEL` (before any kernel runs) and describes the level in force.
+fn simd_level(args: &[String]) -> Result<String, String> {
+    use avar::simd;
+    if args.iter().any(|a| a == "--simd") {
+        let v = value(args, "--simd").ok_or("--simd needs a value (scalar, avx2 or avx512)")?;
+        let cap: simd::SimdLevel = v.parse().map_err(|e: simd::UnknownLevel| e.to_string())?;
+        simd::set_cap(Some(cap)).map_err(|c| format!("the SIMD cap was already fixed: {c:?}"))?;
+    }
+    Ok(format!(
+        "SIMD level {} (CPU: {}; cap: {})",
+        simd::level(),
+        simd::detected(),
+        simd::cap().map_or("none".to_string(), |c| c.to_string())
+    ))
+}
+
 pub fn run(args: &[String]) -> Result<(), String> {
+    let simd = simd_level(args)?;
+    if args.iter().any(|a| a == "--end-to-end") && args.iter().any(|a| a == "--simd") {
+        return Err(
+            "--simd does not reach the command's child processes of --end-to-end; \
+                    set IMUNOISE_SIMD instead"
+                .into(),
+        );
+    }
     let sizes: Vec<usize> = value(args, "--sizes")
         .unwrap_or("1e6,1e7,1e8")
         .split(',')
@@ -283,10 +306,10 @@ pub fn run(args: &[String]) -> Result<(), String> {
         return crate::avar_e2e::run(args, &root);
     }
     if args.iter().any(|a| a == "--family") {
-        return run_family(args, &sizes, &python, &dir);
+        return run_family(args, &sizes, &python, &dir, &simd);
     }
     let threads = rayon::current_num_threads();
-    println!("# avar speed report ({threads} threads available; best of 3)\n");
+    println!("# avar speed report ({threads} threads available; best of 3; {simd})\n");
     if !have_py {
         println!(
             "allantools: no Python venv at {python:?} (python3 -m venv target/venv && target/venv/bin/pip install allantools); skipped\n"
@@ -314,7 +337,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             f.write_all(&bytes).map_err(|e| e.to_string())?;
         }
         let (t_pass, _) = best_of(3, || {
-            std::hint::black_box(one_pass(std::hint::black_box(&x)))
+            std::hint::black_box(crate::avar_e2e::one_pass(std::hint::black_box(&x)))
         });
         let (t_dy, _) = best_of(3, || {
             allan_variance(&x, 1.0, &no_ci).map(|a| a.points.len())

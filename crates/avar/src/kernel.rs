@@ -17,16 +17,19 @@
 //! d_{k+1} = d_k + (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (SIMD across segments, the same
 //! operations in the same order as the portable code). The segment length depends only on m
 //! ([`SEG_NEAR`] for near scales, the power of two [`SEG_FAR`] for far ones, whose chunks are
-//! walked by residue class so that their lagged blocks are still cached). With AVX-512 the
-//! segments are vector lanes: the rows of x are transposed in registers per scale, except for
-//! the small scales (2m ≤ [`XH`]), which share one transposed copy of the chunk, and the far
-//! scales that are whole steps of the residue-class walk, which read the transposed copies of
-//! the chunks the walk visited (a ring per thread); those run four scales at a time
-//! (independent recurrences in one instruction stream).
+//! walked by residue class so that their lagged blocks are still cached). With AVX-512 or AVX2
+//! (the level of [`crate::simd::level`]) the segments are vector lanes (eight resp. four per
+//! vector) and a chunk is walked in column blocks, all scales per block: the rows of x are
+//! transposed in registers per scale, except for the small scales (2m ≤ [`XH`]), which share
+//! one transposed copy of the chunk, and the far scales that are whole steps of the
+//! residue-class walk, which read the transposed copies of the chunks the walk visited (a ring
+//! per thread); those run four (AVX2: two) scales at a time (independent recurrences in one
+//! instruction stream).
 
 use rayon::prelude::*;
 
 use crate::error::AvarError;
+use crate::simd::SimdLevel;
 use crate::source::SampleWindow;
 
 /// Width of the fixed grid of k-chunks (terms) that partial sums are formed on.
@@ -128,17 +131,17 @@ fn sumsq_portable(c: &[f64], m: usize, lo: usize, hi: usize, acc: &mut [f64; LAN
 
 type SumFn = fn(&[f64], usize, usize, usize, &mut [f64; LANES]);
 
-fn sumsq_fn() -> SumFn {
+/// The sum kernel of `level` (at most [`crate::simd::level`]).
+fn sumsq_fn(level: SimdLevel) -> SumFn {
+    let level = level.min(crate::simd::level());
+    crate::simd::note(level);
     #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F (checked above).
-            return |c, m, lo, hi, acc| unsafe { sumsq_avx512(c, m, lo, hi, acc) };
-        }
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked above).
-            return |c, m, lo, hi, acc| unsafe { sumsq_avx2(c, m, lo, hi, acc) };
-        }
+    match level {
+        // SAFETY: `level()` never exceeds what the CPU has (AVX-512F).
+        SimdLevel::Avx512 => return |c, m, lo, hi, acc| unsafe { sumsq_avx512(c, m, lo, hi, acc) },
+        // SAFETY: as above (AVX2).
+        SimdLevel::Avx2 => return |c, m, lo, hi, acc| unsafe { sumsq_avx2(c, m, lo, hi, acc) },
+        SimdLevel::Scalar => {}
     }
     sumsq_portable
 }
@@ -181,7 +184,12 @@ const SCALE_BATCH: usize = 128;
 /// for a given m is the Neumaier sum, in chunk order, of the fixed-lane chunk partials, whatever
 /// other scales are requested.
 pub(crate) fn overlapping_sums(c: &[f64], ms: &[u64]) -> Vec<f64> {
-    let f = sumsq_fn();
+    overlapping_sums_at(c, ms, crate::simd::level())
+}
+
+/// [`overlapping_sums`] with the kernel of `level` (the same bits at every level).
+fn overlapping_sums_at(c: &[f64], ms: &[u64], level: SimdLevel) -> Vec<f64> {
+    let f = sumsq_fn(level);
     let n_chunks = c.len().div_ceil(CHUNK);
     let mut out = Vec::with_capacity(ms.len());
     for batch in ms.chunks(SCALE_BATCH) {
@@ -503,93 +511,6 @@ pub(crate) fn far_m(t: usize) -> usize {
     (t / 64).next_power_of_two().clamp(FAR_M_MIN, FAR_M)
 }
 
-/// Elements ahead that [`fill_y_avx2`] prefetches in each of its three input streams.
-const PREFETCH: usize = 256;
-
-/// y_k = (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (as in [`seg_sum`]) for the full chunk
-/// [a, a + NSEG·SEG), segment l in row l of `yb` (stride SEG + 8: one more cache line, so that the NSEG rows read together do not map to
-/// the same L1 set), with software prefetch: the
-/// lagged streams come from far back in the series, and the hardware prefetcher stops at every
-/// 4 KiB page.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn fill_y_avx2<const SEG: usize>(x: &[f64], m: usize, a: usize, yb: &mut [f64]) {
-    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-    for l in 0..NSEG {
-        let s = a + l * SEG;
-        let xa = &x[s..s + SEG];
-        let xb = &x[s - m..s - m + SEG];
-        let xc = &x[s - 2 * m..s - 2 * m + SEG];
-        let row = &mut yb[l * (SEG + 8)..l * (SEG + 8) + SEG];
-        for j0 in (0..SEG).step_by(8) {
-            let pf = s + j0 + PREFETCH;
-            // prefetch is a hint and never faults; wrapping_add keeps the address computation
-            // defined even past the end of `x`
-            let base = x.as_ptr();
-            _mm_prefetch::<_MM_HINT_T0>(base.wrapping_add(pf).cast());
-            _mm_prefetch::<_MM_HINT_T0>(base.wrapping_add(pf - m).cast());
-            _mm_prefetch::<_MM_HINT_T0>(base.wrapping_add(pf - 2 * m).cast());
-            for j in j0..j0 + 8 {
-                row[j] = (xa[j] - xb[j]) - (xb[j] - xc[j]);
-            }
-        }
-    }
-}
-
-/// The NSEG segment sums of a full chunk [a, a + NSEG·SEG) (2m ≤ a, a + NSEG·SEG ≤ T) from its y
-/// rows (see [`fill_y_avx2`]), four segments per AVX2 vector (one lane each). Each lane performs exactly the operations of [`seg_sum`] in
-/// the same order (y_k computed as there; acc ← fma(d, d, acc); d += y_k), so the results are
-/// bit-identical to the portable path.
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn full_chunk_avx2<const SEG: usize>(yb: &[f64], d0: &[f64; NSEG]) -> [f64; NSEG] {
-    use std::arch::x86_64::*;
-    const G4: usize = NSEG / 4;
-    assert!(yb.len() >= NSEG * (SEG + 8));
-    // SAFETY: AVX2 and FMA are available (caller contract); every pointer stays inside `yb`, `d0` and
-    // `out` (length asserted above; rows read at offsets < SEG).
-    unsafe {
-        let py = yb.as_ptr();
-        let mut dv = [_mm256_setzero_pd(); G4];
-        let mut av = [_mm256_setzero_pd(); G4];
-        for (g, d) in dv.iter_mut().enumerate() {
-            *d = _mm256_loadu_pd(d0.as_ptr().add(4 * g));
-        }
-        let mut jb = 0;
-        while jb < SEG {
-            for g in 0..G4 {
-                let mut row = [_mm256_setzero_pd(); 4];
-                for (r, rv) in row.iter_mut().enumerate() {
-                    *rv = _mm256_loadu_pd(py.add((4 * g + r) * (SEG + 8) + jb));
-                }
-                let t0 = _mm256_unpacklo_pd(row[0], row[1]);
-                let t1 = _mm256_unpackhi_pd(row[0], row[1]);
-                let t2 = _mm256_unpacklo_pd(row[2], row[3]);
-                let t3 = _mm256_unpackhi_pd(row[2], row[3]);
-                let cols = [
-                    _mm256_permute2f128_pd(t0, t2, 0x20),
-                    _mm256_permute2f128_pd(t1, t3, 0x20),
-                    _mm256_permute2f128_pd(t0, t2, 0x31),
-                    _mm256_permute2f128_pd(t1, t3, 0x31),
-                ];
-                for c in cols {
-                    av[g] = _mm256_fmadd_pd(dv[g], dv[g], av[g]);
-                    dv[g] = _mm256_add_pd(dv[g], c);
-                }
-            }
-            jb += 4;
-        }
-        let mut out = [0.0f64; NSEG];
-        for (g, a) in av.iter().enumerate() {
-            _mm256_storeu_pd(out.as_mut_ptr().add(4 * g), *a);
-        }
-        out
-    }
-}
-
 /// Columns of a chunk that [`chunk_all_avx512`] runs for every scale of a batch before moving on
 /// (the rows of x they read stay in L1 from one scale to the next; for dyadic scales the x_{k−2m}
 /// rows of scale m are the x_{k−m'} rows of m' = 2m).
@@ -889,6 +810,234 @@ unsafe fn block_avx512<const SEG: usize>(
     }
 }
 
+/// [`build_lanes_avx512`] (`W512`) or [`build_lanes_avx2`]: the same copy.
+///
+/// # Safety
+/// The CPU must support AVX-512F (`W512`), else AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn build_lanes<const W512: bool, const SEG: usize>(
+    x: &[f64],
+    a: usize,
+    halo: usize,
+    dst: &mut [Line],
+) {
+    // SAFETY: caller contract.
+    unsafe {
+        if W512 {
+            build_lanes_avx512::<SEG>(x, a, halo, dst)
+        } else {
+            build_lanes_avx2::<SEG>(x, a, halo, dst)
+        }
+    }
+}
+
+/// The 4 × 4 transpose of four AVX2 vectors (rows → columns): lane r of column c is lane c of
+/// row r. Needs `std::arch::x86_64::*` in scope and AVX enabled at the use site.
+#[cfg(target_arch = "x86_64")]
+macro_rules! transpose4x4 {
+    ($v:expr) => {{
+        let v = $v;
+        let t0 = _mm256_unpacklo_pd(v[0], v[1]);
+        let t1 = _mm256_unpackhi_pd(v[0], v[1]);
+        let t2 = _mm256_unpacklo_pd(v[2], v[3]);
+        let t3 = _mm256_unpackhi_pd(v[2], v[3]);
+        [
+            _mm256_permute2f128_pd::<0x20>(t0, t2),
+            _mm256_permute2f128_pd::<0x20>(t1, t3),
+            _mm256_permute2f128_pd::<0x31>(t0, t2),
+            _mm256_permute2f128_pd::<0x31>(t1, t3),
+        ]
+    }};
+}
+
+/// [`build_lanes_avx512`] with AVX2: the same lane-layout copy (`dst[2c + g]` holds, in lane r,
+/// x[a + (8g + r)·SEG − halo + c]), from 4 × 4 transposes of rows.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn build_lanes_avx2<const SEG: usize>(x: &[f64], a: usize, halo: usize, dst: &mut [Line]) {
+    use std::arch::x86_64::*;
+    let cols = halo + SEG;
+    assert!(
+        a >= halo
+            && a + NSEG * SEG <= x.len()
+            && NSEG == 16
+            && halo.is_multiple_of(8)
+            && dst.len() >= 2 * cols
+    );
+    // SAFETY: AVX2 is available (caller contract); the loads read x[a − halo + (4q + r)·SEG + c]
+    // for c < cols, r < 4, q < 4, inside [a − halo, a + NSEG·SEG) (asserted); the stores write
+    // the 32-byte halves of the aligned lines dst[2c + q/2] for c < cols (length asserted).
+    unsafe {
+        let px = x.as_ptr().add(a - halo);
+        let pt = dst.as_mut_ptr().cast::<f64>();
+        for q in 0..4 {
+            let mut c0 = 0;
+            while c0 < cols {
+                let mut v = [_mm256_setzero_pd(); 4];
+                for (r, vr) in v.iter_mut().enumerate() {
+                    *vr = _mm256_loadu_pd(px.add((4 * q + r) * SEG + c0));
+                }
+                let col = transpose4x4!(v);
+                for (cc, cv) in col.iter().enumerate() {
+                    _mm256_store_pd(pt.add(8 * (2 * (c0 + cc) + q / 2) + 4 * (q % 2)), *cv);
+                }
+                c0 += 4;
+            }
+        }
+    }
+}
+
+/// [`block_lanes_avx512`] with AVX2 and FMA (four vectors of four segments per column): the
+/// operations of [`seg_sum`] in the same order, bit-identical.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn block_lanes_avx2<const N: usize>(
+    buf: &[Line],
+    offs: [[usize; 3]; N],
+    j0: usize,
+    j1: usize,
+    st: &mut [SegState; N],
+) {
+    use std::arch::x86_64::*;
+    assert!(j0 <= j1 && NSEG == 16 && offs.iter().flatten().all(|&o| 2 * (o + j1) <= buf.len()));
+    // SAFETY: AVX2 and FMA are available (caller contract); the loads read the aligned halves
+    // of the lines buf[2(o + j) + g/2] for j < j1, g < 4, inside `buf` (asserted).
+    unsafe {
+        let pt = buf.as_ptr().cast::<f64>();
+        let mut d = [[_mm256_setzero_pd(); 4]; N];
+        let mut acc = [[_mm256_setzero_pd(); 4]; N];
+        for q in 0..N {
+            for g in 0..4 {
+                d[q][g] = _mm256_loadu_pd(st[q].d.as_ptr().add(4 * g));
+                acc[q][g] = _mm256_loadu_pd(st[q].acc.as_ptr().add(4 * g));
+            }
+        }
+        for j in j0..j1 {
+            for q in 0..N {
+                let [oa, ob, oc] = offs[q];
+                for g in 0..4 {
+                    let xa = _mm256_load_pd(pt.add(16 * (oa + j) + 4 * g));
+                    let xb = _mm256_load_pd(pt.add(16 * (ob + j) + 4 * g));
+                    let xc = _mm256_load_pd(pt.add(16 * (oc + j) + 4 * g));
+                    let y = _mm256_sub_pd(_mm256_sub_pd(xa, xb), _mm256_sub_pd(xb, xc));
+                    acc[q][g] = _mm256_fmadd_pd(d[q][g], d[q][g], acc[q][g]);
+                    d[q][g] = _mm256_add_pd(d[q][g], y);
+                }
+            }
+        }
+        for q in 0..N {
+            for g in 0..4 {
+                _mm256_storeu_pd(st[q].d.as_mut_ptr().add(4 * g), d[q][g]);
+                _mm256_storeu_pd(st[q].acc.as_mut_ptr().add(4 * g), acc[q][g]);
+            }
+        }
+    }
+}
+
+/// Runs [`block_lanes_avx2`] for the scales given by their column offsets and states, two at
+/// a time (16 state vectors: the AVX2 register file).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn blocks_lanes_avx2(
+    buf: &[Line],
+    lanes: &mut [([usize; 3], SegState)],
+    j0: usize,
+    j1: usize,
+) {
+    macro_rules! group {
+        ($n:literal, $l:expr) => {{
+            let mut s: [SegState; $n] = std::array::from_fn(|q| $l[q].1);
+            let o: [[usize; 3]; $n] = std::array::from_fn(|q| $l[q].0);
+            // SAFETY: AVX2 and FMA are available (caller contract).
+            unsafe { block_lanes_avx2::<$n>(buf, o, j0, j1, &mut s) };
+            for (q, sq) in s.iter().enumerate() {
+                $l[q].1 = *sq;
+            }
+        }};
+    }
+    for l in lanes.chunks_mut(AVX2_GROUP) {
+        match l.len() {
+            1 => group!(1, l),
+            _ => group!(2, l),
+        }
+    }
+}
+
+/// Scales per instruction stream of [`blocks_lanes_avx2`] (1 or 2).
+const AVX2_GROUP: usize = 2;
+
+/// [`block_avx512`] with AVX2 and FMA, rows read unaligned from k = a: over the columns
+/// [j0, j1) (multiples of 4) of the full chunk [a, a + NSEG·SEG) of scale m, for each window of
+/// four columns the three input rows of each segment are loaded, y is formed row-wise as in
+/// [`seg_sum`], each 4 × 4 block is transposed in registers, and each lane performs
+/// acc ← fma(d, d, acc); d += y_k in increasing k: bit-identical to the portable path.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn block_avx2<const SEG: usize>(
+    x: &[f64],
+    m: usize,
+    a: usize,
+    j0: usize,
+    j1: usize,
+    st: &mut SegState,
+) {
+    use std::arch::x86_64::*;
+    assert!(
+        a >= 2 * m
+            && a + NSEG * SEG <= x.len()
+            && j0.is_multiple_of(4)
+            && j1.is_multiple_of(4)
+            && j1 <= SEG
+    );
+    // SAFETY: AVX2 and FMA are available (caller contract). Every load reads x[k], x[k − m] and
+    // x[k − 2m] for k in [a, a + NSEG·SEG), inside `x` by the assertion above; the state arrays
+    // hold NSEG = 16 values.
+    unsafe {
+        let px = x.as_ptr();
+        let mut dv = [_mm256_setzero_pd(); 4];
+        let mut av = [_mm256_setzero_pd(); 4];
+        for g in 0..4 {
+            dv[g] = _mm256_loadu_pd(st.d.as_ptr().add(4 * g));
+            av[g] = _mm256_loadu_pd(st.acc.as_ptr().add(4 * g));
+        }
+        let mut jb = j0;
+        while jb < j1 {
+            for g in 0..4 {
+                let mut y = [_mm256_setzero_pd(); 4];
+                for (r, yr) in y.iter_mut().enumerate() {
+                    let k = a + (4 * g + r) * SEG + jb;
+                    let xa = _mm256_loadu_pd(px.add(k));
+                    let xb = _mm256_loadu_pd(px.add(k - m));
+                    let xc = _mm256_loadu_pd(px.add(k - 2 * m));
+                    *yr = _mm256_sub_pd(_mm256_sub_pd(xa, xb), _mm256_sub_pd(xb, xc));
+                }
+                for c in transpose4x4!(y) {
+                    av[g] = _mm256_fmadd_pd(dv[g], dv[g], av[g]);
+                    dv[g] = _mm256_add_pd(dv[g], c);
+                }
+            }
+            jb += 4;
+        }
+        for g in 0..4 {
+            _mm256_storeu_pd(st.d.as_mut_ptr().add(4 * g), dv[g]);
+            _mm256_storeu_pd(st.acc.as_mut_ptr().add(4 * g), av[g]);
+        }
+    }
+}
+
 /// Chunk partials of chunk `i` for every scale of `batch` (each as [`stream_chunk`] would
 /// return it, bit for bit), with the AVX-512 block kernel: the chunk is walked in column blocks
 /// of [`BLK`], all scales per block. Scales whose chunk is not full go through [`stream_chunk`].
@@ -911,11 +1060,52 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
     scratch: &mut Scratch,
     out: &mut [f64],
 ) {
+    // SAFETY: AVX-512F is available (caller contract).
+    unsafe { chunk_all::<true, SEG>(x, ck, batch, i, next, scratch, out) }
+}
+
+/// [`chunk_all_avx512`] with AVX2 and FMA: the same walk (column blocks of [`BLK`], all scales
+/// per block; the halo copy, the lane ring and the rows of x), four segments per vector
+/// ([`build_lanes_avx2`], [`blocks_lanes_avx2`], [`block_avx2`]); the same values bit for bit.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn chunk_all_avx2<const SEG: usize>(
+    x: &[f64],
+    ck: &Checkpoints,
+    batch: &[u64],
+    i: usize,
+    next: Option<usize>,
+    scratch: &mut Scratch,
+    out: &mut [f64],
+) {
+    // SAFETY: AVX2 and FMA are available (caller contract).
+    unsafe { chunk_all::<false, SEG>(x, ck, batch, i, next, scratch, out) }
+}
+
+/// The body of [`chunk_all_avx512`] (`W512`) and [`chunk_all_avx2`].
+///
+/// # Safety
+/// The CPU must support AVX-512F (`W512`), else AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn chunk_all<const W512: bool, const SEG: usize>(
+    x: &[f64],
+    ck: &Checkpoints,
+    batch: &[u64],
+    i: usize,
+    next: Option<usize>,
+    scratch: &mut Scratch,
+    out: &mut [f64],
+) {
     let t = x.len();
     let a = i * (NSEG * SEG);
-    // misalignment (elements) of x[a] and of every row start (SEG is a multiple of 8)
+    // misalignment (elements) of x[a] and of every row start (SEG is a multiple of 8); the
+    // AVX2 rows are read unaligned from k = a
     let mis = (x.as_ptr().wrapping_add(a) as usize % 64) / 8;
-    let shift = |m: usize| if m.is_multiple_of(8) { mis } else { 0 };
+    let shift = |m: usize| if W512 && m.is_multiple_of(8) { mis } else { 0 };
     let full = |m: usize| a >= 2 * m + shift(m) && a + (NSEG * SEG) + tail_reach(shift(m)) <= t;
     let chunk_full = a + NSEG * SEG <= t;
     // far walk: the lane-layout copy of this chunk goes to its ring slot (every full chunk of
@@ -924,8 +1114,8 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
         Some((tc, step)) if chunk_full && scratch.ring_slots > 0 => {
             let slot = tc % scratch.ring_slots;
             let dst = &mut scratch.ring[2 * SEG * slot..2 * SEG * (slot + 1)];
-            // SAFETY: AVX-512F is available (caller contract); the chunk is full.
-            unsafe { build_lanes_avx512::<SEG>(x, a, 0, dst) };
+            // SAFETY: the vector level is available (caller contract); the chunk is full.
+            unsafe { build_lanes::<W512, SEG>(x, a, 0, dst) };
             Some((tc, step))
         }
         _ => None,
@@ -980,8 +1170,8 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
         if xt.len() < 2 * (XH + SEG) {
             xt.resize(2 * (XH + SEG), Line::default());
         }
-        // SAFETY: AVX-512F is available (caller contract); a ≥ XH and the chunk is full.
-        unsafe { build_lanes_avx512::<SEG>(x, a, XH, xt) };
+        // SAFETY: the vector level is available (caller contract); a ≥ XH, the chunk is full.
+        unsafe { build_lanes::<W512, SEG>(x, a, XH, xt) };
     }
     // the samples of `next`, in one slice per column block (a hint only: no effect on values)
     let per_blk = NSEG * BLK;
@@ -991,19 +1181,31 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
             let lo = nx + (j0 / BLK) * per_blk;
             let mut p = lo;
             while p < (lo + per_blk).min(t) {
-                // a hint that never faults; `wrapping_add` keeps the address defined past the end
-                _mm_prefetch::<_MM_HINT_T1>(x.as_ptr().wrapping_add(p).cast());
+                // SAFETY: a hint that never faults; `wrapping_add` keeps the address defined
+                // past the end
+                unsafe { _mm_prefetch::<_MM_HINT_T1>(x.as_ptr().wrapping_add(p).cast()) };
                 p += 8;
             }
         }
-        // SAFETY: AVX-512F is available (caller contract); the halo copy was built above.
-        unsafe { blocks_lanes_avx512(xt, halo, j0, j0 + BLK) };
-        // SAFETY: AVX-512F is available; this chunk's copy was built above, and the lagged ones
-        // when the walk visited their chunks (2q ≤ t, 2q < slots).
-        unsafe { blocks_lanes_avx512(ring_buf, ring_lanes, j0, j0 + BLK) };
-        for (m, st) in regs.iter_mut() {
-            // SAFETY: AVX-512F is available (caller contract); the chunk is full for m.
-            unsafe { block_avx512::<SEG>(x, *m, a, shift(*m), j0, j0 + BLK, st) };
+        if W512 {
+            // SAFETY: AVX-512F is available (caller contract); the halo copy was built above.
+            unsafe { blocks_lanes_avx512(xt, halo, j0, j0 + BLK) };
+            // SAFETY: AVX-512F is available; this chunk's copy was built above, and the lagged
+            // ones when the walk visited their chunks (2q ≤ t, 2q < slots).
+            unsafe { blocks_lanes_avx512(ring_buf, ring_lanes, j0, j0 + BLK) };
+            for (m, st) in regs.iter_mut() {
+                // SAFETY: AVX-512F is available (caller contract); the chunk is full for m.
+                unsafe { block_avx512::<SEG>(x, *m, a, shift(*m), j0, j0 + BLK, st) };
+            }
+        } else {
+            // SAFETY: AVX2 and FMA are available (caller contract); the copies as above.
+            unsafe { blocks_lanes_avx2(xt, halo, j0, j0 + BLK) };
+            // SAFETY: as above.
+            unsafe { blocks_lanes_avx2(ring_buf, ring_lanes, j0, j0 + BLK) };
+            for (m, st) in regs.iter_mut() {
+                // SAFETY: AVX2 and FMA are available (caller contract); the chunk is full for m.
+                unsafe { block_avx2::<SEG>(x, *m, a, j0, j0 + BLK, st) };
+            }
         }
     }
     let mut done = states.iter();
@@ -1017,37 +1219,8 @@ unsafe fn chunk_all_avx512<const SEG: usize>(
             };
             reduce_lanes(&st.acc)
         } else {
-            stream_chunk::<SEG>(x, ck, m, i, Simd::None, &mut [])
+            stream_chunk::<SEG>(x, ck, m, i, SimdLevel::Scalar)
         };
-    }
-}
-
-/// Which vector kernel [`stream_chunk`] uses for full chunks.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-enum Simd {
-    /// Portable [`seg_sum`] only.
-    None,
-    /// [`fill_y_avx2`] + [`full_chunk_avx2`].
-    Avx2,
-    /// [`chunk_all_avx512`].
-    Avx512,
-}
-
-impl Simd {
-    /// The widest kernel the CPU supports.
-    fn detect() -> Simd {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                return Simd::Avx512;
-            }
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                return Simd::Avx2;
-            }
-        }
-        Simd::None
     }
 }
 
@@ -1060,35 +1233,31 @@ fn stream_chunk<const SEG: usize>(
     ck: &Checkpoints,
     m: usize,
     i: usize,
-    simd: Simd,
-    yb: &mut [f64],
+    simd: SimdLevel,
 ) -> f64 {
     let t = x.len();
     let a = i * (NSEG * SEG);
     let mut acc = [0.0f64; NSEG];
     #[cfg(target_arch = "x86_64")]
-    if simd != Simd::None && a >= 2 * m && a + (NSEG * SEG) <= t {
+    if simd != SimdLevel::Scalar && a >= 2 * m && a + (NSEG * SEG) <= t {
         let mut d0 = [0.0f64; NSEG];
         for (l, d) in d0.iter_mut().enumerate() {
             *d = d_start(x, ck, m, a + l * SEG);
         }
-        acc = if simd == Simd::Avx512 {
-            let mut st = SegState { d: d0, acc };
-            // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present); the
-            // range is checked above.
+        crate::simd::note(simd);
+        let mut st = SegState { d: d0, acc };
+        if simd == SimdLevel::Avx512 {
+            // SAFETY: `simd` is at most `simd::level()` (the callers pass it or, in tests, a
+            // lower level), so AVX-512F is present; the range is checked above.
             unsafe { block_avx512::<SEG>(x, m, a, 0, 0, SEG, &mut st) };
-            st.acc
         } else {
-            // SAFETY: `Simd::Avx2` comes only from `Simd::detect` (AVX2 and FMA present); the range is
-            // checked above.
-            unsafe {
-                fill_y_avx2::<SEG>(x, m, a, yb);
-                full_chunk_avx2::<SEG>(yb, &d0)
-            }
-        };
-        return reduce_lanes(&acc);
+            // SAFETY: `simd` ≤ `simd::level()` (see above): AVX2 and FMA are present; the range
+            // is checked above.
+            unsafe { block_avx2::<SEG>(x, m, a, 0, SEG, &mut st) };
+        }
+        return reduce_lanes(&st.acc);
     }
-    let _ = (simd, &yb);
+    let _ = simd;
     for (l, al) in acc.iter_mut().enumerate() {
         let s = (a + l * SEG).max(2 * m);
         let e = (a + (l + 1) * SEG).min(t + 1);
@@ -1143,7 +1312,7 @@ pub(crate) fn overlapping_sums_stream_io(
     io: &Io<'_>,
 ) -> Result<(Vec<f64>, f64), AvarError> {
     let job_chunks = job_chunks(x.len());
-    overlapping_sums_stream_split(x, ms, far_m(x.len()), job_chunks, Simd::detect(), io)
+    overlapping_sums_stream_split(x, ms, far_m(x.len()), job_chunks, crate::simd::level(), io)
         .map(|(sums, mean, _)| (sums, mean))
 }
 
@@ -1173,7 +1342,7 @@ pub(crate) fn overlapping_sums_stream_checkpoints(
         ms,
         far_m(x.len()),
         job_chunks(x.len()),
-        Simd::detect(),
+        crate::simd::level(),
         &Io::NONE,
     )?;
     Ok((sums, ck.far.is_some().then_some(ck)))
@@ -1190,9 +1359,12 @@ fn overlapping_sums_stream_split(
     ms: &[u64],
     far_m: usize,
     job_chunks: usize,
-    simd: Simd,
+    simd: SimdLevel,
     io: &Io<'_>,
 ) -> Result<(Vec<f64>, f64, Checkpoints), AvarError> {
+    // never above the process's level (the vector paths' safety rests on it)
+    let simd = simd.min(crate::simd::level());
+    crate::simd::note(SimdLevel::Scalar);
     let release = io.release;
     let mut out = vec![0.0f64; ms.len()];
     let (near, far): (Vec<usize>, Vec<usize>) =
@@ -1342,7 +1514,7 @@ fn stream_near(
     near: &[usize],
     warm: usize,
     job_chunks: usize,
-    simd: Simd,
+    simd: SimdLevel,
     release: Release<'_>,
     loc: &mut [(f64, f64)],
     out: &mut [f64],
@@ -1455,7 +1627,7 @@ fn global_checkpoints(
     (ck, run.value())
 }
 
-/// Where the segment state of a scale lives during the AVX-512 chunk walk.
+/// Where the segment state of a scale lives during the vector chunk walk ([`chunk_all_avx512`], [`chunk_all_avx2`]).
 enum StateAt {
     /// At this index of the scales transposing in registers ([`Scratch::regs`]).
     Regs(usize),
@@ -1467,9 +1639,7 @@ enum StateAt {
 
 /// Per-thread scratch of the chunk kernels (reused from chunk to chunk).
 struct Scratch {
-    /// The y rows of the AVX2 path.
-    yb: Vec<f64>,
-    /// Where the segment state of each full scale of the AVX-512 chunk walk lives, in batch order.
+    /// Where the segment state of each full scale of the vector chunk walk lives, in batch order.
     states: Vec<StateAt>,
     /// Scales (and states) that transpose their rows in registers ([`block_avx512`]).
     regs: Vec<(usize, SegState)>,
@@ -1489,7 +1659,6 @@ struct Scratch {
 impl Scratch {
     fn new<const SEG: usize>() -> Scratch {
         Scratch {
-            yb: vec![0.0f64; NSEG * (SEG + 8)],
             states: Vec::with_capacity(SCALE_BATCH),
             regs: Vec::with_capacity(SCALE_BATCH),
             xt: Vec::new(),
@@ -1511,7 +1680,7 @@ impl Scratch {
 }
 
 /// Chunk partials of chunk `i` on the grid of segment length SEG for every scale of `batch`,
-/// written to `out` (the AVX-512 chunk walk, or [`stream_chunk`] per scale). `next`: see
+/// written to `out` (the AVX-512 or AVX2 chunk walk, or [`stream_chunk`] per scale). `next`: see
 /// [`chunk_all_avx512`].
 #[inline]
 #[allow(clippy::too_many_arguments)]
@@ -1520,20 +1689,30 @@ fn chunk_run<const SEG: usize>(
     ck: &Checkpoints,
     batch: &[u64],
     i: usize,
-    simd: Simd,
+    simd: SimdLevel,
     scratch: &mut Scratch,
     next: Option<usize>,
     out: &mut [f64],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if simd == Simd::Avx512 {
-        // SAFETY: `Simd::Avx512` comes only from `Simd::detect` (AVX-512F present).
-        unsafe { chunk_all_avx512::<SEG>(x, ck, batch, i, next, scratch, out) };
-        return;
+    match simd {
+        SimdLevel::Avx512 => {
+            crate::simd::note(simd);
+            // SAFETY: `simd` is at most `simd::level()` (see [`stream_chunk`]): AVX-512F present.
+            unsafe { chunk_all_avx512::<SEG>(x, ck, batch, i, next, scratch, out) };
+            return;
+        }
+        SimdLevel::Avx2 => {
+            crate::simd::note(simd);
+            // SAFETY: as above: AVX2 and FMA present.
+            unsafe { chunk_all_avx2::<SEG>(x, ck, batch, i, next, scratch, out) };
+            return;
+        }
+        SimdLevel::Scalar => {}
     }
     let _ = next;
     for (o, &m) in out.iter_mut().zip(batch) {
-        *o = stream_chunk::<SEG>(x, ck, m as usize, i, simd, &mut scratch.yb);
+        *o = stream_chunk::<SEG>(x, ck, m as usize, i, simd);
     }
 }
 
@@ -1607,7 +1786,7 @@ fn stream_group<const SEG: usize>(
     ms: &[u64],
     group: &[usize],
     residue_step: usize,
-    simd: Simd,
+    simd: SimdLevel,
     io: &Io<'_>,
     out: &mut [f64],
 ) {
@@ -1618,7 +1797,7 @@ fn stream_group<const SEG: usize>(
         let batch: Vec<u64> = idx.iter().map(|&s| ms[s]).collect();
         let w = batch.len();
         // lane copies of the class's chunks, back to the largest lag 2m = 2q·step of a scale
-        // that is a whole number q of class steps (AVX-512 only)
+        // that is a whole number q of class steps (vector walks only)
         let step = n_cls * schunk;
         let q_max = batch
             .iter()
@@ -1627,7 +1806,7 @@ fn stream_group<const SEG: usize>(
             .map(|m| m / step)
             .max()
             .unwrap_or(0);
-        let slots = if simd == Simd::Avx512 && q_max > 0 {
+        let slots = if simd >= SimdLevel::Avx2 && q_max > 0 {
             2 * q_max + 1
         } else {
             0
@@ -1635,11 +1814,11 @@ fn stream_group<const SEG: usize>(
         // each class walks its chunks in order, writing their partials to its own buffer
         let t = x.len();
         // whether chunk a (the tc-th of its class) reads the lagged samples of scale m from x:
-        // all but the scales the AVX-512 walk takes from the lane ring (conservative: reading
+        // all but the scales the vector walks take from the lane ring (conservative: reading
         // more into a window is harmless)
         let lags_from_x = |m: usize, a: usize, tc: usize| {
             let q = m / step;
-            !(simd == Simd::Avx512
+            !(simd >= SimdLevel::Avx2
                 && slots > 0
                 && m.is_multiple_of(step)
                 && 2 * q <= tc
@@ -1896,23 +2075,26 @@ pub(crate) mod tests {
         // here), with one job per near chunk (local checkpoint frames with a warm-up of
         // 4096 samples): same sums as the buffered kernel
         let far_m = 4096;
-        let split = overlapping_sums_stream_split(&x, &ms, far_m, 1, Simd::detect(), &Io::NONE)
-            .unwrap()
-            .0;
+        let split =
+            overlapping_sums_stream_split(&x, &ms, far_m, 1, crate::simd::level(), &Io::NONE)
+                .unwrap()
+                .0;
         for ((a, b), &m) in split.iter().zip(&buffered).zip(&ms) {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
         }
         // every vector path gives the same bits as the portable one, near and far (the far
         // scales 8192 and 16 384 are whole class steps here and read the ring of lane copies)
         for (far_m, jobs) in [(FAR_M, JOB_CHUNKS), (far_m, 1)] {
-            let best =
-                overlapping_sums_stream_split(&x, &ms, far_m, jobs, Simd::detect(), &Io::NONE)
-                    .unwrap();
-            let mut paths = vec![Simd::None];
-            if Simd::detect() != Simd::None {
-                paths.push(Simd::Avx2);
-            }
-            for simd in paths {
+            let best = overlapping_sums_stream_split(
+                &x,
+                &ms,
+                far_m,
+                jobs,
+                crate::simd::level(),
+                &Io::NONE,
+            )
+            .unwrap();
+            for simd in crate::simd::levels() {
                 let p =
                     overlapping_sums_stream_split(&x, &ms, far_m, jobs, simd, &Io::NONE).unwrap();
                 for ((a, b), &m) in p.0.iter().zip(&best.0).zip(&ms) {
@@ -1923,22 +2105,28 @@ pub(crate) mod tests {
         }
         // one job instead of the default grid (here four one-chunk jobs): the checkpoint frames
         // differ, the sums only by rounding
-        let one_job =
-            overlapping_sums_stream_split(&x, &ms, far_m, JOB_CHUNKS, Simd::detect(), &Io::NONE)
-                .unwrap()
-                .0;
+        let one_job = overlapping_sums_stream_split(
+            &x,
+            &ms,
+            far_m,
+            JOB_CHUNKS,
+            crate::simd::level(),
+            &Io::NONE,
+        )
+        .unwrap()
+        .0;
         assert_eq!(job_chunks(n), 1);
         for ((a, d), &m) in one_job.iter().zip(&streamed).zip(&ms) {
             assert!((a - d).abs() <= 1e-13 * d.abs(), "m {m}: {a} vs {d}");
         }
         // the value for m does not depend on the other requested scales
         let single_far =
-            overlapping_sums_stream_split(&x, &[20_000], far_m, 1, Simd::detect(), &Io::NONE)
+            overlapping_sums_stream_split(&x, &[20_000], far_m, 1, crate::simd::level(), &Io::NONE)
                 .unwrap()
                 .0;
         assert_eq!(single_far[0].to_bits(), split[11].to_bits());
         let single_near =
-            overlapping_sums_stream_split(&x, &[1000], far_m, 1, Simd::detect(), &Io::NONE)
+            overlapping_sums_stream_split(&x, &[1000], far_m, 1, crate::simd::level(), &Io::NONE)
                 .unwrap()
                 .0;
         assert_eq!(single_near[0].to_bits(), split[6].to_bits());
@@ -1951,11 +2139,33 @@ pub(crate) mod tests {
         for (a, b) in off.iter().zip(&streamed) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
         }
-        let off_split = overlapping_sums_stream_split(&y, &ms, far_m, 1, Simd::detect(), &Io::NONE)
-            .unwrap()
-            .0;
+        let off_split =
+            overlapping_sums_stream_split(&y, &ms, far_m, 1, crate::simd::level(), &Io::NONE)
+                .unwrap()
+                .0;
         for (a, b) in off_split.iter().zip(&split) {
             assert!((a - b).abs() <= 1e-10 * b.abs(), "{a} vs {b}");
+        }
+    }
+
+    /// The buffered kernel gives the same bits at every SIMD level up to the process's level
+    /// (lanes tied to the absolute index, no FMA contraction), for near batches (sub-block walk)
+    /// and spread scales.
+    #[test]
+    fn buffered_sums_are_identical_at_every_level() {
+        let x = series(2 * CHUNK + 777, 0.5);
+        let mut c = Vec::new();
+        centred_prefix_into(&x, &mut c).unwrap();
+        let near: Vec<u64> = (1..=40).collect();
+        let spread: Vec<u64> = vec![1, 3, 64, 1000, 4097, 16_384];
+        for ms in [&near, &spread] {
+            let want = overlapping_sums_at(&c, ms, SimdLevel::Scalar);
+            for level in crate::simd::levels() {
+                let got = overlapping_sums_at(&c, ms, level);
+                for ((a, b), m) in got.iter().zip(&want).zip(ms.iter()) {
+                    assert_eq!(a.to_bits(), b.to_bits(), "{level} m {m}");
+                }
+            }
         }
     }
 
@@ -1967,7 +2177,8 @@ pub(crate) mod tests {
         let x = series(n, 0.0);
         let ms: Vec<u64> = (1..=300).map(|k| 7 * k).collect();
         let (sums, ..) =
-            overlapping_sums_stream_split(&x, &ms, FAR_M, 1, Simd::detect(), &Io::NONE).unwrap();
+            overlapping_sums_stream_split(&x, &ms, FAR_M, 1, crate::simd::level(), &Io::NONE)
+                .unwrap();
         let mut c = Vec::new();
         centred_prefix_into(&x, &mut c).unwrap();
         let buffered = overlapping_sums(&c, &ms);
@@ -1975,8 +2186,14 @@ pub(crate) mod tests {
             assert!((a - b).abs() <= 1e-12 * b.abs(), "m {m}: {a} vs {b}");
         }
         for k in [0, 150, 299] {
-            let one =
-                overlapping_sums_stream_split(&x, &ms[k..=k], FAR_M, 1, Simd::detect(), &Io::NONE);
+            let one = overlapping_sums_stream_split(
+                &x,
+                &ms[k..=k],
+                FAR_M,
+                1,
+                crate::simd::level(),
+                &Io::NONE,
+            );
             assert_eq!(
                 one.unwrap().0[0].to_bits(),
                 sums[k].to_bits(),
@@ -2004,7 +2221,7 @@ pub(crate) mod tests {
                     &[2, 8192],
                     4096,
                     job_chunks,
-                    Simd::detect(),
+                    crate::simd::level(),
                     &Io::NONE,
                 ) {
                     Err(AvarError::NonFinite { index: i, .. }) => assert_eq!(i, index),
@@ -2022,33 +2239,26 @@ pub(crate) mod tests {
             .map(|i| if i % 2 == 0 { 1.7e308 } else { -1.7e308 })
             .collect();
         assert!(matches!(
-            overlapping_sums_stream_split(&x, &[2], 4096, 1, Simd::detect(), &Io::NONE),
+            overlapping_sums_stream_split(&x, &[2], 4096, 1, crate::simd::level(), &Io::NONE),
             Err(AvarError::Overflow)
         ));
     }
 
     /// On the chunk grid of segment length SEG: every chunk partial is bit-identical between the
-    /// portable, AVX2 and AVX-512 paths, and between the AVX-512 chunk walk (all scales per
-    /// column block, aligned windows, transposed copy for small scales) and the portable path at
-    /// every misalignment of the data within a cache line.
+    /// portable, AVX2 and AVX-512 paths (up to the process's level), and between the AVX2 and
+    /// AVX-512 chunk walks (all scales per column block, aligned windows, transposed copy for
+    /// small scales) and the portable path at every misalignment of the data within a cache line.
     fn check_paths<const SEG: usize>(n: usize, ms: &[u64]) {
         let x = series(n, 0.0);
         let ck = checkpoints(&x).unwrap();
         let n_chunks = (n + 1).div_ceil(NSEG * SEG);
-        let mut yb = vec![0.0; NSEG * (SEG + 8)];
-        let best = Simd::detect();
-        let mut paths = vec![Simd::None];
-        if best != Simd::None {
-            paths.push(Simd::Avx2);
-        }
-        if best == Simd::Avx512 {
-            paths.push(Simd::Avx512);
-        }
+        let best = crate::simd::level();
+        let paths = crate::simd::levels();
         for &m in ms {
             for i in 0..n_chunks {
-                let p = stream_chunk::<SEG>(&x, &ck, m as usize, i, Simd::None, &mut yb);
+                let p = stream_chunk::<SEG>(&x, &ck, m as usize, i, SimdLevel::Scalar);
                 for &simd in &paths[1..] {
-                    let q = stream_chunk::<SEG>(&x, &ck, m as usize, i, simd, &mut yb);
+                    let q = stream_chunk::<SEG>(&x, &ck, m as usize, i, simd);
                     assert_eq!(
                         p.to_bits(),
                         q.to_bits(),
@@ -2058,7 +2268,10 @@ pub(crate) mod tests {
             }
         }
         #[cfg(target_arch = "x86_64")]
-        if best == Simd::Avx512 {
+        for walk in [SimdLevel::Avx2, SimdLevel::Avx512]
+            .into_iter()
+            .filter(|w| *w <= best)
+        {
             let big = series(n + 8, 0.0);
             for o in 0..8 {
                 let xo = &big[o..o + n];
@@ -2069,14 +2282,21 @@ pub(crate) mod tests {
                     let nx = Some((i + 1) * NSEG * SEG);
                     let mut q = vec![0.0; ms.len()];
                     let mut scratch = Scratch::new::<SEG>();
-                    // SAFETY: AVX-512F detected above.
-                    unsafe { chunk_all_avx512::<SEG>(xo, &cko, ms, i, nx, &mut scratch, &mut q) };
+                    let sc = &mut scratch;
+                    // SAFETY: `walk` ≤ `level()`: the CPU has its instructions.
+                    unsafe {
+                        if walk == SimdLevel::Avx512 {
+                            chunk_all_avx512::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
+                        } else {
+                            chunk_all_avx2::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
+                        }
+                    };
                     for (&m, qm) in ms.iter().zip(&q) {
-                        let p = stream_chunk::<SEG>(xo, &cko, m as usize, i, Simd::None, &mut yb);
+                        let p = stream_chunk::<SEG>(xo, &cko, m as usize, i, SimdLevel::Scalar);
                         assert_eq!(
                             p.to_bits(),
                             qm.to_bits(),
-                            "SEG {SEG} offset {o} m {m} chunk {i}"
+                            "SEG {SEG} {walk} offset {o} m {m} chunk {i}"
                         );
                     }
                 }

@@ -13,6 +13,9 @@
 //! * The non-overlapping estimator beside it ([`Estimator`]); rate or angle input ([`InputKind`]).
 //! * Offset-proof: the series is centred with a pivot and its exact mean, then accumulated with
 //!   compensated running offsets, so AV(X + c) = AV(X) to ~1e-12 relative even for c = 1e4·std(X).
+//! * Vector kernels for AVX-512, AVX2 + FMA and portable code, chosen at run time in one place
+//!   ([`simd`]); the environment variable `IMUNOISE_SIMD=scalar|avx2|avx512` caps the level.
+//!   The MOAV kernels give the same bits at every level.
 //! * Parallel over a fixed grid (rayon) with bit-identical results for any thread count; peak
 //!   extra memory is one series-sized f64 buffer (none for angle input). Rate series of 2^22
 //!   samples or more without a CI are streamed instead: no series-sized buffer, only checkpoints
@@ -42,13 +45,16 @@
 //! ```
 
 /// Defines `fn $name(args) -> ret` running `$body` (an `#[inline(always)]` function of the same
-/// signature, written as plain lane loops) compiled for AVX-512F or AVX2 when the CPU has them
-/// (detected at run time), else as it is. The body's operations and their order are fixed by
-/// its code (no FMA contraction), so every instruction set gives the same bits.
+/// signature, written as plain lane loops) compiled for AVX-512F or AVX2 as [`simd::level`]
+/// says (the CPU's level under the `IMUNOISE_SIMD` cap), else as it is. The body's operations
+/// and their order are fixed by its code (no FMA contraction), so every instruction set gives
+/// the same bits.
 macro_rules! simd_dispatch {
     ($(#[$attr:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty => $body:ident) => {
         $(#[$attr])*
         $vis fn $name($($arg: $ty),*) -> $ret {
+            let level = $crate::simd::level();
+            $crate::simd::note(level);
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "avx512f")]
@@ -59,13 +65,12 @@ macro_rules! simd_dispatch {
                 fn avx2($($arg: $ty),*) -> $ret {
                     $body($($arg),*)
                 }
-                if std::arch::is_x86_feature_detected!("avx512f") {
-                    // SAFETY: the CPU supports AVX-512F (checked above).
-                    return unsafe { avx512($($arg),*) };
-                }
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU supports AVX2 (checked above).
-                    return unsafe { avx2($($arg),*) };
+                match level {
+                    // SAFETY: `level()` never exceeds what the CPU has (AVX-512F).
+                    $crate::simd::SimdLevel::Avx512 => return unsafe { avx512($($arg),*) },
+                    // SAFETY: as above (AVX2).
+                    $crate::simd::SimdLevel::Avx2 => return unsafe { avx2($($arg),*) },
+                    $crate::simd::SimdLevel::Scalar => {}
                 }
             }
             $body($($arg),*)
@@ -83,6 +88,7 @@ pub mod quality;
 mod range;
 pub mod result;
 pub mod robust;
+pub mod simd;
 pub mod source;
 pub mod stability;
 

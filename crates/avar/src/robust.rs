@@ -359,7 +359,7 @@ pub fn robust_mean_square(d: &[f64], bw: &Biweight) -> Result<f64, AvarError> {
 simd_dispatch! {
     /// Σ χ_c(u) and −Σ u χ_c'(u) over u = d²·`inv` (`inv_c2` = 1/c²), branch-free in eight
     /// accumulator lanes so that the compiler vectorizes it (w = 0 past c² instead of a branch),
-    /// with AVX-512 or AVX2 where the CPU has them. The lanes and their order of summation are
+    /// with AVX-512 or AVX2 as [`crate::simd::level`] allows. The lanes and their order of summation are
     /// fixed by the code (no FMA contraction), so every instruction set gives the same bits.
     fn chi_sums(d: &[f64], inv: f64, inv_c2: f64) -> (f64, f64) => chi_sums_lanes
 }

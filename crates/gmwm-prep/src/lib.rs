@@ -31,6 +31,7 @@
 //! # Ok::<(), gmwm_prep::FitError>(())
 //! ```
 
+pub mod adequacy;
 mod avcov;
 pub mod avlr;
 pub mod bootstrap;
@@ -42,6 +43,7 @@ pub mod ieee;
 pub mod inference;
 mod magnitude;
 pub mod multi;
+pub mod noise_terms;
 pub mod report;
 pub mod robust;
 pub mod stats;

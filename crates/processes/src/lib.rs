@@ -32,6 +32,7 @@
 
 pub mod error;
 pub mod model;
+pub mod number;
 pub mod process;
 pub mod series;
 pub mod simulate;

@@ -513,7 +513,23 @@ impl fmt::Display for Component {
                     if i > 0 {
                         f.write_str(", ")?;
                     }
-                    write!(f, "{name}={}", fmt_number(v))?;
+                    match f.precision() {
+                        Some(d) => {
+                            // never round a coefficient inside (−1, 1) onto the boundary
+                            // (φ = 0.99996 is not "1"): add digits until it stays inside
+                            let mut t = crate::number::sig(v, d);
+                            let mut dd = d;
+                            while v.abs() < 1.0
+                                && t.parse::<f64>().is_ok_and(|r| r.abs() >= 1.0)
+                                && dd < 17
+                            {
+                                dd += 1;
+                                t = crate::number::sig(v, dd);
+                            }
+                            write!(f, "{name}={t}")?
+                        }
+                        None => write!(f, "{name}={}", fmt_number(v))?,
+                    }
                 }
                 if let ProcessKind::BiasInstability(band) = k
                     && !band.is_auto()
@@ -527,7 +543,18 @@ impl fmt::Display for Component {
 }
 
 impl fmt::Display for Model {
-    /// Prints the text form; runs of identical components print as `k*X`.
+    /// Prints the text form; runs of identical components print as `k*X`. Values print
+    /// losslessly, or to `d` significant digits with a precision (`{:.4}`), for people:
+    ///
+    /// ```
+    /// let m: processes::Model = "AR1(phi=0.14956357938941936, sigma2=0.12462853848410796)".parse()?;
+    /// assert_eq!(format!("{m:.4}"), "AR1(phi=0.1496, sigma2=0.1246)");
+    /// // a coefficient just inside (−1, 1) keeps the digits that keep it inside
+    /// let slow: processes::Model = "AR1(phi=0.999962, sigma2=2e-8)".parse()?;
+    /// assert_eq!(format!("{slow:.4}"), "AR1(phi=0.99996, sigma2=2e-8)");
+    /// assert_eq!(m.to_string().parse::<processes::Model>()?, m); // lossless without
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut i = 0;
         let mut first = true;
@@ -544,7 +571,10 @@ impl fmt::Display for Model {
             if run > 1 {
                 write!(f, "{run}*")?;
             }
-            write!(f, "{c}")?;
+            match f.precision() {
+                Some(d) => write!(f, "{c:.d$}")?,
+                None => write!(f, "{c}")?,
+            }
             i += run;
         }
         Ok(())

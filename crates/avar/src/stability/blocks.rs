@@ -123,7 +123,7 @@ fn chunk_levels_body(
 }
 
 simd_dispatch! {
-    /// [`chunk_levels_body`] with AVX-512 or AVX2 where the CPU has them (the same values:
+    /// [`chunk_levels_body`] with AVX-512 or AVX2 as [`crate::simd::level`] allows (the same values:
     /// fixed lanes, no FMA contraction).
     fn chunk_levels(
         z: &[f64],

@@ -45,6 +45,7 @@ use crate::error::AvarError;
 #[cfg(target_arch = "x86_64")]
 use crate::kernel::build_lanes_avx512;
 use crate::kernel::{LANES, Line, Neumaier, first_non_finite, pivot_of, reduce_lanes, two_sum};
+use crate::simd::SimdLevel;
 
 /// Spacing (samples) of the checkpoints of c and P.
 const G: usize = 64;
@@ -139,15 +140,16 @@ fn block_sums(b: &[f64], pivot: f64) -> (f64, f64) {
     (lane_tree(s1), lane_tree(s2))
 }
 
-/// [`block_sums`] with AVX-512 where the CPU has it (the same lanes, operations and tree, so
-/// the same values).
+/// [`block_sums`] with AVX-512 when `level` is AVX-512 (the same lanes, operations and tree,
+/// so the same values). `level` must not exceed [`crate::simd::level`].
 #[inline(always)]
-fn block_sums_fast(b: &[f64], pivot: f64) -> (f64, f64) {
+fn block_sums_fast(b: &[f64], pivot: f64, level: SimdLevel) -> (f64, f64) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the CPU supports AVX-512F (checked above).
+    if level == SimdLevel::Avx512 {
+        // SAFETY: `level` ≤ `simd::level()` (caller contract): the CPU has AVX-512F.
         return unsafe { block_sums_avx512(b, pivot) };
     }
+    let _ = level;
     block_sums(b, pivot)
 }
 
@@ -280,13 +282,22 @@ impl Frames {
 
     /// Extends a local frame to the entries up to min(g_end, last), summing each new block of
     /// `y` (now in cache) and handing its sums to `keep(g, sums)`.
-    fn extend(&mut self, y: &[f64], g_end: usize, keep: impl FnMut(usize, (f64, f64))) {
+    /// The block sums run at `level` (at most [`crate::simd::level`]; the same values at
+    /// every level).
+    fn extend(
+        &mut self,
+        y: &[f64],
+        g_end: usize,
+        level: SimdLevel,
+        keep: impl FnMut(usize, (f64, f64)),
+    ) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F (checked above).
+        if level == SimdLevel::Avx512 {
+            crate::simd::note(level);
+            // SAFETY: `level` ≤ `simd::level()` (caller contract): the CPU has AVX-512F.
             return unsafe { self.extend_avx512(y, g_end, keep) };
         }
-        self.extend_impl(y, g_end, keep)
+        self.extend_impl(y, g_end, SimdLevel::Scalar, keep)
     }
 
     /// [`Frames::extend`] compiled for AVX-512 (the same values: lane-wise operations only).
@@ -301,15 +312,21 @@ impl Frames {
         g_end: usize,
         keep: impl FnMut(usize, (f64, f64)),
     ) {
-        self.extend_impl(y, g_end, keep)
+        self.extend_impl(y, g_end, SimdLevel::Avx512, keep)
     }
 
     #[inline(always)]
-    fn extend_impl(&mut self, y: &[f64], g_end: usize, mut keep: impl FnMut(usize, (f64, f64))) {
+    fn extend_impl(
+        &mut self,
+        y: &[f64],
+        g_end: usize,
+        level: SimdLevel,
+        mut keep: impl FnMut(usize, (f64, f64)),
+    ) {
         let g_end = g_end.min(self.last);
         while self.g0 + self.ck.len() <= g_end {
             let g = self.g0 + self.ck.len() - 1;
-            let b = block_sums_fast(&y[g * G..(g + 1) * G], self.pivot);
+            let b = block_sums_fast(&y[g * G..(g + 1) * G], self.pivot, level);
             keep(g, b);
             let _ = self.next_entry(b);
             let (c, p) = self.run;
@@ -453,11 +470,22 @@ fn seg_run_fma<const MOD: bool>(y: &[f64], m: usize, s: usize, e: usize, hw: (f6
     seg_run::<MOD>(y, m, s, e, hw)
 }
 
-/// [`seg_run`] with the hardware fused multiply-add where the CPU has it (the same value).
-fn seg_sum(y: &[f64], kind: Diff, m: usize, s: usize, e: usize, hw: (f64, f64)) -> f64 {
+/// [`seg_run`] with the hardware fused multiply-add at `level` AVX2 (AVX2 and FMA) or above (the
+/// same value: `mul_add` is correctly rounded either way). `level` must not exceed
+/// [`crate::simd::level`].
+#[allow(clippy::too_many_arguments)]
+fn seg_sum(
+    y: &[f64],
+    kind: Diff,
+    m: usize,
+    s: usize,
+    e: usize,
+    hw: (f64, f64),
+    level: SimdLevel,
+) -> f64 {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the CPU supports FMA (checked above).
+    if level >= SimdLevel::Avx2 {
+        // SAFETY: `level` ≤ `simd::level()` (caller contract): the CPU has FMA.
         return unsafe {
             match kind {
                 Diff::Hadamard => seg_run_fma::<false>(y, m, s, e, hw),
@@ -784,22 +812,11 @@ impl Ring {
     }
 }
 
-/// Whether the AVX-512 chunk kernel can run.
-fn have_avx512() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx512f")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// The partial sums of chunk `i` (segment length SEG) for every scale of `batch`, into `out`.
-/// Full chunks run the vector kernel when `simd`, all scales per column block, reading the
-/// lagged rows from the `ring` where it holds them; the others (and every chunk without `simd`)
-/// run [`seg_sum`] per segment. The same value either way.
+/// Full chunks run the vector kernel when `level` is AVX-512, all scales per column block,
+/// reading the lagged rows from the `ring` where it holds them; the others (and every chunk
+/// below AVX-512) run [`seg_sum`] per segment. The same value either way. `level` must not
+/// exceed [`crate::simd::level`].
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn chunk_partials<const SEG: usize>(
@@ -808,7 +825,7 @@ fn chunk_partials<const SEG: usize>(
     kind: Diff,
     batch: &[usize],
     i: usize,
-    simd: bool,
+    level: SimdLevel,
     ring: Option<&Ring>,
     (states, xt): &mut (Vec<SegState>, Vec<Line>),
     out: &mut [f64],
@@ -816,6 +833,7 @@ fn chunk_partials<const SEG: usize>(
     let t = y.len();
     let a = i * NSEG * SEG;
     let k_end = kind.k_end(t);
+    let simd = level == SimdLevel::Avx512;
     let full = |m: usize| simd && a >= 3 * m + 8 && a + NSEG * SEG + 8 <= t;
     // misalignment (elements) of y[a] and of every row start (SEG is a multiple of 8)
     let mis = (y.as_ptr().wrapping_add(a) as usize % 64) / 8;
@@ -824,7 +842,7 @@ fn chunk_partials<const SEG: usize>(
         let mut st = SegState::default();
         #[cfg(target_arch = "x86_64")]
         if m.is_multiple_of(G) {
-            // SAFETY: `simd` (hence `full`) is set only when AVX-512F is present.
+            // SAFETY: `full` holds only at level AVX-512 (≤ `simd::level()`): AVX-512F present.
             unsafe { starts_on_checkpoints_avx512::<SEG>(fr, kind, m, a, &mut st) };
             states.push(st);
             continue;
@@ -836,13 +854,14 @@ fn chunk_partials<const SEG: usize>(
     }
     #[cfg(target_arch = "x86_64")]
     if !states.is_empty() {
+        crate::simd::note(level);
         // where each full scale reads its samples: the lane copy of this chunk with a halo of
         // XH columns (3m ≤ XH, built once for all of them), the ring (far scales that are whole
         // class steps, chunks held), else the rows of the series
         let halo = a >= XH && batch.iter().any(|&m| full(m) && 3 * m <= XH);
         if halo {
             xt.resize(2 * (XH + SEG), Line::default());
-            // SAFETY: `simd` is set only when AVX-512F is present; a ≥ XH, the chunk is full.
+            // SAFETY: as above (AVX-512F present); a ≥ XH, the chunk is full.
             unsafe { build_lanes_avx512::<SEG>(y, a, XH, xt) };
         }
         let xt: &[Line] = xt;
@@ -866,7 +885,7 @@ fn chunk_partials<const SEG: usize>(
             .collect();
         for j0 in (0..SEG).step_by(BLK) {
             for (src, st) in srcs.iter().zip(states.iter_mut()) {
-                // SAFETY: `simd` is set only when AVX-512F is present; the chunk is full for m.
+                // SAFETY: as above (AVX-512F present); the chunk is full for m.
                 unsafe {
                     match (kind, src) {
                         (Diff::Hadamard, Src::Rows(r)) => {
@@ -898,7 +917,7 @@ fn chunk_partials<const SEG: usize>(
                 let s = (a + l * SEG).max(3 * m);
                 let e = (a + (l + 1) * SEG).min(k_end);
                 if s < e {
-                    *al = seg_sum(y, kind, m, s, e, start(y, fr, kind, m, s));
+                    *al = seg_sum(y, kind, m, s, e, start(y, fr, kind, m, s), level);
                 }
             }
             reduce_lanes(&acc)
@@ -930,7 +949,7 @@ pub(crate) fn variances(y: &[f64], ms: &[u64], kind: Diff) -> Result<Vec<f64>, A
 /// unit² times m² resp. m⁴) at each m of `ms` (3m ≤ T + 1), streamed from the rate samples `y`.
 /// Errors on non-finite samples (naming the first) and on overflow.
 pub(crate) fn third_diff_sums(y: &[f64], ms: &[u64], kind: Diff) -> Result<Vec<f64>, AvarError> {
-    third_diff_sums_with(y, ms, kind, have_avx512(), NEAR_MAX_M, CLASS_STEP)
+    third_diff_sums_with(y, ms, kind, crate::simd::level(), NEAR_MAX_M, CLASS_STEP)
 }
 
 /// Target near chunks per job of the near walk (8.4 M samples), and the fewest jobs: a function
@@ -959,7 +978,7 @@ fn near_walk(
     pivot: f64,
     kind: Diff,
     batch: &[usize],
-    simd: bool,
+    level: SimdLevel,
     warm: usize,
     sums: &mut [Entry],
 ) -> Vec<f64> {
@@ -986,12 +1005,12 @@ fn near_walk(
             let mut fr = Frames::local(pivot, g0, last, std::mem::take(buf));
             let mut parts = vec![0.0f64; chunks.len() * w];
             for (i, o) in chunks.zip(parts.chunks_exact_mut(w)) {
-                fr.extend(y, ((i + 1) * schunk).div_ceil(G), |g, b| {
+                fr.extend(y, ((i + 1) * schunk).div_ceil(G), level, |g, b| {
                     if let Some(d) = g.checked_sub(a0 / G).and_then(|q| dst.get_mut(q)) {
                         d.p = b;
                     }
                 });
-                chunk_partials::<SEG_NEAR>(y, &fr, kind, batch, i, simd, None, scratch, o);
+                chunk_partials::<SEG_NEAR>(y, &fr, kind, batch, i, level, None, scratch, o);
             }
             *buf = fr.ck;
             parts
@@ -1011,16 +1030,21 @@ fn combine(n: usize, idx: &[usize], part: impl Fn(usize, usize) -> f64, out: &mu
     }
 }
 
-/// [`third_diff_sums`] with the vector kernel, the near/far threshold and the class step as
-/// parameters (tests cover every path on short series with small values).
+/// [`third_diff_sums`] with the SIMD level (lowered to [`crate::simd::level`] if above it), the
+/// near/far threshold and the class step as parameters (tests cover every path on short series
+/// with small values).
 fn third_diff_sums_with(
     y: &[f64],
     ms: &[u64],
     kind: Diff,
-    simd: bool,
+    level: SimdLevel,
     near_max_m: usize,
     class_step: usize,
 ) -> Result<Vec<f64>, AvarError> {
+    // never above the process's level (the vector paths' safety rests on it)
+    let level = level.min(crate::simd::level());
+    crate::simd::note(SimdLevel::Scalar);
+    let simd = level == SimdLevel::Avx512;
     let t = y.len();
     let k_end = kind.k_end(t);
     let pivot = pivot_of(y);
@@ -1034,7 +1058,7 @@ fn third_diff_sums_with(
     for idx in near.chunks(SCALE_BATCH) {
         let batch: Vec<usize> = idx.iter().map(|&s| ms[s] as usize).collect();
         let w = batch.len();
-        let parts = near_walk(y, pivot, kind, &batch, simd, warm, &mut sums);
+        let parts = near_walk(y, pivot, kind, &batch, level, warm, &mut sums);
         combine(n_near, idx, |i, s| parts[i * w + s], &mut out);
     }
     if near.is_empty() {
@@ -1067,7 +1091,7 @@ fn third_diff_sums_with(
                     for (tc, (i, o)) in walk.enumerate() {
                         ring.put(y, i * schunk, tc);
                         let rg = Some(&*ring);
-                        chunk_partials::<SEG_FAR>(y, &fr, kind, &batch, i, simd, rg, scratch, o);
+                        chunk_partials::<SEG_FAR>(y, &fr, kind, &batch, i, level, rg, scratch, o);
                     }
                     parts
                 },
@@ -1134,14 +1158,14 @@ mod tests {
         1, 2, 3, 7, 33, 64, 100, 1000, 1024, 4099, 8192, 16_384, 18_848, 18_000,
     ];
 
-    fn run(y: &[f64], kind: Diff, simd: bool, split: bool) -> Vec<f64> {
+    fn run(y: &[f64], kind: Diff, level: SimdLevel, split: bool) -> Vec<f64> {
         // split: scales above 2000 are far, walked in classes of step 2 far chunks
         let (near_max, step) = if split {
             (2000, 2 * NSEG * SEG_FAR)
         } else {
             (NEAR_MAX_M, CLASS_STEP)
         };
-        third_diff_sums_with(y, &MS, kind, simd, near_max, step).unwrap()
+        third_diff_sums_with(y, &MS, kind, level, near_max, step).unwrap()
     }
 
     /// Exact on integer data (where the sums are exact integers below 2^53 per term and the
@@ -1152,17 +1176,14 @@ mod tests {
         for kind in [Diff::Hadamard, Diff::Modified] {
             let want = exact_sums(&y, &MS, kind);
             for split in [false, true] {
-                for simd in [false, have_avx512()] {
-                    let got = run(&y, kind, simd, split);
+                for level in crate::simd::levels() {
+                    let got = run(&y, kind, level, split);
                     for ((g, w), m) in got.iter().zip(&want).zip(MS) {
                         // the terms are exact (integer increments; the restarts carry only the
                         // u² rounding of the compensated checkpoints); a segment sums at most
                         // 1088 positive squares by fma, each rounding ≤ u of the running sum:
                         // ≤ 1088·u ≈ 1.2e-13 relative, the tree and Neumaier steps add ~u
-                        assert!(
-                            rel(*g, *w) < 2e-13,
-                            "{kind:?} m {m} simd {simd}: {g} vs {w}"
-                        );
+                        assert!(rel(*g, *w) < 2e-13, "{kind:?} m {m} {level}: {g} vs {w}");
                     }
                 }
             }
@@ -1179,8 +1200,8 @@ mod tests {
         use crate::config::InputKind;
         let y = series(N, 0.0);
         for split in [false, true] {
-            let h = run(&y, Diff::Hadamard, have_avx512(), split);
-            let w = run(&y, Diff::Modified, have_avx512(), split);
+            let h = run(&y, Diff::Hadamard, crate::simd::level(), split);
+            let w = run(&y, Diff::Modified, crate::simd::level(), split);
             for (s, m) in MS.iter().enumerate() {
                 let n_h = (N + 1 - 3 * *m as usize) as f64;
                 let n_w = (N + 2 - 3 * *m as usize) as f64;
@@ -1200,8 +1221,8 @@ mod tests {
         }
     }
 
-    /// The vector and portable paths give the same bits, at every misalignment of the samples
-    /// within a cache line; the value for m does not depend on the other scales requested; and
+    /// Every SIMD level up to the process's level gives the bits of the portable path, at every
+    /// misalignment of the samples within a cache line; the value for m does not depend on the other scales requested; and
     /// an offset of 10^4 standard deviations changes nothing beyond the rounding of the shifted
     /// samples themselves (u·10^4·std each: relative 1e-12 on the sums).
     #[test]
@@ -1209,16 +1230,22 @@ mod tests {
         let big = series(N + 8, 0.0);
         for kind in [Diff::Hadamard, Diff::Modified] {
             for split in [false, true] {
-                let base = run(&big[..N], kind, false, split);
+                let base = run(&big[..N], kind, SimdLevel::Scalar, split);
                 for o in 0..8 {
-                    let got = run(&big[o..o + N], kind, have_avx512(), split);
-                    let portable = run(&big[o..o + N], kind, false, split);
-                    for ((a, b), m) in got.iter().zip(&portable).zip(MS) {
-                        assert_eq!(a.to_bits(), b.to_bits(), "{kind:?} offset {o} m {m}");
-                    }
-                    if o == 0 {
-                        for (a, b) in got.iter().zip(&base) {
-                            assert_eq!(a.to_bits(), b.to_bits());
+                    let portable = run(&big[o..o + N], kind, SimdLevel::Scalar, split);
+                    for level in crate::simd::levels() {
+                        let got = run(&big[o..o + N], kind, level, split);
+                        for ((a, b), m) in got.iter().zip(&portable).zip(MS) {
+                            assert_eq!(
+                                a.to_bits(),
+                                b.to_bits(),
+                                "{kind:?} {level} offset {o} m {m}"
+                            );
+                        }
+                        if o == 0 {
+                            for (a, b) in got.iter().zip(&base) {
+                                assert_eq!(a.to_bits(), b.to_bits());
+                            }
                         }
                     }
                 }
@@ -1228,7 +1255,8 @@ mod tests {
                     (NEAR_MAX_M, CLASS_STEP)
                 };
                 for (s, m) in MS.iter().enumerate() {
-                    let one = third_diff_sums_with(&big[..N], &[*m], kind, true, near_max, step);
+                    let level = crate::simd::level();
+                    let one = third_diff_sums_with(&big[..N], &[*m], kind, level, near_max, step);
                     assert_eq!(one.unwrap()[0].to_bits(), base[s].to_bits(), "m {m}");
                 }
             }
@@ -1254,7 +1282,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| run(&y, kind, have_avx512(), split))
+                .install(|| run(&y, kind, crate::simd::level(), split))
         };
         for kind in [Diff::Hadamard, Diff::Modified] {
             for split in [false, true] {
