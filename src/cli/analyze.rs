@@ -24,8 +24,12 @@ continuous-time noise density and random walk, SI units), adev_<channel>.svg/.pn
 series_<channel>.svg/.png and acf_<channel>.svg/.png.
 
 Model selection: with the default --model the candidates are the sub-models of
-QN+WN+RW+2*AR1 (two AR1s: real MEMS gyros often show a short correlation and a slow bias
-drift at once), ranked by WIC.
+QN+WN+RW+BI+2*SIN+2*AR1, ranked by WIC: BI is the IEEE 952 bias instability (flicker, a flat
+AV; Gauss-Markov states over the record's scales), SIN a random-phase sinusoid (an oscillation
+from vibration or filtering: a bump in the AV), and two AR1s because real MEMS gyros often show
+a short correlation and a slow bias drift at once. The class is searched by backward
+elimination (from the full model, drop the component whose removal lowers the WIC most, while
+it does).
 
 Contamination check (always): the robust Allan variance (Tukey biweight, --efficiency) is
 compared with the classical one at every scale; when the classical one is larger beyond the

@@ -16,7 +16,7 @@ use processes::Unit;
 use std::path::Path;
 
 /// The full model whose sub-models `analyze` selects from by default.
-pub const ANALYZE_MODEL: &str = "QN+WN+RW+2*AR1";
+pub const ANALYZE_MODEL: &str = "QN+WN+RW+BI+2*SIN+2*AR1";
 
 /// What `analyze` does.
 ///

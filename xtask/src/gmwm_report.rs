@@ -3,7 +3,7 @@
 //! GMWM-type estimator of `gmwm-prep` (issue 5, acceptance "simulation").
 //!
 //! For each case (WN + RW + AR1; QN + WN + RW; WN + 2*AR1 with time constants a decade
-//! apart), R series of T samples are simulated with fixed seeds (replicate r = stream r,
+//! apart; WN + RW + BI, the bias instability simulated over the band of the fitted scales), R series of T samples are simulated with fixed seeds (replicate r = stream r,
 //! replicates run in parallel), the MOAV is computed at the book's dyadic scales with
 //! chi-square CIs (`avar` defaults), and
 //! - the GMWM is fitted (default weighting of `GmwmOptions`, or `--weighting`);
@@ -150,6 +150,20 @@ fn one_rep(
     })
 }
 
+/// The band of cluster sizes (first to last m) of the default MOAV of `n` samples.
+fn fit_band(n: usize) -> Result<processes::BiBand, String> {
+    let wn: Model = "WN(sigma2=1)"
+        .parse()
+        .map_err(|e: processes::ProcessError| e.to_string())?;
+    let x = wn.simulate(n, RATE, 1).map_err(|e| e.to_string())?;
+    let av = allan_variance(x.values(), RATE, &AvarConfig::default()).map_err(|e| e.to_string())?;
+    let (lo, hi) = match (av.points.first(), av.points.last()) {
+        (Some(a), Some(b)) => (a.m, b.m),
+        _ => return Err(format!("no scales for n = {n}")),
+    };
+    processes::BiBand::new(lo, hi).map_err(|e| e.to_string())
+}
+
 fn case(
     name: &str,
     truth: &str,
@@ -160,6 +174,11 @@ fn case(
     seed: u64,
 ) -> Result<bool, String> {
     let truth_m: Model = truth.parse().map_err(|e| format!("{truth}: {e}"))?;
+    // a BI without a band is simulated over the band the fit will give it: the scales of the
+    // MOAV of T samples
+    let truth_m = truth_m
+        .with_bi_band(fit_band(n)?)
+        .map_err(|e| e.to_string())?;
     let template_m: Model = template.parse().map_err(|e| format!("{template}: {e}"))?;
     let want: Vec<f64> = truth_m
         .processes()
@@ -344,6 +363,13 @@ pub fn run(args: &[String]) -> Result<(), String> {
             "wn-2ar1",
             "WN(sigma2=1e-4) + AR1(phi=0.99, sigma2=1e-7) + AR1(phi=0.999, sigma2=1e-8)",
             "WN + 2*AR1",
+        ),
+        // bias instability (issue 28): plateau 0.4413·B² = 2.2e-7 between the WN and RW
+        // crossings at m ≈ 460 and 6500
+        (
+            "wn-rw-bi",
+            "WN(sigma2=1e-4) + RW(gamma2=1e-10) + BI(B=7e-4)",
+            "WN + RW + BI",
         ),
     ];
     // not an acceptance case: the slow AR1 carries a tenth of the fast one's variance and

@@ -105,6 +105,20 @@ impl Variogram {
                     let lam = g.beta() / rate_hz;
                     v.push_ar((-lam).exp(), Some(lam), g.sigma2())
                 }
+                Process::Sinusoid(_) => {
+                    return Err(FitError::InvalidArgument(
+                        "the model covariance of the AV assumes a Gaussian process; a random-phase \
+                         sinusoid (SIN) is not one"
+                            .into(),
+                    ));
+                }
+                Process::BiasInstability(b) => {
+                    let (t, u) = b.band().states()?;
+                    let b2 = b.b() * b.b();
+                    for (&t, &u) in t.iter().zip(&u) {
+                        v.push_ar((-1.0 / t).exp(), Some(1.0 / t), b2 * u);
+                    }
+                }
             }
         }
         Ok(v)

@@ -433,12 +433,33 @@ fn largest_fitting_submodel(curve: &AvCurve, full: &Model, opts: &GmwmOptions) -
     })
 }
 
-/// Fits every distinct non-empty sub-model of `full` (subsets of its components) with one
-/// common weighting matrix — the Ω of the full model's fit (of its largest sub-model that can be
-/// fitted, when the full model's optimization fails) — and ranks them by WIC computed
-/// with the moments' covariance `v` (best first). Sub-models with more parameters than
-/// scales, and those that fail to converge or are not identifiable from these scales
-/// (singular AᵀΩA at their estimate), are skipped; an empty list means none could be fitted.
+/// Largest number of distinct sub-models that [`select_by_wic`] fits all of; a larger class
+/// is searched by backward elimination (see there).
+pub const EXHAUSTIVE_MAX_SUBMODELS: usize = 24;
+/// Starting points of each candidate fit in the backward search (see [`select_by_wic`]).
+pub const CANDIDATE_STARTS: usize = 2;
+
+/// Ranks sub-models of `full` (subsets of its components) by WIC, each fitted with one
+/// common weighting matrix — the Ω of the full model's fit (of its largest sub-model that can
+/// be fitted, when the full model's optimization fails) — the WIC computed with the moments'
+/// covariance `v` (best first). Sub-models with more parameters than scales, and those that
+/// fail to converge or are not identifiable from these scales (singular AᵀΩA at their
+/// estimate), are skipped; an empty list means none could be fitted.
+///
+/// # The search
+/// - Up to [`EXHAUSTIVE_MAX_SUBMODELS`] distinct sub-models (e.g. the 24 of
+///   `QN+WN+RW+2*AR1`): all of them are fitted.
+/// - Beyond (e.g. `QN+WN+RW+BI+2*AR1`, 48): backward elimination. From the full model, every
+///   model with one component fewer is fitted and the one of least WIC kept, as long as it
+///   improves the WIC (a model that cannot be fitted or identified counts as WIC = +∞, so the
+///   search always moves off it); then the same from the kept model, down to one component.
+///   At most k + (k−1) + … + 1 fits for k components (21 for 6, against 48), every fitted
+///   model a candidate. Backward rather than forward: the small models miss whole regions of
+///   the curve, and their WIC (dominated by that misfit) says little about which component to
+///   add; the larger ones all describe the curve, and removing the component the data do not
+///   need is what the WIC penalty measures. It finds the exhaustive optimum whenever the WIC
+///   decreases along a path of single removals (the usual case: a superfluous component
+///   costs its penalty without lowering the objective).
 ///
 /// ```
 /// use gmwm_prep::{AvCurve, gmwm::GmwmOptions};
@@ -484,48 +505,127 @@ pub fn select_by_wic(
     };
     let kinds = full.kinds();
     let k = kinds.len();
+    // the backward search fits bigger models than the exhaustive one; its candidates start
+    // from the best CANDIDATE_STARTS grid points (the selected model is refitted by the
+    // caller with all of `opts.n_starts`)
+    let search = GmwmOptions {
+        n_starts: common.n_starts.min(CANDIDATE_STARTS),
+        ..common.clone()
+    };
     if k > 12 {
         return Err(FitError::InvalidArgument(
             "model selection over more than 12 components is not supported".into(),
         ));
     }
-    let mut seen: Vec<Vec<ProcessKind>> = Vec::new();
-    let mut out = Vec::new();
-    for mask in 1u32..(1 << k) {
-        let sub: Vec<ProcessKind> = (0..k)
-            .filter(|i| mask & (1 << i) != 0)
-            .map(|i| kinds[i])
-            .collect();
-        if seen.contains(&sub) {
-            continue;
+    // one fit per distinct sub-model (memoized): Some(candidate), or None when it cannot be
+    // fitted or identified
+    let mut seen: Vec<(Vec<ProcessKind>, Option<Candidate>)> = Vec::new();
+    type Seen = Vec<(Vec<ProcessKind>, Option<Candidate>)>;
+    let evaluate = |seen: &mut Seen, sub: Vec<ProcessKind>| -> Result<Option<Candidate>> {
+        if let Some((_, c)) = seen.iter().find(|(s, _)| *s == sub) {
+            return Ok(c.clone());
         }
-        seen.push(sub.clone());
-        let template = Model::new(sub.iter().map(|&x| Component::Slot(x)).collect())?;
-        if template.n_params() > j {
-            continue;
+        let c = fit_candidate(curve, &sub, &common, v, j)?;
+        seen.push((sub, c.clone()));
+        Ok(c)
+    };
+    let subsets: Vec<Vec<ProcessKind>> = {
+        let mut all: Vec<Vec<ProcessKind>> = Vec::new();
+        for mask in 1u32..(1 << k) {
+            let sub: Vec<ProcessKind> = (0..k)
+                .filter(|i| mask & (1 << i) != 0)
+                .map(|i| kinds[i])
+                .collect();
+            if !all.contains(&sub) {
+                all.push(sub);
+            }
         }
-        // a sub-model that cannot be fitted or whose parameters are not identifiable from
-        // these scales (e.g. an AR1 that collapsed onto another component) is not a candidate;
-        // it must not abort the selection among the others
-        let f = match fit(curve, &template, &common) {
-            Ok(f) => f,
-            Err(FitError::OptimizationFailed(_) | FitError::Unidentifiable(_)) => continue,
-            Err(e) => return Err(e),
-        };
-        let inf = match delta_method(&f, v, 0.05) {
-            Ok(inf) => inf,
-            Err(FitError::Unidentifiable(_) | FitError::NotIdentifiable { .. }) => continue,
-            Err(e) => return Err(e),
-        };
-        out.push(Candidate {
-            model: f.model.to_string(),
-            template: template.to_string(),
-            n_params: f.n_params(),
-            objective: inf.objective,
-            wic: inf.wic,
-            converged: f.convergence.converged,
-        });
+        all
+    };
+    if subsets.len() <= EXHAUSTIVE_MAX_SUBMODELS {
+        for sub in subsets {
+            evaluate(&mut seen, sub)?;
+        }
+    } else {
+        let wic_of = |c: &Option<Candidate>| c.as_ref().map_or(f64::INFINITY, |c| c.wic);
+        let mut current = kinds.clone();
+        let mut current_wic = wic_of(&evaluate(&mut seen, current.clone())?);
+        while current.len() > 1 {
+            // the children not fitted yet, in parallel (they are independent fits)
+            let mut children: Vec<Vec<ProcessKind>> = Vec::new();
+            for drop in 0..current.len() {
+                let mut sub = current.clone();
+                sub.remove(drop);
+                if !children.contains(&sub) {
+                    children.push(sub);
+                }
+            }
+            let todo: Vec<&Vec<ProcessKind>> = children
+                .iter()
+                .filter(|c| !seen.iter().any(|(s, _)| s == *c))
+                .collect();
+            let fitted: Vec<Result<Option<Candidate>>> = {
+                use rayon::prelude::*;
+                todo.par_iter()
+                    .map(|sub| fit_candidate(curve, sub, &search, v, j))
+                    .collect()
+            };
+            for (sub, c) in todo.iter().zip(fitted) {
+                seen.push(((*sub).clone(), c?));
+            }
+            let mut best: Option<(Vec<ProcessKind>, f64)> = None;
+            for sub in children {
+                let w = wic_of(&evaluate(&mut seen, sub.clone())?);
+                if best.as_ref().is_none_or(|(_, b)| w < *b) {
+                    best = Some((sub, w));
+                }
+            }
+            match best {
+                Some((sub, w)) if w < current_wic || current_wic.is_infinite() => {
+                    current = sub;
+                    current_wic = w;
+                }
+                _ => break,
+            }
+        }
     }
+    let mut out: Vec<Candidate> = seen.into_iter().filter_map(|(_, c)| c).collect();
     out.sort_by(|a, b| a.wic.total_cmp(&b.wic));
     Ok(out)
+}
+
+/// The candidate of one sub-model with the common weighting, or None when it has more
+/// parameters than the `j` scales, cannot be fitted or is not identifiable.
+fn fit_candidate(
+    curve: &AvCurve,
+    sub: &[ProcessKind],
+    common: &GmwmOptions,
+    v: &CovMatrix,
+    j: usize,
+) -> Result<Option<Candidate>> {
+    let template = Model::new(sub.iter().map(|&x| Component::Slot(x)).collect())?;
+    if template.n_params() > j {
+        return Ok(None);
+    }
+    // a sub-model that cannot be fitted or whose parameters are not identifiable from
+    // these scales (e.g. an AR1 that collapsed onto another component) is not a candidate;
+    // it must not abort the selection among the others
+    let f = match fit(curve, &template, common) {
+        Ok(f) => f,
+        Err(FitError::OptimizationFailed(_) | FitError::Unidentifiable(_)) => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let inf = match delta_method(&f, v, 0.05) {
+        Ok(inf) => inf,
+        Err(FitError::Unidentifiable(_) | FitError::NotIdentifiable { .. }) => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    Ok(Some(Candidate {
+        model: f.model.to_string(),
+        template: template.to_string(),
+        n_params: f.n_params(),
+        objective: inf.objective,
+        wic: inf.wic,
+        converged: f.convergence.converged,
+    }))
 }

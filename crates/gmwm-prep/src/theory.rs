@@ -25,6 +25,71 @@ pub(crate) fn kind_avar_grad(
     rate_hz: f64,
     grad: &mut [f64],
 ) -> f64 {
+    if let ProcessKind::BiasInstability(band) = kind
+        && !band.is_auto()
+        && params.len() == 1
+        && params[0].is_finite()
+        && params[0] > 0.0
+    {
+        // AV = B²·u(m) with u the band's unit AV: computed once per (band, m) and thread
+        // (the optimizer evaluates the same scales thousands of times; u needs one GM
+        // closed form per state)
+        let u = bi_unit_avar(band, m as u64);
+        if let Some(g) = grad.first_mut() {
+            *g = 2.0 * params[0] * u;
+        }
+        return params[0] * params[0] * u;
+    }
+    // the closed forms of `spectral::closed_form` without the validation and the allocation
+    // of the general route (the optimizer evaluates them millions of times)
+    if m >= 1.0 && params.iter().all(|x| x.is_finite()) {
+        let mu = m as u64;
+        match kind {
+            ProcessKind::Ar1 if params[1] > 0.0 && grad.len() >= 2 => {
+                let (f, fp) = spectral::closed_form::ar1_unit_avar(params[0], mu);
+                grad[0] = params[1] * fp;
+                grad[1] = f;
+                return params[1] * f;
+            }
+            ProcessKind::GaussMarkov
+                if params[0] > 0.0 && params[1] > 0.0 && rate_hz > 0.0 && grad.len() >= 2 =>
+            {
+                let dt = 1.0 / rate_hz;
+                let (h, h_l) = spectral::closed_form::gm_unit_avar(params[0] * dt, mu);
+                grad[0] = params[1] * h_l * dt;
+                grad[1] = h;
+                return params[1] * h;
+            }
+            ProcessKind::Sinusoid
+                if params[0] > 0.0
+                    && params[1] > 0.0
+                    && params[1] < std::f64::consts::PI
+                    && grad.len() >= 2 =>
+            {
+                let (alpha2, beta) = (params[0], params[1]);
+                let (sa, ca) = (0.5 * beta * m).sin_cos();
+                let (sc, cc) = (0.5 * beta).sin_cos();
+                let unit = sa.powi(4) / (m * m * sc * sc);
+                grad[0] = unit;
+                grad[1] = alpha2 / (m * m)
+                    * (2.0 * m * sa.powi(3) * ca / (sc * sc) - sa.powi(4) * cc / sc.powi(3));
+                return alpha2 * unit;
+            }
+            _ => {}
+        }
+        let linear = match kind {
+            ProcessKind::WhiteNoise => Some(1.0 / m),
+            ProcessKind::QuantizationNoise => Some(3.0 / (m * m)),
+            ProcessKind::RandomWalk => Some(m / 3.0 + 1.0 / (6.0 * m)),
+            _ => None,
+        };
+        if let (Some(k), Some(g)) = (linear, grad.first_mut())
+            && params[0] > 0.0
+        {
+            *g = k;
+            return params[0] * k;
+        }
+    }
     let evaluated = Process::from_params(kind, params)
         .ok()
         .and_then(|p| spectral::allan_variance_with_gradient(&p, m as u64, rate_hz).ok());
@@ -39,6 +104,32 @@ pub(crate) fn kind_avar_grad(
             f64::NAN
         }
     }
+}
+
+thread_local! {
+    static BI_UNIT: std::cell::RefCell<std::collections::HashMap<(u64, u64, u64), f64>> =
+        std::cell::RefCell::new(std::collections::HashMap::new());
+}
+
+/// The AV at B = 1 of a BI over `band` at cluster size `m` (memoized per thread; NaN if the
+/// closed form fails).
+fn bi_unit_avar(band: processes::BiBand, m: u64) -> f64 {
+    let key = (band.m_lo(), band.m_hi(), m);
+    if let Some(u) = BI_UNIT.with(|c| c.borrow().get(&key).copied()) {
+        return u;
+    }
+    let u = processes::BiasInstability::new(1.0, band)
+        .ok()
+        .and_then(|b| spectral::allan_variance(&Process::from(b), m, 1.0).ok())
+        .unwrap_or(f64::NAN);
+    BI_UNIT.with(|c| {
+        let mut c = c.borrow_mut();
+        if c.len() > 1 << 16 {
+            c.clear();
+        }
+        c.insert(key, u);
+    });
+    u
 }
 
 /// AV of an AR1 with unit innovation variance, f(φ, m), and ∂f/∂φ.
@@ -164,6 +255,12 @@ mod tests {
             (ProcessKind::Ar1, vec![0.99999, 1e-9]),
             (ProcessKind::GaussMarkov, vec![0.5, 1e-5]),
             (ProcessKind::Ma1, vec![0.4, 2.0]),
+            (ProcessKind::Sinusoid, vec![2e-4, 0.9]),
+            (ProcessKind::Sinusoid, vec![1.0, 0.01]),
+            (
+                ProcessKind::BiasInstability(processes::BiBand::new(1, 1 << 18).unwrap()),
+                vec![3e-4],
+            ),
         ];
         for (k, th) in cases {
             for &m in &[1.0, 2.0, 64.0, 4096.0, 262144.0] {
@@ -173,6 +270,9 @@ mod tests {
                     // φ: a step well inside (−1, 1) yet large enough against rounding.
                     let h = if k == ProcessKind::Ar1 && i == 0 {
                         1e-3 * (1.0 - th[0].abs()).min(1.0 / m)
+                    } else if k == ProcessKind::Sinusoid && i == 1 {
+                        // sin⁴(βm/2) turns over in Δβ ~ 1/m
+                        1e-3 * th[1] / m
                     } else {
                         1e-5 * th[i].abs()
                     };
@@ -189,6 +289,38 @@ mod tests {
                         "{k} {th:?} m={m} param {i}: analytic {} vs fd {fd}",
                         g[i]
                     );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn fast_paths_equal_the_spectral_closed_forms() {
+        // the optimizer's allocation-free routes against `spectral::allan_variance_with_gradient`
+        // (the same formulas, evaluated in the same order: rounding only)
+        let band = processes::BiBand::new(2, 1 << 16).unwrap();
+        let cases: Vec<(ProcessKind, Vec<f64>)> = vec![
+            (ProcessKind::WhiteNoise, vec![2e-4]),
+            (ProcessKind::QuantizationNoise, vec![3e-6]),
+            (ProcessKind::RandomWalk, vec![1e-10]),
+            (ProcessKind::Ar1, vec![0.995, 1e-7]),
+            (ProcessKind::Ar1, vec![-0.6, 1e-3]),
+            (ProcessKind::GaussMarkov, vec![0.5, 1e-5]),
+            (ProcessKind::Sinusoid, vec![2e-4, 0.9]),
+            (ProcessKind::BiasInstability(band), vec![3e-4]),
+        ];
+        for (k, th) in cases {
+            let p = Process::from_params(k, &th).unwrap();
+            for m in [1u64, 3, 64, 4096, 65536] {
+                let mut g = vec![0.0; th.len()];
+                let v = kind_avar_grad(k, &th, m as f64, 100.0, &mut g);
+                let (v2, g2) = spectral::allan_variance_with_gradient(&p, m, 100.0).unwrap();
+                assert!(
+                    (v - v2).abs() <= CLOSED_FORM_REL_TOL * v2.abs(),
+                    "{k} m={m}"
+                );
+                for (a, b) in g.iter().zip(&g2) {
+                    assert!((a - b).abs() <= CLOSED_FORM_REL_TOL * b.abs(), "{k} m={m}");
                 }
             }
         }

@@ -238,6 +238,12 @@ pub fn per_second(kind: ProcessKind, params: &[f64], rate_hz: f64, unit: &Unit) 
             Quantity::new("theta", params[0], ""),
             Quantity::new("sigma", params[1].sqrt(), u),
         ],
+        // B is rate-free: the plateau (2 ln 2/π)B² is in unit² whatever Δt
+        ProcessKind::BiasInstability(_) => vec![Quantity::new("B", params[0], u)],
+        ProcessKind::Sinusoid => vec![
+            Quantity::new("amplitude", params[0].sqrt(), u),
+            Quantity::new("f", params[1] / (2.0 * std::f64::consts::PI * dt), "Hz"),
+        ],
     }
 }
 
@@ -255,6 +261,7 @@ pub fn ieee_term_of(kind: ProcessKind) -> Option<IeeeTerm> {
         ProcessKind::QuantizationNoise => Some(IeeeTerm::Q),
         ProcessKind::RandomWalk => Some(IeeeTerm::K),
         ProcessKind::Drift => Some(IeeeTerm::R),
+        ProcessKind::BiasInstability(_) => Some(IeeeTerm::B),
         _ => None,
     }
 }

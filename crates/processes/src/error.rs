@@ -37,9 +37,9 @@ pub enum ProcessError {
         message: String,
     },
     /// A model contains more than one process of a kind that may appear once only
-    /// (WN, QN, RW, DR, MA1): their sum would not be identifiable.
+    /// (WN, QN, RW, DR, MA1, BI): their sum would not be identifiable.
     #[error(
-        "model has more than one {kind} component; at most one each of WN, QN, RW, DR and MA1 is identifiable (any number of AR1/GM is allowed)"
+        "model has more than one {kind} component; at most one each of WN, QN, RW, DR, MA1 and BI is identifiable (any number of AR1/GM/SIN is allowed)"
     )]
     DuplicateComponent {
         /// Process code of the duplicated kind.

@@ -3,7 +3,9 @@
 //! The bottom layer of `imunoise`: the latent processes of *An Introduction to Inertial
 //! Sensors Stochastic Calibration* (Guerrier et al., §2.2) — white noise ([`WhiteNoise`]),
 //! quantization noise ([`QuantizationNoise`]), drift ([`Drift`]), random walk
-//! ([`RandomWalk`]), AR(1) ([`Ar1`]), Gauss-Markov ([`GaussMarkov`]) and MA(1) ([`Ma1`]) —
+//! ([`RandomWalk`]), AR(1) ([`Ar1`]), Gauss-Markov ([`GaussMarkov`]), MA(1) ([`Ma1`]) and the
+//! IEEE 952 bias instability ([`BiasInstability`], Gauss-Markov states over the record's band)
+//! and sinusoidal term ([`Sinusoid`]) —
 //! their sums ([`Model`], book Definition 2.8), their theory (mean, autocovariance,
 //! stationarity), their simulation, and the time-series types ([`TimeSeries`], [`ImuRecord`]).
 //!
@@ -38,7 +40,9 @@ pub mod simulate;
 pub use error::{ProcessError, Result};
 pub use model::{Component, Model};
 pub use process::{
-    Ar1, Drift, GaussMarkov, Ma1, Process, ProcessKind, QuantizationNoise, RandomWalk, WhiteNoise,
+    Ar1, BI_FLAT_FROM_M, BI_FLAT_TOLERANCE, BI_MIN_CORRELATION_SAMPLES, BI_STATES_PER_DECADE,
+    BiBand, BiasInstability, Drift, GaussMarkov, Ma1, Process, ProcessKind, QuantizationNoise,
+    RandomWalk, Sinusoid, WhiteNoise,
 };
 pub use series::{ImuRecord, Sensor, TimeSeries, Unit};
 pub use simulate::{CHUNK_LEN, Simulation};

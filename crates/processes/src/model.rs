@@ -3,15 +3,19 @@
 //!
 //! # Text form
 //! `"WN(sigma2=1e-4) + RW(gamma2=1e-9) + 2*AR1"`: terms joined by `+`; a term is an
-//! optional repeat count `k*`, a process code (`WN QN DR RW AR1 GM MA1`, any case) and
+//! optional repeat count `k*`, a process code (`WN QN DR RW AR1 GM MA1 BI SIN`, any case) and
 //! optionally its parameters in parentheses, named (`AR1(phi=0.9, sigma2=1e-6)`) or
 //! positional in the order of [`ProcessKind::param_names`] (`AR1(0.9, 1e-6)`). A code
 //! without parameters (or with `()`) is a slot. Printing and parsing are lossless:
-//! numbers are printed in Rust's shortest round-trip form.
+//! numbers are printed in Rust's shortest round-trip form. `BI` (bias instability) takes
+//! `B` and, besides, its fixed band `m_lo`, `m_hi` (cluster sizes in samples, see
+//! [`BiBand`]): `BI` is a slot over the record's scales, `BI(B=1e-3)` has a value and the
+//! record's band, `BI(B=1e-3, m_lo=1, m_hi=65536)` is fully given and `BI(m_lo=1, m_hi=65536)`
+//! is a slot with a band.
 //!
 //! # Identifiability
 //! As in the book's peer packages, a model holds at most one each of WN, QN, RW, DR (and
-//! MA1); AR1 and GM may repeat.
+//! MA1, BI); AR1, GM and SIN may repeat.
 
 use crate::error::{ProcessError, Result};
 use crate::process::*;
@@ -352,6 +356,37 @@ impl Model {
         Model::new(out)
     }
 
+    /// The model with every BI whose band is AUTO given `band` (the record's scales); the
+    /// other components are unchanged.
+    ///
+    /// ```
+    /// use processes::{BiBand, Model};
+    /// let m: Model = "WN + BI".parse()?;
+    /// let r = m.with_bi_band(BiBand::new(1, 4096)?)?;
+    /// assert_eq!(r.to_string(), "WN + BI(m_lo=1, m_hi=4096)");
+    /// // a band already given stays
+    /// assert_eq!(r.with_bi_band(BiBand::new(2, 8)?)?, r);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn with_bi_band(&self, band: BiBand) -> Result<Model> {
+        let comps = self
+            .components
+            .iter()
+            .map(|c| {
+                Ok(match *c {
+                    Component::Slot(ProcessKind::BiasInstability(b)) => {
+                        Component::Slot(ProcessKind::BiasInstability(b.or(band)))
+                    }
+                    Component::Known(Process::BiasInstability(p)) => {
+                        Component::Known(BiasInstability::new(p.b(), p.band().or(band))?.into())
+                    }
+                    c => c,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Model::new(comps)
+    }
+
     /// Appends the components of `other`, checking identifiability.
     ///
     /// ```
@@ -406,7 +441,9 @@ impl_model_ops!(
     RandomWalk,
     Ar1,
     GaussMarkov,
-    Ma1
+    Ma1,
+    BiasInstability,
+    Sinusoid
 );
 
 impl<R: Into<Model>> Add<R> for Process {
@@ -449,7 +486,7 @@ macro_rules! impl_repeat {
         }
     )*};
 }
-impl_repeat!(Ar1, GaussMarkov);
+impl_repeat!(Ar1, GaussMarkov, Sinusoid);
 
 /// Formats a number losslessly (shortest round-trip), in plain or exponent form,
 /// whichever reads better.
@@ -465,6 +502,9 @@ fn fmt_number(x: f64) -> String {
 impl fmt::Display for Component {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            Component::Slot(ProcessKind::BiasInstability(band)) if !band.is_auto() => {
+                write!(f, "BI({band})")
+            }
             Component::Slot(k) => f.write_str(k.code()),
             Component::Known(p) => {
                 let k = p.kind();
@@ -490,6 +530,11 @@ impl fmt::Display for Component {
                         }
                         None => write!(f, "{name}={}", fmt_number(v))?,
                     }
+                }
+                if let ProcessKind::BiasInstability(band) = k
+                    && !band.is_auto()
+                {
+                    write!(f, ", {band}")?;
                 }
                 f.write_str(")")
             }
@@ -627,13 +672,15 @@ impl<'a> Parser<'a> {
         if code.is_empty() {
             return Err(self.err(
                 self.pos,
-                "expected a process (WN, QN, DR, RW, AR1, GM, MA1)",
+                "expected a process (WN, QN, DR, RW, AR1, GM, MA1, BI, SIN)",
             ));
         }
         let kind = ProcessKind::from_str(code).map_err(|_| {
             self.err(
                 code_pos,
-                format!("unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, GM, MA1"),
+                format!(
+                    "unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, GM, MA1, BI, SIN"
+                ),
             )
         })?;
         let component = if self.eat('(') {
@@ -649,6 +696,8 @@ impl<'a> Parser<'a> {
         let names = kind.param_names();
         let mut values: Vec<Option<f64>> = vec![None; names.len()];
         let mut positional = 0usize;
+        let mut band: [Option<f64>; 2] = [None, None];
+        let band_start = self.pos;
         if self.eat(')') {
             return Ok(Component::Slot(kind));
         }
@@ -663,10 +712,33 @@ impl<'a> Parser<'a> {
                     .next()
                     .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
                 && self.eat('=');
+            // BI's band edges (fixed, not parameters of the fit)
+            let band_slot = match w.to_ascii_lowercase().as_str() {
+                "m_lo" => Some(0),
+                "m_hi" => Some(1),
+                _ => None,
+            };
+            if let (true, Some(b), ProcessKind::BiasInstability(_)) = (is_name, band_slot, kind) {
+                if band[b].is_some() {
+                    return Err(self.err(item_pos, format!("parameter {w} given twice")));
+                }
+                band[b] = Some(self.number()?);
+                if self.eat(',') {
+                    continue;
+                }
+                if self.eat(')') {
+                    break;
+                }
+                return Err(self.err(self.pos, "expected ',' or ')'"));
+            }
             let idx = if is_name {
                 let canonical = match (kind, w.to_ascii_lowercase().as_str()) {
                     (ProcessKind::GaussMarkov, "sigma2_gm") => "sigma2",
-                    (_, other) => names.iter().copied().find(|n| *n == other).unwrap_or(""),
+                    (_, other) => names
+                        .iter()
+                        .copied()
+                        .find(|n| n.eq_ignore_ascii_case(other))
+                        .unwrap_or(""),
                 };
                 names.iter().position(|n| *n == canonical).ok_or_else(|| {
                     self.err(
@@ -706,6 +778,29 @@ impl<'a> Parser<'a> {
                 break;
             }
             return Err(self.err(self.pos, "expected ',' or ')'"));
+        }
+        let kind = match (kind, band) {
+            (ProcessKind::BiasInstability(_), [None, None]) => kind,
+            (ProcessKind::BiasInstability(_), [Some(lo), Some(hi)]) => {
+                let whole = |x: f64| x >= 0.0 && x.fract() == 0.0 && x <= 2f64.powi(53);
+                if !(whole(lo) && whole(hi)) {
+                    return Err(self.err(
+                        band_start,
+                        "BI's m_lo and m_hi are whole numbers of samples",
+                    ));
+                }
+                ProcessKind::BiasInstability(
+                    crate::process::BiBand::new(lo as u64, hi as u64)
+                        .map_err(|e| self.err(band_start, e.to_string()))?,
+                )
+            }
+            (ProcessKind::BiasInstability(_), _) => {
+                return Err(self.err(band_start, "BI needs both m_lo and m_hi, or neither"));
+            }
+            (k, _) => k,
+        };
+        if values.iter().all(Option::is_none) && band.iter().any(Option::is_some) {
+            return Ok(Component::Slot(kind));
         }
         let missing: Vec<&str> = names
             .iter()
@@ -887,6 +982,54 @@ mod tests {
         let filled = slot.with_params(&[1.0, 2.0]).unwrap();
         assert_eq!(filled.to_string(), "WN(sigma2=1) + RW(gamma2=2)");
         assert!(slot.with_params(&[1.0]).is_err());
+    }
+
+    #[test]
+    fn bias_instability_text_forms() {
+        let band = BiBand::new(1, 65536).unwrap();
+        // slot, slot with band, value with AUTO band, value with band: each round-trips
+        for c in [
+            "WN + BI",
+            "BI(m_lo=1, m_hi=65536) + RW",
+            "BI(B=0.001)",
+            "WN(sigma2=1) + BI(B=0.001, m_lo=1, m_hi=65536)",
+        ] {
+            let m: Model = c.parse().unwrap();
+            assert_eq!(m.to_string(), c);
+            assert_eq!(m.to_string().parse::<Model>().unwrap(), m);
+        }
+        let m: Model = "bi(b = 2e-3, m_hi=65536, m_lo=1)".parse().unwrap();
+        let p = m.processes().unwrap()[0];
+        assert_eq!(p.kind(), ProcessKind::BiasInstability(band));
+        assert_eq!(p.params(), [2e-3]);
+        assert_eq!(
+            m.template().to_string(),
+            "BI(m_lo=1, m_hi=65536)",
+            "a template keeps the band"
+        );
+        assert_eq!(m.n_params(), 1, "the band is fixed, not fitted");
+        let cases = [
+            ("BI(B=0.001, m_lo=1)", "both m_lo and m_hi"),
+            ("BI(B=0.001, m_lo=8, m_hi=4)", "1 <= m_lo < m_hi"),
+            ("BI(B=0.001, m_lo=1.5, m_hi=4)", "whole numbers"),
+            ("BI(B=-1)", "B = -1"),
+            ("BI + BI", "more than one BI"),
+            ("2*BI", "more than one BI"),
+            ("BI(B=1, m_lo=1, m_lo=2, m_hi=4)", "given twice"),
+        ];
+        for (input, needle) in cases {
+            let e = input.parse::<Model>().unwrap_err().to_string();
+            assert!(e.contains(needle), "{input:?}: {e:?} lacks {needle:?}");
+        }
+        // serde of a process keeps the band
+        let j = serde_json::to_string(&p).unwrap();
+        assert_eq!(j, r#"{"process":"BI","B":0.002,"m_lo":1,"m_hi":65536}"#);
+        assert_eq!(serde_json::from_str::<Process>(&j).unwrap(), p);
+        // theory needs the band
+        let auto: Model = "BI(B=1)".parse().unwrap();
+        assert!(auto.autocovariance(0, 1.0).is_err());
+        let r = auto.with_bi_band(band).unwrap();
+        assert!(r.autocovariance(0, 1.0).unwrap() > 0.0);
     }
 
     #[test]

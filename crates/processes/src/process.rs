@@ -458,6 +458,335 @@ impl Ma1 {
     }
 }
 
+/// The band of a [`BiasInstability`]: the cluster sizes m_lo ≤ m ≤ m_hi (samples) over
+/// which its Allan variance is flat, i.e. the scales of the record it describes. Fixed from
+/// the record (never fitted); [`BiBand::AUTO`] stands for "the scales of the record at hand"
+/// and is resolved by the fit (from the curve) or the simulation (m = 1 … n).
+///
+/// ```
+/// use processes::BiBand;
+/// let b = BiBand::new(1, 1 << 19)?;
+/// assert_eq!((b.m_lo(), b.m_hi()), (1, 524_288));
+/// assert!(BiBand::new(8, 8).is_err() && BiBand::new(0, 8).is_err());
+/// assert!(BiBand::AUTO.is_auto() && !b.is_auto());
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct BiBand {
+    m_lo: u64,
+    m_hi: u64,
+}
+
+/// States per decade of correlation time of a [`BiasInstability`] (see its docs for why 2).
+pub const BI_STATES_PER_DECADE: f64 = 2.0;
+/// Shortest correlation time (samples) of a [`BiasInstability`] state: a state much faster
+/// than this is white noise at every cluster size, no longer a 1/f brick.
+pub const BI_MIN_CORRELATION_SAMPLES: f64 = 2.0;
+/// Smallest cluster size (samples) from which the [`BiasInstability`] AV is flat within
+/// [`BI_FLAT_TOLERANCE`]: below it the band cannot be built from states of at least
+/// [`BI_MIN_CORRELATION_SAMPLES`] (at m = 1 the AV is 35 % below the plateau).
+pub const BI_FLAT_FROM_M: u64 = 16;
+/// Relative tolerance of the flat AV of a [`BiasInstability`] over
+/// max(m_lo, [`BI_FLAT_FROM_M`]) ≤ m ≤ m_hi (checked in the tests on every integer-spaced
+/// log grid point; measured −0.9 % … +0.2 %).
+pub const BI_FLAT_TOLERANCE: f64 = 0.01;
+
+impl BiBand {
+    /// The unresolved band ("the record's scales"), printed as a bare `BI`.
+    pub const AUTO: BiBand = BiBand { m_lo: 0, m_hi: 0 };
+
+    /// A band of cluster sizes 1 ≤ `m_lo` < `m_hi` (samples).
+    ///
+    /// ```
+    /// use processes::BiBand;
+    /// assert_eq!(BiBand::new(2, 1024)?.m_hi(), 1024);
+    /// assert!(BiBand::new(1024, 2).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn new(m_lo: u64, m_hi: u64) -> Result<Self> {
+        if m_lo == 0 || m_hi <= m_lo || m_hi > 1 << 53 {
+            return Err(ProcessError::InvalidParameter {
+                process: "BI",
+                name: "m_hi",
+                value: m_hi as f64,
+                requirement: "the band needs 1 <= m_lo < m_hi <= 2^53 samples",
+            });
+        }
+        Ok(Self { m_lo, m_hi })
+    }
+    /// Whether this is [`BiBand::AUTO`].
+    ///
+    /// ```
+    /// assert!(processes::BiBand::AUTO.is_auto());
+    /// ```
+    pub fn is_auto(&self) -> bool {
+        self.m_lo == 0
+    }
+    /// Lower edge m_lo (samples; 0 for AUTO).
+    ///
+    /// ```
+    /// assert_eq!(processes::BiBand::new(4, 64)?.m_lo(), 4);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn m_lo(&self) -> u64 {
+        self.m_lo
+    }
+    /// Upper edge m_hi (samples; 0 for AUTO).
+    ///
+    /// ```
+    /// assert_eq!(processes::BiBand::new(4, 64)?.m_hi(), 64);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn m_hi(&self) -> u64 {
+        self.m_hi
+    }
+    /// The band itself, or `fallback` when AUTO.
+    ///
+    /// ```
+    /// use processes::BiBand;
+    /// let b = BiBand::new(1, 100)?;
+    /// assert_eq!(BiBand::AUTO.or(b), b);
+    /// assert_eq!(BiBand::new(2, 50)?.or(b).m_hi(), 50);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn or(self, fallback: BiBand) -> BiBand {
+        if self.is_auto() { fallback } else { self }
+    }
+    /// The correlation times T_i (samples) of the Gauss-Markov states and their stationary
+    /// variances per unit B² (see [`BiasInstability`]). Errors for AUTO.
+    ///
+    /// ```
+    /// use processes::BiBand;
+    /// let (t, u) = BiBand::new(1, 1 << 19)?.states()?;
+    /// assert_eq!(t.len(), 14); // 2 → 5.2·10⁶ samples, two per decade
+    /// assert_eq!((t[0], u.len()), (2.0, 14));
+    /// assert!(BiBand::AUTO.states().is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn states(&self) -> Result<(Vec<f64>, Vec<f64>)> {
+        if self.is_auto() {
+            return Err(ProcessError::NotDefined {
+                what: "the Gauss-Markov states",
+                process: "BI",
+                why: "its band is not set (BI without m_lo/m_hi takes the record's scales: fit it to a curve or simulate it)",
+            });
+        }
+        let k = BI_STATES_PER_DECADE;
+        let r = 10f64.powf(1.0 / k);
+        let t_lo = (self.m_lo as f64 / 10.0).max(BI_MIN_CORRELATION_SAMPLES);
+        let t_hi = 10.0 * self.m_hi as f64;
+        let n = ((t_hi / t_lo).log10() * k - 1e-9).ceil().max(1.0) as usize + 1;
+        let times: Vec<f64> = (0..n).map(|i| t_lo * r.powi(i as i32)).collect();
+        // Equal variances w give the plateau w·(k/ln 10)·2 ln 2 (continuum limit of the sum of
+        // AR1 AVs over log-spaced T); the plateau must be (2 ln 2/π)·B², so w = ln 10/(π k).
+        // The end states also stand for the states beyond the ends (a geometric tail with
+        // ratio 1/r): weight r/(r − 1).
+        let w = std::f64::consts::LN_10 / (std::f64::consts::PI * k);
+        let mut var = vec![w; n];
+        var[0] *= r / (r - 1.0);
+        var[n - 1] *= r / (r - 1.0);
+        Ok((times, var))
+    }
+}
+
+impl fmt::Display for BiBand {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "m_lo={}, m_hi={}", self.m_lo, self.m_hi)
+    }
+}
+
+/// Bias instability (flicker, IEEE Std 952 coefficient B): a sum of independent
+/// Gauss-Markov (AR1) states whose Allan variance is flat, σ²(τ) = (2 ln 2/π)·B² ≈ 0.4413 B²
+/// (AD floor 0.664 B, REFERENCES §1 and §11), over the band of cluster sizes of the record
+/// ([`BiBand`]). A Kalman filter can hold it: it is the listed states, nothing else.
+///
+/// `b` is B in the unit of the data (e.g. °/s); the band is fixed, not fitted.
+///
+/// # The states
+/// Correlation times T_i = T₀·10^{i/2} samples, two per decade, from T₀ = max(m_lo/10, 2)
+/// to at least 10·m_hi; stationary variances (ln 10/(2π))·B² each, ×√10/(√10 − 1) for the
+/// two end states. Why so:
+/// - A sum of AR1s with equal variances w at log-spaced T has AV w·(k/ln 10)·2 ln 2 in the
+///   continuum limit (k states per decade), hence w. The discrete sum ripples log-periodically
+///   around it: measured ±2.0 % at k = 1, ±0.9 % at k = 1.5, ±0.2 % at k = 2 (±0.15 % at
+///   k = 3 and 4: the remainder is the ends). k = 2 is the fewest states for a 1 % tolerance.
+/// - An AR1 contributes 2σ²T/m at m ≫ T and (2/3)σ²m/T at m ≪ T, so the states missing
+///   beyond either end are a geometric tail that the end state's extra weight r/(r − 1)
+///   (r = √10) replaces; one decade beyond each edge then keeps the edges within 1 %
+///   (without it they sag by 10–30 %).
+/// - States faster than 2 samples are white noise at every m, so below m = 16 the AV falls
+///   under the plateau (−3 % at m = 8, −35 % at m = 1); it is flat within
+///   [`BI_FLAT_TOLERANCE`] over max(m_lo, 16) ≤ m ≤ m_hi.
+/// A record of 5·10⁵ scales (m up to 2¹⁹) takes 14 states.
+///
+/// ```
+/// use processes::{BiBand, BiasInstability, Process};
+/// let bi = BiasInstability::new(1e-3, BiBand::new(1, 1 << 16)?)?;
+/// assert_eq!(bi.b(), 1e-3);
+/// // γ(0): the sum of the states' variances
+/// let (_, u) = bi.band().states()?;
+/// let g0: f64 = u.iter().sum::<f64>() * 1e-6;
+/// assert!((Process::from(bi).autocovariance(0, 100.0)? - g0).abs() < 1e-18);
+/// assert!(BiasInstability::new(0.0, BiBand::AUTO).is_err());
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BiasInstability {
+    b: f64,
+    band: BiBand,
+}
+
+impl BiasInstability {
+    /// Builds BI with B = `b` > 0 (unit of the data) over `band` (may be AUTO).
+    ///
+    /// ```
+    /// use processes::{BiBand, BiasInstability};
+    /// assert_eq!(BiasInstability::new(2e-4, BiBand::AUTO)?.band(), BiBand::AUTO);
+    /// assert!(BiasInstability::new(f64::NAN, BiBand::AUTO).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn new(b: f64, band: BiBand) -> Result<Self> {
+        Ok(Self {
+            b: check_positive("BI", "B", b)?,
+            band,
+        })
+    }
+    /// The IEEE coefficient B (unit of the data).
+    ///
+    /// ```
+    /// assert_eq!(processes::BiasInstability::new(3e-4, processes::BiBand::AUTO)?.b(), 3e-4);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn b(&self) -> f64 {
+        self.b
+    }
+    /// The band.
+    ///
+    /// ```
+    /// use processes::{BiBand, BiasInstability};
+    /// assert_eq!(BiasInstability::new(1.0, BiBand::new(1, 8)?)?.band().m_hi(), 8);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn band(&self) -> BiBand {
+        self.band
+    }
+    /// The plateau of the AV, (2 ln 2/π)·B² (unit²).
+    ///
+    /// ```
+    /// let bi = processes::BiasInstability::new(1.0, processes::BiBand::AUTO)?;
+    /// assert!((bi.plateau() - 0.441_271_2).abs() < 1e-7);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn plateau(&self) -> f64 {
+        2.0 * std::f64::consts::LN_2 / std::f64::consts::PI * self.b * self.b
+    }
+    /// The states as AR1s (φ_i = e^{−1/T_i}, v_i² = σ_i²(1 − φ_i²)), fastest first.
+    /// Errors for an AUTO band.
+    ///
+    /// ```
+    /// use processes::{BiBand, BiasInstability};
+    /// let s = BiasInstability::new(1.0, BiBand::new(1, 1000)?)?.ar1_states()?;
+    /// assert!((s[0].phi() - (-0.5f64).exp()).abs() < 1e-15); // T₀ = 2 samples
+    /// assert!(s.windows(2).all(|w| w[0].phi() < w[1].phi()));
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn ar1_states(&self) -> Result<Vec<Ar1>> {
+        let (t, u) = self.band.states()?;
+        let b2 = self.b * self.b;
+        t.iter()
+            .zip(&u)
+            .map(|(&t, &u)| Ar1::new((-1.0 / t).exp(), b2 * u * -(-2.0 / t).exp_m1()))
+            .collect()
+    }
+}
+
+/// Random-phase sinusoid (SIN, simts' `SIN(alpha2, beta)`, IEEE Std 952's sinusoidal
+/// term): X_t = α·sin(β·t + U), U uniform on [0, 2π).
+///
+/// `alpha2` = α² > 0 (unit²; the variance is α²/2), `beta` ∈ (0, π) the angular frequency in
+/// rad per sample (f = β·rate/(2π) Hz, below Nyquist). γ(h) = (α²/2)·cos(βh) and
+/// AV(m) = α²·sin⁴(βm/2) / (m·sin(β/2))² (REFERENCES §11). Stationary but not ergodic: one
+/// record sees one phase, and the AV estimator's variance is not the Gaussian one.
+///
+/// ```
+/// use processes::{Process, Sinusoid};
+/// let s = Sinusoid::from_hz(2e-4, 8.0, 100.0)?; // 8 Hz at 100 Hz
+/// assert!((s.beta() - 2.0 * std::f64::consts::PI * 0.08).abs() < 1e-15);
+/// assert!((Process::from(s).autocovariance(0, 100.0)? - 1e-4).abs() < 1e-18); // α²/2
+/// assert!(Sinusoid::new(1.0, std::f64::consts::PI).is_err());
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sinusoid {
+    alpha2: f64,
+    beta: f64,
+}
+
+impl Sinusoid {
+    /// Builds SIN with `alpha2` > 0 and `beta` ∈ (0, π) rad per sample.
+    ///
+    /// ```
+    /// use processes::Sinusoid;
+    /// assert_eq!(Sinusoid::new(1e-4, 0.5)?.beta(), 0.5);
+    /// assert!(Sinusoid::new(0.0, 0.5).is_err() && Sinusoid::new(1.0, 0.0).is_err());
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn new(alpha2: f64, beta: f64) -> Result<Self> {
+        if !(beta.is_finite() && beta > 0.0 && beta < std::f64::consts::PI) {
+            return Err(ProcessError::InvalidParameter {
+                process: "SIN",
+                name: "beta",
+                value: beta,
+                requirement: "must lie in (0, pi) rad per sample (below the Nyquist frequency)",
+            });
+        }
+        Ok(Self {
+            alpha2: check_positive("SIN", "alpha2", alpha2)?,
+            beta,
+        })
+    }
+    /// Builds SIN from α² and a frequency `f_hz` (Hz) at sampling rate `rate_hz`:
+    /// β = 2π·f/rate.
+    ///
+    /// ```
+    /// use processes::Sinusoid;
+    /// assert!(Sinusoid::from_hz(1.0, 60.0, 100.0).is_err()); // above Nyquist
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn from_hz(alpha2: f64, f_hz: f64, rate_hz: f64) -> Result<Self> {
+        let rate = check_rate(rate_hz)?;
+        Self::new(alpha2, 2.0 * std::f64::consts::PI * f_hz / rate)
+    }
+    /// α² (unit²).
+    ///
+    /// ```
+    /// assert_eq!(processes::Sinusoid::new(3.0, 1.0)?.alpha2(), 3.0);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn alpha2(&self) -> f64 {
+        self.alpha2
+    }
+    /// β (rad per sample).
+    ///
+    /// ```
+    /// assert_eq!(processes::Sinusoid::new(3.0, 1.0)?.beta(), 1.0);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn beta(&self) -> f64 {
+        self.beta
+    }
+    /// The frequency β·rate/(2π) in Hz at `rate_hz`.
+    ///
+    /// ```
+    /// let s = processes::Sinusoid::from_hz(1.0, 7.5, 100.0)?;
+    /// assert!((s.frequency_hz(100.0) - 7.5).abs() < 1e-12);
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn frequency_hz(&self, rate_hz: f64) -> f64 {
+        self.beta * rate_hz / (2.0 * std::f64::consts::PI)
+    }
+}
+
 /// The kind of a latent process, without values; also a model's "slot" to be estimated.
 ///
 /// ```
@@ -490,17 +819,25 @@ pub enum ProcessKind {
     /// Moving average of order 1, `MA1`.
     #[serde(rename = "MA1")]
     Ma1,
+    /// Bias instability, `BI`, over a band of cluster sizes ([`BiBand::AUTO`] until the
+    /// record is known).
+    #[serde(rename = "BI")]
+    BiasInstability(BiBand),
+    /// Random-phase sinusoid, `SIN`.
+    #[serde(rename = "SIN")]
+    Sinusoid,
 }
 
 impl ProcessKind {
-    /// Every kind, in the conventional order QN, WN, RW, DR, AR1, GM, MA1.
+    /// Every kind, in the conventional order QN, WN, RW, DR, AR1, GM, MA1, BI, SIN (BI with
+    /// an AUTO band).
     ///
     /// ```
     /// use processes::ProcessKind;
     /// let codes: Vec<_> = ProcessKind::ALL.iter().map(|k| k.code()).collect();
-    /// assert_eq!(codes, ["QN", "WN", "RW", "DR", "AR1", "GM", "MA1"]);
+    /// assert_eq!(codes, ["QN", "WN", "RW", "DR", "AR1", "GM", "MA1", "BI", "SIN"]);
     /// ```
-    pub const ALL: [ProcessKind; 7] = [
+    pub const ALL: [ProcessKind; 9] = [
         ProcessKind::QuantizationNoise,
         ProcessKind::WhiteNoise,
         ProcessKind::RandomWalk,
@@ -508,6 +845,8 @@ impl ProcessKind {
         ProcessKind::Ar1,
         ProcessKind::GaussMarkov,
         ProcessKind::Ma1,
+        ProcessKind::BiasInstability(BiBand::AUTO),
+        ProcessKind::Sinusoid,
     ];
 
     /// The short code used in model strings: `WN`, `QN`, `DR`, `RW`, `AR1`, `GM`, `MA1`.
@@ -525,6 +864,8 @@ impl ProcessKind {
             ProcessKind::Ar1 => "AR1",
             ProcessKind::GaussMarkov => "GM",
             ProcessKind::Ma1 => "MA1",
+            ProcessKind::BiasInstability(_) => "BI",
+            ProcessKind::Sinusoid => "SIN",
         }
     }
 
@@ -543,6 +884,8 @@ impl ProcessKind {
             ProcessKind::Ar1 => &["phi", "sigma2"],
             ProcessKind::GaussMarkov => &["beta", "sigma2"],
             ProcessKind::Ma1 => &["theta", "sigma2"],
+            ProcessKind::BiasInstability(_) => &["B"],
+            ProcessKind::Sinusoid => &["alpha2", "beta"],
         }
     }
 
@@ -574,9 +917,13 @@ impl ProcessKind {
     /// ```
     /// use processes::ProcessKind;
     /// assert!(ProcessKind::Ar1.may_repeat() && !ProcessKind::WhiteNoise.may_repeat());
+    /// assert!(ProcessKind::Sinusoid.may_repeat()); // at different frequencies
     /// ```
     pub fn may_repeat(self) -> bool {
-        matches!(self, ProcessKind::Ar1 | ProcessKind::GaussMarkov)
+        matches!(
+            self,
+            ProcessKind::Ar1 | ProcessKind::GaussMarkov | ProcessKind::Sinusoid
+        )
     }
 }
 
@@ -597,7 +944,7 @@ impl std::str::FromStr for ProcessKind {
                 input: s.to_string(),
                 position: 0,
                 message: format!(
-                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, GM, MA1"
+                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, GM, MA1, BI, SIN"
                 ),
             })
     }
@@ -632,6 +979,10 @@ pub enum Process {
     GaussMarkov(GaussMarkov),
     /// Moving average of order 1.
     Ma1(Ma1),
+    /// Bias instability.
+    BiasInstability(BiasInstability),
+    /// Random-phase sinusoid.
+    Sinusoid(Sinusoid),
 }
 
 macro_rules! impl_from_process {
@@ -648,7 +999,9 @@ impl_from_process!(
     RandomWalk,
     Ar1,
     GaussMarkov,
-    Ma1
+    Ma1,
+    BiasInstability,
+    Sinusoid
 );
 
 impl Process {
@@ -668,6 +1021,8 @@ impl Process {
             Process::Ar1(_) => ProcessKind::Ar1,
             Process::GaussMarkov(_) => ProcessKind::GaussMarkov,
             Process::Ma1(_) => ProcessKind::Ma1,
+            Process::BiasInstability(b) => ProcessKind::BiasInstability(b.band()),
+            Process::Sinusoid(_) => ProcessKind::Sinusoid,
         }
     }
 
@@ -687,6 +1042,8 @@ impl Process {
             Process::Ar1(p) => vec![p.phi, p.sigma2],
             Process::GaussMarkov(p) => vec![p.beta, p.sigma2],
             Process::Ma1(p) => vec![p.theta, p.sigma2],
+            Process::BiasInstability(p) => vec![p.b],
+            Process::Sinusoid(p) => vec![p.alpha2, p.beta],
         }
     }
 
@@ -719,6 +1076,8 @@ impl Process {
             ProcessKind::Ar1 => Ar1::new(v[0], v[1])?.into(),
             ProcessKind::GaussMarkov => GaussMarkov::new(v[0], v[1])?.into(),
             ProcessKind::Ma1 => Ma1::new(v[0], v[1])?.into(),
+            ProcessKind::BiasInstability(band) => BiasInstability::new(v[0], band)?.into(),
+            ProcessKind::Sinusoid => Sinusoid::new(v[0], v[1])?.into(),
         })
     }
 
@@ -822,6 +1181,17 @@ impl Process {
                 // σ_G² e^{−β h Δt}, computed directly (no rounding through φ^h).
                 g.sigma2 * (-g.beta * h as f64 / rate_hz).exp()
             }
+            Process::BiasInstability(b) => {
+                // Σ σ_i² e^{−h/T_i} over the states.
+                let (t, u) = b.band.states()?;
+                let b2 = b.b * b.b;
+                t.iter()
+                    .zip(&u)
+                    .map(|(&t, &u)| b2 * u * (-(h as f64) / t).exp())
+                    .sum()
+            }
+            // (α²/2)·cos(βh), with βh reduced exactly enough for any h < 2^53
+            Process::Sinusoid(p) => 0.5 * p.alpha2 * (p.beta * h as f64).cos(),
             Process::RandomWalk(_) | Process::Drift(_) => {
                 return Err(ProcessError::NotDefined {
                     what: "autocovariance γ(h)",
@@ -871,6 +1241,15 @@ enum ProcessRepr {
     GaussMarkov { beta: f64, sigma2: f64 },
     #[serde(rename = "MA1")]
     Ma1 { theta: f64, sigma2: f64 },
+    #[serde(rename = "SIN")]
+    Sinusoid { alpha2: f64, beta: f64 },
+    #[serde(rename = "BI")]
+    BiasInstability {
+        #[serde(rename = "B")]
+        b: f64,
+        m_lo: u64,
+        m_hi: u64,
+    },
 }
 
 impl TryFrom<ProcessRepr> for Process {
@@ -884,6 +1263,15 @@ impl TryFrom<ProcessRepr> for Process {
             ProcessRepr::Ar1 { phi, sigma2 } => Ar1::new(phi, sigma2)?.into(),
             ProcessRepr::GaussMarkov { beta, sigma2 } => GaussMarkov::new(beta, sigma2)?.into(),
             ProcessRepr::Ma1 { theta, sigma2 } => Ma1::new(theta, sigma2)?.into(),
+            ProcessRepr::Sinusoid { alpha2, beta } => Sinusoid::new(alpha2, beta)?.into(),
+            ProcessRepr::BiasInstability { b, m_lo, m_hi } => {
+                let band = if m_lo == 0 && m_hi == 0 {
+                    BiBand::AUTO
+                } else {
+                    BiBand::new(m_lo, m_hi)?
+                };
+                BiasInstability::new(b, band)?.into()
+            }
         })
     }
 }
@@ -906,6 +1294,15 @@ impl From<Process> for ProcessRepr {
             Process::Ma1(p) => ProcessRepr::Ma1 {
                 theta: p.theta,
                 sigma2: p.sigma2,
+            },
+            Process::Sinusoid(p) => ProcessRepr::Sinusoid {
+                alpha2: p.alpha2,
+                beta: p.beta,
+            },
+            Process::BiasInstability(p) => ProcessRepr::BiasInstability {
+                b: p.b,
+                m_lo: p.band.m_lo,
+                m_hi: p.band.m_hi,
             },
         }
     }

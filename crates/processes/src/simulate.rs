@@ -18,6 +18,12 @@
 //! - GM: the AR1 of [`GaussMarkov::to_ar1`](crate::GaussMarkov::to_ar1) at the given rate.
 //! - MA1: X_t = W_t + θ W_{t−1}, W_0, …, W_n iid N(0, σ²) (W_0 is drawn too, so the path is
 //!   stationary).
+//! - SIN: X_t = α sin(βt + U) with U = 2π·u, u the first uniform on [0, 1) of the
+//!   component's stream (so a path is one phase; βt + U is formed in f64, which for
+//!   t ~ 10⁹ leaves ~10⁻⁷ rad of phase rounding).
+//! - BI: the sum of its AR1 states ([`BiasInstability::ar1_states`](crate::BiasInstability::ar1_states)),
+//!   each simulated as an AR1 (stationary start). A BI with an AUTO band takes the band
+//!   m = 1 … n of the simulated record.
 //!
 //! # Random streams and reproducibility
 //! The output depends only on (model, n, rate, seed, stream), never on the number of rayon
@@ -49,7 +55,14 @@
 //!   chunk's carry.
 //! - The total is summed in model order: total = ((c_0 + c_1) + c_2) + …, so
 //!   [`Simulation::total`] is bit for bit [`Model::simulate`] and the sum of
-//!   [`Simulation::components`].
+//!   [`Simulation::components`] — except around a BI component, whose states are added to the
+//!   total one by one (((c_0 + s_1) + s_2) + …) while its component path is (s_1 + s_2) + …:
+//!   the two agree to rounding.
+//! - A BI's state 0 uses the component's generator state; its state j ≥ 1 starts from the
+//!   state of stream `stream` of the seed mix64(seed ⊕ j·K_BI) advanced by as many
+//!   `long_jump`s as the component's index (a distinct seed per state, so its numbers are
+//!   independent of the other components' for every practical purpose, but not provably
+//!   disjoint as the jumps are).
 //!
 //! # Memory and speed
 //! The output is written once into fresh zeroed memory (no separate zeroing pass); on Linux,
@@ -215,6 +228,12 @@ enum Gen {
         theta: f64,
         sd: f64,
     },
+    /// α, β and the phase U (drawn in [`CompPlan::new`]).
+    Sin {
+        amp: f64,
+        beta: f64,
+        phase: f64,
+    },
 }
 
 impl Gen {
@@ -238,6 +257,16 @@ impl Gen {
             Process::Ma1(m) => Gen::Ma1 {
                 theta: m.theta(),
                 sd: m.sigma2().sqrt(),
+            },
+            Process::BiasInstability(_) => {
+                return Err(ProcessError::InvalidArgument(
+                    "a BI is simulated through its AR1 states".into(),
+                ));
+            }
+            Process::Sinusoid(p) => Gen::Sin {
+                amp: p.alpha2().sqrt(),
+                beta: p.beta(),
+                phase: 0.0,
             },
         })
     }
@@ -267,7 +296,7 @@ impl Gen {
     }
 
     fn uses_rng(&self) -> bool {
-        !matches!(self, Gen::Drift { .. })
+        !matches!(self, Gen::Drift { .. } | Gen::Sin { .. })
     }
 
     /// Next carry from the carry into a chunk and the chunk's local end value.
@@ -358,7 +387,12 @@ fn chunk_len(n: usize, k: usize) -> usize {
 }
 
 impl CompPlan {
-    fn new(recipe: Gen, mut state: Xoshiro256PlusPlus, n: usize) -> Self {
+    fn new(mut recipe: Gen, mut state: Xoshiro256PlusPlus, n: usize) -> Self {
+        if let Gen::Sin { phase, .. } = &mut recipe {
+            // u in [0, 1) from the top 53 bits
+            let u = (state.clone().next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+            *phase = 2.0 * std::f64::consts::PI * u;
+        }
         let states = if recipe.uses_rng() {
             let count = n_chunks(n) + 1;
             let mut v = Vec::with_capacity(count);
@@ -396,6 +430,12 @@ enum Cursor<'a> {
         omega: f64,
         t: u64,
     },
+    Sin {
+        amp: f64,
+        beta: f64,
+        phase: f64,
+        t: u64,
+    },
     Walk {
         local: &'a [f64],
         carry: f64,
@@ -423,6 +463,12 @@ impl<'a> Cursor<'a> {
             Gen::Ma1 { theta, sd } => Self::lagged(plan, k, len, false, sd, theta),
             Gen::Drift { omega } => Cursor::Drift {
                 omega,
+                t: (k * CHUNK_LEN) as u64 + 1,
+            },
+            Gen::Sin { amp, beta, phase } => Cursor::Sin {
+                amp,
+                beta,
+                phase,
                 t: (k * CHUNK_LEN) as u64 + 1,
             },
             Gen::Walk { .. } => Cursor::Walk {
@@ -528,6 +574,18 @@ impl<'a> Cursor<'a> {
                 let omega = *omega;
                 for x in dst.iter_mut() {
                     *x = omega * *t as f64;
+                    *t += 1;
+                }
+            }
+            Cursor::Sin {
+                amp,
+                beta,
+                phase,
+                t,
+            } => {
+                let (a, b, u) = (*amp, *beta, *phase);
+                for x in dst.iter_mut() {
+                    *x = a * (b * *t as f64 + u).sin();
                     *t += 1;
                 }
             }
@@ -817,17 +875,74 @@ fn non_finite(name: &str, out: &[f64], index: usize) -> ProcessError {
     }
 }
 
+/// Key separating the seeds of a BI's states (odd).
+const BI_STATE_KEY: u64 = 0xA076_1D64_78BD_642F;
+
+/// The processes a component is simulated as: itself, or a BI's AR1 states (band AUTO:
+/// m = 1 … n).
+fn sim_parts(p: &Process, n: usize) -> Result<Vec<Process>> {
+    match p {
+        Process::BiasInstability(b) => {
+            let band = b.band().or(crate::BiBand::new(1, (n as u64).max(2))?);
+            Ok(crate::BiasInstability::new(b.b(), band)?
+                .ar1_states()?
+                .into_iter()
+                .map(Process::from)
+                .collect())
+        }
+        p => Ok(vec![*p]),
+    }
+}
+
+/// The plans of component number `component` (generator `state`, already long-jumped to
+/// the component), one per simulated part (see [`sim_parts`]).
+fn component_plans(
+    p: &Process,
+    n: usize,
+    rate_hz: f64,
+    (seed, stream, component): (u64, u64, usize),
+    state: &Xoshiro256PlusPlus,
+) -> Result<Vec<CompPlan>> {
+    sim_parts(p, n)?
+        .iter()
+        .enumerate()
+        .map(|(j, part)| {
+            let st = if j == 0 {
+                state.clone()
+            } else {
+                let mut s = stream_state(mix64(seed ^ BI_STATE_KEY.wrapping_mul(j as u64)), stream);
+                for _ in 0..component {
+                    s.long_jump();
+                }
+                s
+            };
+            Ok(CompPlan::new(Gen::new(part, rate_hz, n)?, st, n))
+        })
+        .collect()
+}
+
 impl Model {
-    fn plans(&self, n: usize, rate_hz: f64, seed: u64, stream: u64) -> Result<Vec<CompPlan>> {
+    /// The plans of every component's parts and, for each plan, its component's index.
+    fn plans(
+        &self,
+        n: usize,
+        rate_hz: f64,
+        seed: u64,
+        stream: u64,
+    ) -> Result<(Vec<CompPlan>, Vec<usize>)> {
         check_args(n, rate_hz)?;
         let processes = self.processes()?;
         let mut state = stream_state(seed, stream);
         let mut plans = Vec::with_capacity(processes.len());
-        for p in &processes {
-            plans.push(CompPlan::new(Gen::new(p, rate_hz, n)?, state.clone(), n));
+        let mut owner = Vec::with_capacity(processes.len());
+        for (c, p) in processes.iter().enumerate() {
+            for plan in component_plans(p, n, rate_hz, (seed, stream, c), &state)? {
+                plans.push(plan);
+                owner.push(c);
+            }
             state.long_jump();
         }
-        Ok(plans)
+        Ok((plans, owner))
     }
 
     /// Simulates `n` samples X_1, …, X_n of the model at `rate_hz` Hz with random seed
@@ -874,7 +989,7 @@ impl Model {
         check_args(n, rate_hz)?;
         self.processes()?;
         let mut out = try_zeros(n)?;
-        let plans = self.plans(n, rate_hz, seed, stream)?;
+        let (plans, _) = self.plans(n, rate_hz, seed, stream)?;
         let name = self.to_string();
         if let Some(i) = run(&plans, &mut out, None, First::Assign)? {
             return Err(non_finite(&name, &out, i));
@@ -918,13 +1033,25 @@ impl Model {
         check_args(n, rate_hz)?;
         self.processes()?;
         let mut out = try_zeros(n)?;
-        let mut comps = (0..self.len())
+        let (plans, owner) = self.plans(n, rate_hz, seed, stream)?;
+        let mut parts = (0..plans.len())
             .map(|_| try_zeros(n))
             .collect::<Result<Vec<_>>>()?;
-        let plans = self.plans(n, rate_hz, seed, stream)?;
         let name = self.to_string();
-        if let Some(i) = run(&plans, &mut out, Some(&mut comps), First::Assign)? {
+        if let Some(i) = run(&plans, &mut out, Some(&mut parts), First::Assign)? {
             return Err(non_finite(&name, &out, i));
+        }
+        // a BI's states summed into its component, in order
+        let mut comps: Vec<Vec<f64>> = Vec::with_capacity(self.len());
+        for (part, &c) in parts.into_iter().zip(&owner) {
+            if c < comps.len() {
+                let acc = &mut comps[c];
+                acc.par_iter_mut()
+                    .zip(part.par_iter())
+                    .for_each(|(a, b)| *a += b);
+            } else {
+                comps.push(part);
+            }
         }
         let components = comps
             .into_iter()
@@ -972,8 +1099,8 @@ impl Process {
         for _ in 0..component {
             state.long_jump();
         }
-        let plan = CompPlan::new(Gen::new(self, rate_hz, out.len())?, state, out.len());
-        match run(&[plan], out, None, First::Add)? {
+        let plans = component_plans(self, out.len(), rate_hz, (seed, stream, component), &state)?;
+        match run(&plans, out, None, First::Add)? {
             Some(i) => Err(non_finite(&self.kind().to_string(), out, i)),
             None => Ok(()),
         }

@@ -11,6 +11,8 @@
 //! | AR1 | v² (m − 3φ − mφ² + 4φ^(m+1) − φ^(2m+1)) / (m² (1−φ)² (1−φ²)) |
 //! | GM  | AR1 with φ = e^(−βΔt), v² = σ_G² (1 − e^(−2βΔt)) |
 //! | MA1 | σ² (m (1+θ)² − 3θ) / m²  (book Example 4.1, rearranged) |
+//! | SIN | α² sin⁴(βm/2) / (m sin(β/2))² |
+//! | BI  | B² Σ_i u_i H(1/T_i, m): the GM factor of each state (T_i samples, variance u_i B², [`processes::BiasInstability`]) |
 //!
 //! # Numerical care
 //! The AR1 numerator N(φ) = m(1−φ²) − φ(1−φ^m)(3−φ^m) has a triple root at φ = 1: for
@@ -225,6 +227,43 @@ fn ar1_factor(p: &Phi, m: u64, grad: bool) -> (f64, f64) {
     (f, fp)
 }
 
+/// The AR1 factor F(φ, m) = AV / v² (AV per unit innovation variance) and dF/dφ, for
+/// φ ∈ (−1, 1) and m ≥ 1 samples: the closed form of [`allan_variance`] without validation
+/// or allocation, for optimizers that evaluate it many times (NaN outside the domain).
+///
+/// ```
+/// use processes::{Ar1, Process};
+/// use spectral::{allan_variance_with_gradient, closed_form::ar1_unit_avar};
+/// let (f, df) = ar1_unit_avar(0.99, 16);
+/// let (av, g) = allan_variance_with_gradient(&Process::from(Ar1::new(0.99, 2.0)?), 16, 1.0)?;
+/// assert_eq!((2.0 * f, 2.0 * df), (av, g[0]));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn ar1_unit_avar(phi: f64, m: u64) -> (f64, f64) {
+    if !(phi > -1.0 && phi < 1.0) || m == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    ar1_factor(&Phi::from_phi(phi), m, true)
+}
+
+/// The GM factor H(L, m) = AV / σ_G² (AV per unit stationary variance) and dH/dL, for
+/// L = βΔt > 0 and m ≥ 1 samples, without validation or allocation (see [`ar1_unit_avar`]).
+///
+/// ```
+/// use processes::{GaussMarkov, Process};
+/// use spectral::{allan_variance, closed_form::gm_unit_avar};
+/// let (h, _) = gm_unit_avar(0.01, 64);
+/// let av = allan_variance(&Process::from(GaussMarkov::new(1.0, 3.0)?), 64, 100.0)?;
+/// assert_eq!(3.0 * h, av);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn gm_unit_avar(l: f64, m: u64) -> (f64, f64) {
+    if !(l > 0.0 && l.is_finite()) || m == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    gm_factor(l, m, true)
+}
+
 /// The GM factor H(L, m) = AV / σ_G² and dH/dL, L = βΔt.
 fn gm_factor(l: f64, m: u64, grad: bool) -> (f64, f64) {
     let p = Phi::from_l(l);
@@ -281,6 +320,28 @@ fn av_and_gradient(process: &Process, m: u64, rate_hz: f64, grad: bool) -> Resul
             let dt = 1.0 / rate;
             let (h, h_l) = gm_factor(g.beta() * dt, m, grad);
             (g.sigma2() * h, vec![g.sigma2() * h_l * dt, h])
+        }
+        Process::BiasInstability(b) => {
+            // the states are GMs with L_i = 1/T_i per sample; AV ∝ B², so ∂AV/∂B = 2 AV / B
+            let (t, u) = b.band().states()?;
+            let unit: f64 = t
+                .iter()
+                .zip(&u)
+                .map(|(&t, &u)| u * gm_factor(1.0 / t, m, false).0)
+                .sum();
+            let b2 = b.b() * b.b();
+            (b2 * unit, vec![2.0 * b.b() * unit])
+        }
+        Process::Sinusoid(p) => {
+            // a = βm/2, c = β/2: AV = α² sin⁴a / (m² sin²c);
+            // ∂/∂β = α²/m² · (2m sin³a cos a / sin²c − sin⁴a cos c / sin³c)
+            let (alpha2, beta) = (p.alpha2(), p.beta());
+            let (sa, ca) = (0.5 * beta * mf).sin_cos();
+            let (sc, cc) = (0.5 * beta).sin_cos();
+            let unit = sa.powi(4) / (mf * mf * sc * sc);
+            let d_beta = alpha2 / (mf * mf)
+                * (2.0 * mf * sa.powi(3) * ca / (sc * sc) - sa.powi(4) * cc / sc.powi(3));
+            (alpha2 * unit, vec![unit, d_beta])
         }
     })
 }

@@ -84,3 +84,12 @@ pub(crate) fn check_tau_j(tau_j: u64) -> Result<u64> {
         Err(SpectralError::InvalidScale(tau_j))
     }
 }
+
+/// Errors for a process whose theory needs data it does not carry yet: a BI with an AUTO
+/// band (its states are fixed from the record's scales).
+pub(crate) fn check_process(process: &processes::Process) -> Result<()> {
+    if let processes::Process::BiasInstability(b) = process {
+        b.band().states()?;
+    }
+    Ok(())
+}

@@ -145,6 +145,7 @@ pub fn allan_variance_from_acv(acv: &[f64], m: u64) -> Result<f64> {
 /// ```
 pub fn variogram(process: &Process, h: u64, rate_hz: f64) -> Result<f64> {
     let rate = check_rate(rate_hz)?;
+    crate::error::check_process(process)?;
     let (scale, unit) = variogram_parts(process, h, rate);
     Ok(scale * unit)
 }
@@ -193,6 +194,19 @@ fn variogram_parts(process: &Process, h: u64, rate: f64) -> (f64, f64) {
             (p.stationary_variance(), one_minus_pow)
         }
         Process::GaussMarkov(g) => (g.sigma2(), -(-g.beta() * hf / rate).exp_m1()),
+        Process::BiasInstability(b) => match b.band().states() {
+            // Σ u_i (1 − e^{−h/T_i}) per unit B²
+            Ok((t, u)) => (
+                b.b() * b.b(),
+                t.iter()
+                    .zip(&u)
+                    .map(|(&t, &u)| u * -(-hf / t).exp_m1())
+                    .sum(),
+            ),
+            Err(_) => (f64::NAN, f64::NAN),
+        },
+        // γ(0) − γ(h) = (α²/2)(1 − cos βh) = α² sin²(βh/2), no cancellation
+        Process::Sinusoid(p) => (p.alpha2(), (0.5 * p.beta() * hf).sin().powi(2)),
     }
 }
 
@@ -211,6 +225,7 @@ fn variogram_parts(process: &Process, h: u64, rate: f64) -> (f64, f64) {
 pub fn lemma42_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result<f64> {
     let rate = check_rate(rate_hz)?;
     check_m(m)?;
+    crate::error::check_process(process)?;
     if let Process::Ar1(p) = process
         && p.phi() < 0.0
     {

@@ -20,6 +20,7 @@
 //! | GM  | AR1 with φ = e^(−βΔt), v² = σ_G²(1 − φ²) |
 //! | MA1 | σ² Δt ((1+θ)² − 4θ s) |
 //! | RW  | γ² Δt / (4 s) — *generalized* PSD (≈ γ²/(4π² f² Δt) near 0, a 1/f² law): the RW's increments are WN(γ²) and the difference filter has gain 4s |
+//! | SIN | not a function: the line spectrum (α²/4)[δ(f − f₀) + δ(f + f₀)], f₀ = β·rate/(2π) |
 //! | DR  | not a function: the ramp ωt has the generalized spectrum (ω·rate)²/(8π²) · δ''(f) |
 //!
 //! The drift's generalized spectrum is what makes Lemma 4.1 return ω²m²/2: applied to the
@@ -64,9 +65,29 @@ pub(crate) fn psd_sc(process: &Process, s: f64, c: f64, dt: f64) -> Option<f64> 
             v2 * dt / (a * a + 4.0 * phi * s)
         }
         Process::RandomWalk(p) => p.gamma2() * dt / (4.0 * s),
-        Process::Drift(_) => return None,
+        Process::Drift(_) | Process::Sinusoid(_) => return None,
+        Process::BiasInstability(b) => {
+            // the sum of its states' GM spectra (L_i = 1/T_i per sample)
+            let (t, u) = b.band().states().ok()?;
+            let b2 = b.b() * b.b();
+            t.iter()
+                .zip(&u)
+                .map(|(&t, &u)| {
+                    let l = 1.0 / t;
+                    let phi = (-l).exp();
+                    let a = -(-l).exp_m1();
+                    let v2 = b2 * u * -(-2.0 * l).exp_m1();
+                    v2 * dt / (a * a + 4.0 * phi * s)
+                })
+                .sum()
+        }
     })
 }
+
+pub(crate) const SINUSOID_NOT_A_FUNCTION: SpectralError = SpectralError::NotAFunction {
+    process: "SIN",
+    why: "a random-phase sinusoid has the line spectrum (alpha2/4)[delta(f - f0) + delta(f + f0)], f0 = beta*rate/(2 pi); its AV is alpha2 sin^4(beta m/2)/(m sin(beta/2))^2 (closed form)",
+};
 
 pub(crate) const DRIFT_NOT_A_FUNCTION: SpectralError = SpectralError::NotAFunction {
     process: "DR",
@@ -104,6 +125,10 @@ pub fn psd(process: &Process, f_hz: f64, rate_hz: f64) -> Result<f64> {
     let rate = check_rate(rate_hz)?;
     if !f_hz.is_finite() {
         return Err(SpectralError::InvalidFrequency(f_hz));
+    }
+    crate::error::check_process(process)?;
+    if let Process::Sinusoid(_) = process {
+        return Err(SINUSOID_NOT_A_FUNCTION);
     }
     let (s, c) = sin_cos_sq(f_hz, rate);
     psd_sc(process, s, c, 1.0 / rate).ok_or(DRIFT_NOT_A_FUNCTION)

@@ -310,12 +310,27 @@ fn finish_discrete(integral: f64, m: u64, rate: f64) -> Result<f64> {
 pub fn quadrature_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result<f64> {
     let rate = check_rate(rate_hz)?;
     check_m(m)?;
+    crate::error::check_process(process)?;
     if let Process::Drift(d) = process {
         // ⟨(ωr)²/(8π²) δ'', K⟩ over the real line, halved for ∫_0^∞, times 4:
         // 2 · (ωr)²/(8π²) · K''(0), K''(0) = 2π²τ².
         let tau = m as f64 / rate;
         let rr = d.omega() * rate;
         return Ok(2.0 * rr * rr / (8.0 * PI * PI) * 2.0 * PI * PI * tau * tau);
+    }
+    if let Process::Sinusoid(p) = process {
+        // The line at ±β through the AV filter: AV = (α²/4)|G(β)|² with the filter's response
+        // G(β) = (1/m)[Σ_{k<m} e^{iβk} − Σ_{m≤k<2m} e^{iβk}], summed directly (O(m)): an
+        // independent route to the closed form α² sin⁴(βm/2)/(m sin(β/2))².
+        let (mut re, mut im) = (0.0f64, 0.0f64);
+        for k in 0..2 * m {
+            let sign = if k < m { 1.0 } else { -1.0 };
+            let (s, c) = (p.beta() * k as f64).sin_cos();
+            re += sign * c;
+            im += sign * s;
+        }
+        let mf = m as f64;
+        return Ok(0.25 * p.alpha2() * (re * re + im * im) / (mf * mf));
     }
     let dt = 1.0 / rate;
     let spec = |x: f64, t: f64| {
