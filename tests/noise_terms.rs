@@ -72,10 +72,13 @@ fn adis16405_has_n_k_b_from_one_source_and_a_verdict() {
                 );
                 assert!(html.contains(&shown), "{file} {name} {sym} {shown}: report");
             }
-            // gyros: the model's N (white noise and fast AR1s) agrees with the read-off at 1 s
-            // within the read-off's CI
+            // gyros whose N is an AR1's white-noise equivalent (the sensor's filtering fitted
+            // as an AR1 of small φ in place of white noise): it agrees with the read-off at
+            // 1 s within the read-off's CI. (Where the model also holds a sinusoid or a white
+            // noise beside the AR1, as on gyro z, the model splits the AV near 1 s among them
+            // and N may fall below the read-off's line; that shows as `disagrees`.)
             let n = &terms["n"];
-            if name.starts_with("gyro") && n["source"] == "model" {
+            if name.starts_with("gyro") && n["basis"] == "AR1 (white-noise equivalent)" {
                 let r = &n["read_off"];
                 let v = n["value"].as_f64().unwrap();
                 let (lo, hi) = (r["ci_lo"].as_f64().unwrap(), r["ci_hi"].as_f64().unwrap());

@@ -806,33 +806,61 @@ fn fit_restricted(
                 ..GmwmOptions::default()
             };
             let v0 = diagonal_covariance(&curve);
-            let (template, wic) = if settings.select {
+            // the fit of one template with its covariance V of the AV estimates and the
+            // delta-method inference
+            let attempt = |template: &Model| -> std::result::Result<_, FitError> {
+                let f = gmwm::fit(&curve, template, &opts)?;
+                let (v, method) = if settings.bootstrap > 0 {
+                    let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
+                    b.alpha = settings.alpha;
+                    let boot =
+                        parametric_bootstrap_with_progress(&f, template, &opts, &b, on_replicate)?;
+                    (boot.av_cov, CiMethod::DeltaBootstrapCov)
+                } else {
+                    // The exact covariance of the AV estimates under the fitted model. It
+                    // exists for every model the fit can return; should it fail, the diagonal
+                    // V is used and `ci_method` says so.
+                    match fit_covariance(&f) {
+                        Ok(v) => (v, CiMethod::DeltaModelCov),
+                        Err(_) => (v0.clone(), CiMethod::DeltaDiagonal),
+                    }
+                };
+                let inf = delta_method(&f, &v, settings.alpha)?;
+                Ok((f, v, method, inf))
+            };
+            let (wic, (f, v, method, inf)) = if settings.select {
                 let cands = select_by_wic(&curve, &template, &opts, &v0).map_err(e)?;
-                let best = cands.first().ok_or_else(|| {
-                    Error::Usage(format!("channel {name:?}: no sub-model could be fitted"))
-                })?;
-                (best.template.parse::<Model>()?, Some(best.wic))
-            } else {
-                (template, None)
-            };
-            let f = gmwm::fit(&curve, &template, &opts).map_err(e)?;
-            let (v, method) = if settings.bootstrap > 0 {
-                let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
-                b.alpha = settings.alpha;
-                let boot =
-                    parametric_bootstrap_with_progress(&f, &template, &opts, &b, on_replicate)
-                        .map_err(e)?;
-                (boot.av_cov, CiMethod::DeltaBootstrapCov)
-            } else {
-                // The exact covariance of the AV estimates under the fitted model. It exists
-                // for every model the fit can return; should it fail, the diagonal V is used
-                // and `ci_method` says so.
-                match fit_covariance(&f) {
-                    Ok(v) => (v, CiMethod::DeltaModelCov),
-                    Err(_) => (v0, CiMethod::DeltaDiagonal),
+                // the best candidate by WIC, refitted with the fit's own weighting and every
+                // start; should that refit not converge or not identify a component (the
+                // search fitted it with the full model's Ω), the next one
+                let mut chosen = None;
+                let mut last_err = None;
+                for c in &cands {
+                    match attempt(&c.template.parse()?) {
+                        Ok(x) => {
+                            chosen = Some((Some(c.wic), x));
+                            break;
+                        }
+                        Err(
+                            err @ (FitError::OptimizationFailed(_)
+                            | FitError::Unidentifiable(_)
+                            | FitError::NotIdentifiable { .. }),
+                        ) => last_err = Some(err),
+                        Err(err) => return Err(e(err)),
+                    }
                 }
+                match (chosen, last_err) {
+                    (Some(x), _) => x,
+                    (None, Some(err)) => return Err(e(err)),
+                    (None, None) => {
+                        return Err(Error::Usage(format!(
+                            "channel {name:?}: no sub-model could be fitted"
+                        )));
+                    }
+                }
+            } else {
+                (None, attempt(&template).map_err(e)?)
             };
-            let inf = delta_method(&f, &v, settings.alpha).map_err(e)?;
             let r = FitReport::from_gmwm(&f, Some(&inf), unit);
             let kinds = f.kinds.clone();
             let theta = f.theta.clone();

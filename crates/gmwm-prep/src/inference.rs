@@ -483,12 +483,15 @@ pub fn select_by_wic(
     v: &CovMatrix,
 ) -> Result<Vec<Candidate>> {
     // Ω from the full model's fit, or, when its optimization fails (e.g. a second AR1 the
-    // data do not support), from the largest sub-model that can be fitted
+    // data do not support) or it has more parameters than the curve has scales (a short
+    // record), from the largest sub-model that can be fitted
     let full_fit = match fit(curve, full, opts) {
         Ok(f) => f,
-        Err(e @ (FitError::OptimizationFailed(_) | FitError::Unidentifiable(_))) => {
-            largest_fitting_submodel(curve, full, opts).ok_or(e)?
-        }
+        Err(
+            e @ (FitError::OptimizationFailed(_)
+            | FitError::Unidentifiable(_)
+            | FitError::TooFewScales { .. }),
+        ) => largest_fitting_submodel(curve, full, opts).ok_or(e)?,
         Err(e) => return Err(e),
     };
     let omega = full_fit.omega();

@@ -676,6 +676,35 @@ mod tests {
         assert!((t.n.value / n - 1.0).abs() < 1e-12 && t.n.basis == "WN");
     }
 
+    /// B of a bias-instability component is its parameter: rad/s to °/h exactly; N and K
+    /// beside it are those of the WN and RW only (BI's Gauss-Markov states are not white
+    /// noise at any fitted scale).
+    #[test]
+    fn bias_instability_gives_b_from_the_model() {
+        let rate = 100.0;
+        let dt = 1.0 / rate;
+        let m: Vec<u64> = (1..=16).map(|j| 1u64 << j).collect();
+        let band = processes::BiBand::new(2, 1 << 16).unwrap();
+        let bi = ProcessKind::BiasInstability(band);
+        let truth = processes::Model::from_processes(vec![
+            processes::WhiteNoise::new(1e-4).unwrap().into(),
+            processes::BiasInstability::new(2e-5, band).unwrap().into(),
+            processes::RandomWalk::new(1e-13).unwrap().into(),
+        ])
+        .unwrap();
+        let av = model_avar(&truth, &m, rate).unwrap();
+        let curve = AvCurve::from_m(&m, &av, rate).unwrap();
+        let kinds = [ProcessKind::WhiteNoise, bi, ProcessKind::RandomWalk];
+        let theta = [1e-4, 2e-5, 1e-13];
+        let t = noise_terms_of(&kinds, &theta, rate, 0.02, None, &curve, &Unit::RadPerSec).unwrap();
+        let deg = 180.0 / std::f64::consts::PI;
+        assert_eq!((t.b.source, t.b.basis.as_str()), (TermSource::Model, "BI"));
+        assert!((t.b.value / (2e-5 * deg * 3600.0) - 1.0).abs() < 1e-12);
+        assert!((t.b.per_second / 2e-5 - 1.0).abs() < 1e-12);
+        assert!((t.n.per_second / (1e-4 * dt).sqrt() - 1.0).abs() < 1e-12 && t.n.basis == "WN");
+        assert!((t.k.per_second / (1e-13 / dt).sqrt() - 1.0).abs() < 1e-12);
+    }
+
     /// Without any term of a slope in the model or the curve, the value is the bound
     /// min_τ √(τ·AV(τ)) (for N), and it is ≥ the true N of a model that adds to it.
     #[test]
