@@ -26,6 +26,10 @@
 //! per thread); those run four (AVX2: two) scales at a time (independent recurrences in one
 //! instruction stream).
 
+// the vector paths' helpers (chunk-walk state, lane copies) are used only on x86-64; other
+// architectures build the portable path and leave them unused
+#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_variables))]
+
 use rayon::prelude::*;
 
 use crate::error::AvarError;
