@@ -1262,6 +1262,25 @@ fn stream_chunk<const SEG: usize>(
         return reduce_lanes(&st.acc);
     }
     let _ = simd;
+    if a >= 2 * m && a + (NSEG * SEG) <= t {
+        // a full chunk: the NSEG segments in lockstep (independent chains, so that their
+        // latencies overlap), each lane the operations of [`seg_sum`] in the same order
+        let mut d = [0.0f64; NSEG];
+        for (l, dl) in d.iter_mut().enumerate() {
+            *dl = d_start(x, ck, m, a + l * SEG);
+        }
+        for j in 0..SEG - 1 {
+            for l in 0..NSEG {
+                let k = a + l * SEG + j;
+                acc[l] = d[l].mul_add(d[l], acc[l]);
+                d[l] += (x[k] - x[k - m]) - (x[k - m] - x[k - 2 * m]);
+            }
+        }
+        for l in 0..NSEG {
+            acc[l] = d[l].mul_add(d[l], acc[l]);
+        }
+        return reduce_lanes(&acc);
+    }
     for (l, al) in acc.iter_mut().enumerate() {
         let s = (a + l * SEG).max(2 * m);
         let e = (a + (l + 1) * SEG).min(t + 1);
