@@ -14,7 +14,7 @@
 //! * allantools `oadev(..., data_type="freq", taus="octave")` in a Python venv (created with
 //!   `python3 -m venv target/venv && target/venv/bin/pip install allantools`), whose OADEV values
 //!   are also compared with ours (an independent implementation);
-//! * "all m" (m = 1..T/2) on `--all-n` samples by `avar`.
+//! * "all m" (m = 1..T/2) on `--all-n` samples by `avar` (`--all-n 0`: skipped).
 //!
 //! Times are the best of three runs (allantools too, in one process, up to 1e7; one call at
 //! 1e8, which is slower than its later calls would be). Peak memory is the process
@@ -395,6 +395,9 @@ pub fn run(args: &[String]) -> Result<(), String> {
         );
         drop(x);
         let _ = std::fs::remove_file(&file);
+    }
+    if all_n == 0 {
+        return Ok(());
     }
     let x = data(all_n);
     let all = AvarConfig {

@@ -26,6 +26,10 @@
 //! per thread); those run four (AVX2: two) scales at a time (independent recurrences in one
 //! instruction stream).
 
+// the vector paths' helpers (chunk-walk state, lane copies) are used only on x86-64; other
+// architectures build the portable path and leave them unused
+#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_variables))]
+
 use rayon::prelude::*;
 
 use crate::error::AvarError;
@@ -1258,6 +1262,25 @@ fn stream_chunk<const SEG: usize>(
         return reduce_lanes(&st.acc);
     }
     let _ = simd;
+    if a >= 2 * m && a + (NSEG * SEG) <= t {
+        // a full chunk: the NSEG segments in lockstep (independent chains, so that their
+        // latencies overlap), each lane the operations of [`seg_sum`] in the same order
+        let mut d = [0.0f64; NSEG];
+        for (l, dl) in d.iter_mut().enumerate() {
+            *dl = d_start(x, ck, m, a + l * SEG);
+        }
+        for j in 0..SEG - 1 {
+            for l in 0..NSEG {
+                let k = a + l * SEG + j;
+                acc[l] = d[l].mul_add(d[l], acc[l]);
+                d[l] += (x[k] - x[k - m]) - (x[k - m] - x[k - 2 * m]);
+            }
+        }
+        for l in 0..NSEG {
+            acc[l] = d[l].mul_add(d[l], acc[l]);
+        }
+        return reduce_lanes(&acc);
+    }
     for (l, al) in acc.iter_mut().enumerate() {
         let s = (a + l * SEG).max(2 * m);
         let e = (a + (l + 1) * SEG).min(t + 1);

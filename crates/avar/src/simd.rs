@@ -193,9 +193,7 @@ static CAP: OnceLock<Option<SimdLevel>> = OnceLock::new();
 /// ```
 pub fn cap() -> Option<SimdLevel> {
     *CAP.get_or_init(|| {
-        let Some(v) = std::env::var_os(ENV_VAR) else {
-            return None;
-        };
+        let v = std::env::var_os(ENV_VAR)?;
         match parse_cap(&v.to_string_lossy()) {
             Ok(c) => c,
             Err(e) => {
