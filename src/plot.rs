@@ -72,6 +72,7 @@ pub struct Series {
 ///         Mark { label: "N = 0.0100".into(), tau: 1.0, sigma: 0.01 },
 ///         Mark { label: "far away".into(), tau: 1e6, sigma: 1e-5 },
 ///     ],
+///     excluded: Vec::new(),
 /// };
 /// let svg = adev_svg(&plot, "gx");
 /// assert!(svg.contains("gyro x: Allan deviation"));
@@ -124,6 +125,7 @@ pub struct AdevPlot {
 /// #         Mark { label: "N = 0.0100".into(), tau: 1.0, sigma: 0.01 },
 /// #         Mark { label: "far away".into(), tau: 1e6, sigma: 1e-5 },
 /// #     ],
+/// #     excluded: Vec::new(),
 /// # };
 /// // `plot`: a white-noise curve with its CI band, a fit, a WN component and two marks
 /// let svg = adev_svg(&plot, "gx");
@@ -379,6 +381,7 @@ fn legend(s: &mut String, items: &[(String, String)]) {
 /// #         Mark { label: "N = 0.0100".into(), tau: 1.0, sigma: 0.01 },
 /// #         Mark { label: "far away".into(), tau: 1e6, sigma: 1e-5 },
 /// #     ],
+/// #     excluded: Vec::new(),
 /// # };
 /// // `plot`: a white-noise curve with its CI band, a fit, a WN component and two marks
 /// let svg = adev_svg(&plot, "gx");

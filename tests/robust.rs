@@ -356,3 +356,59 @@ fn cli_analyze_robust_names_the_window() {
     assert!(html.contains("robust fit"));
     assert!(out_dir.join("adev_robust_ch1.svg").exists());
 }
+
+/// A deterministic uniform stream (64-bit LCG, top 53 bits) for the synthetic records below.
+fn uniforms(n: usize, seed: u64) -> Vec<f64> {
+    let mut s = seed;
+    (0..n)
+        .map(|_| {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        })
+        .collect()
+}
+
+/// What the contamination check says when no part of the record drives the excess: white
+/// Laplace noise (kurtosis 6: heavier-tailed than Gaussian in every sample) is flagged, and
+/// the message says what the data are, not where; the same Gaussian-free record with a burst
+/// of large values in one second names that window instead.
+#[test]
+fn contamination_spread_through_the_record_is_described_not_located() {
+    let n = 1 << 17;
+    let rate = 100.0;
+    // Laplace by the inverse CDF: x = −sgn(u − ½)·ln(1 − 2|u − ½|)
+    let laplace: Vec<f64> = uniforms(n, 7)
+        .into_iter()
+        .map(|u| {
+            let d = u - 0.5;
+            -d.signum() * (1.0 - 2.0 * d.abs()).ln()
+        })
+        .collect();
+    let cfg = AvarConfig::default();
+    let rob = avar::robust::robust_allan_variance(&laplace, rate, &cfg, 0.6).unwrap();
+    let chk = contamination_check(&laplace, &rob, 0.01, 5).unwrap();
+    eprintln!("{}", chk.message);
+    assert!(chk.contaminated, "{}", chk.message);
+    let largest = chk.windows.iter().map(|w| w.share).fold(0.0, f64::max);
+    assert!(largest < gmwm_prep::robust::SPREAD_SHARE, "{largest}");
+    assert!(chk.message.contains("heavier-tailed than Gaussian throughout"), "{}", chk.message);
+    assert!(!chk.message.contains("windows driving it"));
+
+    // Gaussian noise (Box–Muller) with 100 samples of ±20 σ in the second 600–601 s
+    let u = uniforms(n + 1, 11);
+    let mut x: Vec<f64> = (0..n)
+        .map(|i| (-2.0 * u[i].ln()).sqrt() * (2.0 * std::f64::consts::PI * u[i + 1]).cos())
+        .collect();
+    for (k, v) in x[60_000..60_100].iter_mut().enumerate() {
+        *v += if k % 2 == 0 { 20.0 } else { -20.0 };
+    }
+    let rob = avar::robust::robust_allan_variance(&x, rate, &cfg, 0.6).unwrap();
+    let chk = contamination_check(&x, &rob, 0.01, 5).unwrap();
+    eprintln!("{}", chk.message);
+    assert!(chk.contaminated, "{}", chk.message);
+    assert!(chk.message.contains("windows driving it"), "{}", chk.message);
+    let w = &chk.windows[0];
+    assert!(w.start_s <= 600.0 && 601.0 <= w.end_s + 1.0, "{w:?}");
+}

@@ -1250,7 +1250,9 @@ fn write_param_row(out: &mut impl Write, indent: &str, p: &ParamJson) -> std::io
 /// let mut out = Vec::new();
 /// fit::write_table(&mut out, std::slice::from_ref(&f), 0.05, 0)?;
 /// let text = String::from_utf8(out)?;
-/// assert!(text.starts_with(&format!("gyro_x [rad/s]: gmwm fit: {}", f.model)));
+/// // the model to 4 significant digits, then the verdict and N, K, B with their sources
+/// assert!(text.starts_with(&format!("gyro_x [rad/s]: gmwm fit: {}", f.model_display())));
+/// assert!(text.contains("\n  verdict: ") && text.contains("\n  N = "));
 /// assert!(text.contains("95% CI (delta method"));
 /// assert!(text.contains("J-test: J = "));
 /// # Ok::<(), Box<dyn std::error::Error>>(())

@@ -1242,7 +1242,7 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
     let _ = writeln!(
         h,
         "<p>Robust AV: Tukey biweight M-estimator of scale per scale at Gaussian efficiency {} (c = {:.3}); its CIs are the chi-square ones with EDF × efficiency. A scale is flagged when z = (classical − robust)/sd exceeds the one-sided 1 % threshold with Bonferroni over the scales (sd from the classical EDF and the 1/e variance bound: conservative).</p>",
-        robust.first().map_or(0.0, |r| r.1.efficiency),
+        sig(robust.first().map_or(0.0, |r| r.1.efficiency), 4),
         robust.first().map_or(0.0, |r| r.1.biweight.c),
     );
     let stems = file_stems(names);
@@ -1297,6 +1297,14 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
             }
             h.push_str("</table>\n");
         }
+        // the per-scale table folded away: open where the check found something
+        let flagged = chk.scales.iter().filter(|s| s.z > chk.threshold).count();
+        let _ = writeln!(
+            h,
+            "<details{}><summary>per-scale comparison: {} scales, {flagged} flagged</summary>",
+            if chk.contaminated { " open" } else { "" },
+            chk.scales.len()
+        );
         h.push_str("<table><tr><th>m</th><th>τ (s)</th><th>classical AV</th><th>robust AV</th><th>robust CI</th><th>ratio</th><th>z</th><th>rejected</th></tr>\n");
         for (i, s) in chk.scales.iter().enumerate() {
             let p = &r.robust.points[i];
@@ -1314,7 +1322,7 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
                 r.rejected[i]
             );
         }
-        h.push_str("</table>\n");
+        h.push_str("</table></details>\n");
         if let Some(rf) = robust_fits {
             let (c, q) = (&classical_fits[k], &rf[k]);
             let _ = writeln!(
