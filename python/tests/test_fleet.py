@@ -31,9 +31,17 @@ def fleet_files(tmp_path_factory):
     return paths
 
 
+# The fleet summary's rule is under test here, not the default model class: the sub-models of
+# QN+WN+RW+2*AR1 (the class before BI and SIN joined it), whose selection on these 2^14-sample
+# WN + RW records keeps a white noise on every axis. (With the larger default class a few of
+# the 21 axes are fitted with QN + SIN + an AR1 in place of WN, which moves their N by up to
+# 6 %: a known weakness of selecting from the larger class on short records.)
+CLASS = "QN+WN+RW+2*AR1"
+
+
 @pytest.fixture(scope="module")
 def serial(fleet_files):
-    return fleet.analyze_many(fleet_files, rate=RATE)
+    return fleet.analyze_many(fleet_files, rate=RATE, model=CLASS)
 
 
 def test_rows_one_per_unit(serial, fleet_files):
@@ -43,7 +51,7 @@ def test_rows_one_per_unit(serial, fleet_files):
     n = axis["N"]
     assert n["ci_lo"] <= n["value"] <= n["ci_hi"] and "h" in n["unit"]
     # the row is the results.json of that file
-    one = imunoise.analyze(fleet_files[0], rate=RATE)
+    one = imunoise.analyze(fleet_files[0], rate=RATE, model=CLASS)
     assert json.dumps(one) == json.dumps(serial.results[0])
 
 
@@ -81,7 +89,7 @@ def test_dask_localcluster_identical_to_serial(fleet_files, serial, processes):
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
         assert len(client.scheduler_info()["workers"]) == 2
-        par = fleet.analyze_many(fleet_files, client=client, rate=RATE)
+        par = fleet.analyze_many(fleet_files, client=client, rate=RATE, model=CLASS)
     assert json.dumps(par.results) == json.dumps(serial.results)  # bit for bit (repr of floats)
     assert par.rows == serial.rows
     assert par.summary == serial.summary
