@@ -101,6 +101,19 @@ fn adis16405_has_n_k_b_from_one_source_and_a_verdict() {
             let frac = a["n_inside"].as_f64().unwrap() / n_scales as f64;
             assert_eq!(a["adequate"].as_bool(), Some(frac >= 0.9), "{file} {name}");
         }
+        // imu.yaml lists each axis's N, K and B as the report shows them
+        for c in channels {
+            let name = c["name"].as_str().unwrap();
+            let line = yaml
+                .lines()
+                .find(|l| l.starts_with(&format!("#   {name}: N ")))
+                .unwrap_or_else(|| panic!("{file} {name}: no N, K, B comment in imu.yaml"));
+            for sym in ["n", "k", "b"] {
+                let v = c["fit"]["noise_terms"][sym]["value"].as_f64().unwrap();
+                let shown = imunoise::processes::number::sig(v, 4);
+                assert!(line.contains(&shown), "{file} {name} {sym}: {line}");
+            }
+        }
         let key = |k: &str| -> f64 {
             let l = yaml
                 .lines()

@@ -457,6 +457,7 @@ fn html_esc(s: &str) -> String {
 pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
     let mut vals: [Vec<f64>; 4] = Default::default(); // gN, gK, aN, aK
     let mut fallbacks: Vec<String> = Vec::new();
+    let mut terms_lines: Vec<String> = Vec::new();
     for (k, f) in inp.fits.iter().enumerate() {
         let unit = &inp.units[k];
         let to_si = match unit {
@@ -474,6 +475,15 @@ pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
         }
         // N and K of the analysis (the report's and the console's values): one source
         if let Some(t) = &f.noise_terms {
+            terms_lines.push(format!(
+                "{}: {}",
+                inp.names[k],
+                t.all()
+                    .iter()
+                    .map(|x| format!("{} {} ({})", x.symbol, x.display(), x.basis))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ));
             for (term, slot) in [(&t.n, base), (&t.k, base + 1)] {
                 vals[slot].push(term.per_second * to_si);
                 if term.basis != "WN" && term.basis != "RW" {
@@ -540,6 +550,12 @@ pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
             let _ = writeln!(s, "# {f}");
         } else {
             let _ = writeln!(s, "# note: {f}");
+        }
+    }
+    if !terms_lines.is_empty() {
+        s.push_str("# per axis, as in the report (IEEE units, 95 % CIs, source):\n");
+        for l in &terms_lines {
+            let _ = writeln!(s, "#   {l}");
         }
     }
     s.push_str("rostopic: /imu0\n");
