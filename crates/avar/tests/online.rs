@@ -20,6 +20,28 @@ const TOL_CI: f64 = 1e-7;
 /// batch estimator's documented bound (tests/robustness.rs).
 const TOL_OFFSET: f64 = 1e-9;
 
+/// Online vs the compensated direct reference ([`moav_compensated`]): both are exact up to
+/// the last rounding of each term (a few ε).
+const TOL_EXACT: f64 = 1e-14;
+
+/// Eq. 4.2 literally: each cluster sum from the samples (m terms, no long cumulative sum),
+/// the squared differences summed with Neumaier compensation. O(T·m): small m only.
+fn moav_compensated(x: &[f64], m: usize) -> f64 {
+    let (mut s, mut c) = (0.0f64, 0.0f64);
+    for k in 2 * m..=x.len() {
+        let d = x[k - m..k].iter().sum::<f64>() - x[k - 2 * m..k - m].iter().sum::<f64>();
+        let v = d * d;
+        let t = s + v;
+        if s.abs() >= v.abs() {
+            c += (s - t) + v;
+        } else {
+            c += (v - t) + s;
+        }
+        s = t;
+    }
+    (s + c) / (m * m) as f64 / (2.0 * (x.len() - 2 * m + 1) as f64)
+}
+
 fn wn_rw_ar(n: usize, seed: u64) -> Vec<f64> {
     let w = white_noise(n, 1.0, seed);
     let r = random_walk(n, 1e-4, seed + 1);
@@ -65,6 +87,23 @@ fn check_stream(x: &[f64], every: usize, max_m: u64, cfg: &AvarConfig, max_chunk
             assert!(rel(live.mean, batch.mean) < 1e-12 || (live.mean - batch.mean).abs() < 1e-15);
             for (p, q) in live.points.iter().zip(&batch.points) {
                 let r = rel(p.avar, q.avar);
+                if r > TOL_AV && p.m <= 64 {
+                    // the batch's in-memory kernel itself can be off by ~1e-12 at small m on
+                    // long records with an offset (its cumulative sum is rounded): judge the
+                    // online value against the independent compensated reference instead
+                    let exact = moav_compensated(&x[..at], p.m as usize);
+                    let (ro, rb) = (rel(p.avar, exact), rel(q.avar, exact));
+                    eprintln!(
+                        "T={at} m={}: online {ro:e}, batch {rb:e} from the reference",
+                        p.m
+                    );
+                    assert!(
+                        ro <= TOL_EXACT,
+                        "T={at} m={}: online {ro:e} from the reference",
+                        p.m
+                    );
+                    continue;
+                }
                 worst.0 = worst.0.max(r);
                 assert!(
                     r <= TOL_AV,
@@ -130,7 +169,7 @@ fn other_grids_match_the_batch() {
 /// The acceptance: 10^7 samples, a snapshot every 10^5 (the batch beyond 2^22 samples
 /// takes its streamed path). Run with `cargo test -p imunoise-avar --release -- --ignored`.
 #[test]
-#[ignore = "10^7 samples with 100 batch estimates: about a minute"]
+#[ignore = "10^7 samples with 100 batch estimates: about 15 s"]
 fn snapshots_equal_the_batch_moav_every_1e5_of_1e7() {
     let x = wn_rw_ar(10_000_000, 11);
     check_stream(&x, 100_000, 1 << 20, &AvarConfig::default(), 200_000);
