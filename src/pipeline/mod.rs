@@ -41,6 +41,7 @@
 pub mod analyze;
 pub mod estimate;
 pub mod fit;
+pub mod live;
 pub mod read;
 pub mod report;
 pub mod simulate;
