@@ -242,3 +242,49 @@ fn a_malformed_line_is_reported_and_stops_or_is_skipped() {
     std::fs::write(&path, without).unwrap();
     assert_final_equals_avar(&stdout, &path, 19_999);
 }
+
+/// A headerless stream with a text column (as `ros2 topic echo … --csv` writes: stamp, frame
+/// id, values), read through `--columns` by index: the text column is never parsed, and the
+/// columns are named col1, col2, … as `imunoise avar` names them.
+#[test]
+fn headerless_rows_with_a_text_column_and_selected_columns() {
+    use imunoise::pipeline::live::{Live, LiveSettings};
+    let text = csv(4_000, None);
+    let rows: String = text
+        .lines()
+        .skip(1)
+        .enumerate()
+        .map(|(i, l)| format!("{i},imu_link,{l}\n"))
+        .collect();
+    let settings = LiveSettings {
+        rate_hz: 100.0,
+        columns: Some("3-4".into()),
+        every_s: 1e9,
+        ..LiveSettings::default()
+    };
+    let mut live = Live::new(settings, "ros.csv").unwrap();
+    for piece in rows.as_bytes().chunks(1000) {
+        assert!(live.feed(piece).unwrap().is_empty());
+    }
+    let fin = live.finish().unwrap();
+    assert_eq!(fin.n, 4_000);
+    assert_eq!(fin.channels[0].name, "col3");
+    // the same values as the file with a header, fed in one piece: the same AV (up to the
+    // order of the sums, which follows the pieces)
+    let mut plain = Live::new(
+        LiveSettings {
+            rate_hz: 100.0,
+            every_s: 1e9,
+            ..LiveSettings::default()
+        },
+        "imu.csv",
+    )
+    .unwrap();
+    plain.feed(text.as_bytes()).unwrap();
+    let want = plain.finish().unwrap();
+    for (a, b) in fin.channels.iter().zip(&want.channels) {
+        for (p, q) in a.points.iter().zip(&b.points) {
+            assert!(rel(p.avar, q.avar) <= TOL, "m={}", p.m);
+        }
+    }
+}

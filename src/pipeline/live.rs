@@ -278,17 +278,20 @@ impl Live {
                 at = end;
                 continue;
             }
-            match parse_text(body, &self.file, None) {
-                Ok(t) => {
+            match parse_text(body, &self.file, self.select.as_deref()) {
+                Ok(_) => {
                     // no header: name the columns as `imunoise avar` does
-                    let delim = if body.contains(&b',') {
-                        ","
+                    let (delim, ncols) = if body.contains(&b',') {
+                        (",", body.iter().filter(|&&b| b == b',').count() + 1)
                     } else if body.contains(&b'\t') {
-                        "\t"
+                        ("\t", body.iter().filter(|&&b| b == b'\t').count() + 1)
                     } else {
-                        " "
+                        (
+                            " ",
+                            String::from_utf8_lossy(body).split_whitespace().count(),
+                        )
                     };
-                    let header = (1..=t.columns.len())
+                    let header = (1..=ncols)
                         .map(|c| format!("col{c}"))
                         .collect::<Vec<_>>()
                         .join(delim);
@@ -301,7 +304,7 @@ impl Live {
                     self.lines += 1;
                     at = end;
                 }
-                Err(e) => {
+                Err(e @ Error::Located { .. }) => {
                     // the line is line 1 of what was parsed
                     let e = self.relocate(e, self.lines + 1);
                     self.bad_line(e, events);
@@ -311,6 +314,8 @@ impl Live {
                         return Ok(());
                     }
                 }
+                // e.g. a --columns name without a header
+                Err(e) => return Err(e),
             }
         }
         if at < text.len() {
