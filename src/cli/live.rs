@@ -172,7 +172,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
                 _ => 0,
             },
             message: format!(
-                "{} (stopped here: --on-error stop; the snapshot above holds the {} rows before it)",
+                "{} (--on-error stop: stopped after the {} rows before it)",
                 match e {
                     Error::Located { message, .. } => message.clone(),
                     other => other.to_string(),
