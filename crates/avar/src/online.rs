@@ -602,7 +602,7 @@ impl OnlineChannels {
     /// second, …); `rows.len()` must be a multiple of the number of channels.
     pub fn update_interleaved(&mut self, rows: &[f64]) -> Result<(), AvarError> {
         let n = self.chans.len();
-        if rows.len() % n != 0 {
+        if !rows.len().is_multiple_of(n) {
             return Err(AvarError::InvalidScales(format!(
                 "{} values are not whole rows of {n} channels",
                 rows.len()
