@@ -288,3 +288,57 @@ fn headerless_rows_with_a_text_column_and_selected_columns() {
         }
     }
 }
+
+/// `--until K=20%`: the stream stops at the first snapshot where K's interval on every channel
+/// has a relative half-width of at most 20 %, and nothing after it is read.
+#[test]
+fn until_stops_at_the_first_snapshot_reaching_the_precision() {
+    use imunoise::pipeline::live::{Event, Live, LiveSettings};
+    // white noise plus a random walk dominant beyond a few seconds (a clear +1/2 region)
+    let mut s = 0x9E37_79B9_7F4A_7C15u64;
+    let mut u = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let mut rw = 0.0;
+    let mut text = String::from("gx\n");
+    for _ in 0..400_000 {
+        rw += 3e-3 * u();
+        text += &format!("{}\n", u() + rw);
+    }
+    let settings = LiveSettings {
+        rate_hz: 100.0,
+        every_s: 100.0,
+        until: vec!["K=20%".parse().unwrap()],
+        ..LiveSettings::default()
+    };
+    let mut live = Live::new(settings, "rw.csv").unwrap();
+    let mut snaps = Vec::new();
+    for piece in text.as_bytes().chunks(50_000) {
+        for e in live.feed(piece).unwrap() {
+            if let Event::Snapshot(s) = e {
+                snaps.push(s);
+            }
+        }
+    }
+    assert!(live.reached());
+    let last = snaps.last().unwrap();
+    assert!(last.reached);
+    for s in &snaps[..snaps.len() - 1] {
+        assert!(!s.reached);
+        let h = s.progress[0].rel_halfwidth;
+        assert!(h.is_none_or(|h| h > 0.2), "t={} h={h:?}", s.t_s);
+        // the time-left estimate exists whenever the half-width does
+        assert_eq!(h.is_some(), s.progress[0].time_left_s.is_some());
+    }
+    let k = last.channels[0].k_term.as_ref().unwrap();
+    let h = (k.ci_hi.unwrap() - k.ci_lo.unwrap()) / (2.0 * k.value);
+    assert!(h <= 0.2, "{h}");
+    assert_eq!(last.progress[0].rel_halfwidth, Some(h));
+    // stopped well before the end of the data: the final snapshot is the one that reached it
+    let fin = live.finish().unwrap();
+    assert_eq!(fin.n, last.n);
+    assert!(fin.n < 400_000);
+}

@@ -2,7 +2,7 @@
 
 use super::{Ui, parse_rate, parse_scales};
 use crate::error::{Error, Result};
-pub use crate::pipeline::live::{Event, Live, LiveSettings, OnError, Snapshot, adev_near};
+pub use crate::pipeline::live::{Event, Live, LiveSettings, OnError, Snapshot, Target, adev_near};
 use avar::{CiMethod, Scales};
 use std::io::{Read, Write};
 use std::path::PathBuf;
@@ -71,6 +71,12 @@ pub struct LiveArgs {
     /// With --follow: the end of the input is this many seconds without new data.
     #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
     pub idle: f64,
+    /// Stop when the 95 % (1 − alpha) interval of N, K or B, read off the curve, has at most
+    /// this relative half-width on every channel, e.g. `K=10%` (repeatable: all must hold).
+    /// Checked at each snapshot; each snapshot also prints the precision reached and a rough
+    /// estimate of the input time still needed.
+    #[arg(long, value_name = "TERM=PRECISION")]
+    pub until: Vec<Target>,
     /// One JSON object per snapshot and line (for other programs).
     #[arg(long)]
     pub json: bool,
@@ -112,6 +118,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         tau_max_s: args.tau_max,
         every_s: args.every,
         on_error: args.on_error,
+        until: args.until.clone(),
     };
     let stdin = args.file.as_os_str() == "-";
     let name = if stdin {
@@ -150,7 +157,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
                 Event::BadLine(e) => eprintln!("malformed line: {e}"),
             }
         }
-        if live.stopped().is_some() {
+        if live.stopped().is_some() || live.reached() {
             break;
         }
     }
@@ -214,10 +221,39 @@ fn print_snapshot(out: &mut impl Write, s: &Snapshot, json: bool) -> Result<()> 
             for t in [&c.n_term, &c.k_term, &c.b_term].into_iter().flatten() {
                 line += &format!(" {}={}", t.symbol, t.display());
             }
+            for p in s.progress.iter().filter(|p| p.channel == c.name) {
+                let g = |x: f64| processes::number::sig(x, 3);
+                line += &match (p.rel_halfwidth, p.time_left_s) {
+                    (Some(h), _) if p.reached => {
+                        format!(
+                            " {}: ±{}% reached (target {}%)",
+                            p.symbol,
+                            g(100.0 * h),
+                            g(100.0 * p.target)
+                        )
+                    }
+                    (Some(h), Some(left)) => format!(
+                        " {}: ±{}% (target {}%, about {} s more)",
+                        p.symbol,
+                        g(100.0 * h),
+                        g(100.0 * p.target),
+                        g(left)
+                    ),
+                    _ => format!(
+                        " {}: no {} region yet (target {}%)",
+                        p.symbol,
+                        p.symbol,
+                        g(100.0 * p.target)
+                    ),
+                };
+            }
             r = writeln!(out, "{line}");
             if r.is_err() {
                 break;
             }
+        }
+        if r.is_ok() && s.reached {
+            r = writeln!(out, "target reached at t={:.1}s", s.t_s);
         }
         r
     };

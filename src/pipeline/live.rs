@@ -76,6 +76,77 @@ pub struct LiveSettings {
     pub every_s: f64,
     /// What a malformed line does.
     pub on_error: OnError,
+    /// Stop once every channel reaches each of these precisions (checked at each snapshot).
+    pub until: Vec<Target>,
+}
+
+/// A stopping rule: the 95 % (1 − alpha) interval of N, K or B read off the curve has a
+/// relative half-width (hi − lo) / (2·value) of at most `rel_halfwidth` on every channel.
+///
+/// ```
+/// use imunoise::pipeline::live::Target;
+/// let t: Target = "K=10%".parse()?;
+/// assert_eq!((t.symbol.as_str(), t.rel_halfwidth), ("K", 0.1));
+/// assert_eq!("n=0.05".parse::<Target>()?.symbol, "N");
+/// assert!("Q=10%".parse::<Target>().is_err());
+/// assert!("K=0%".parse::<Target>().is_err());
+/// # Ok::<(), String>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Target {
+    /// `N`, `K` or `B`.
+    pub symbol: String,
+    /// The largest relative half-width accepted (0.1 for 10 %).
+    pub rel_halfwidth: f64,
+}
+
+impl std::str::FromStr for Target {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Target, String> {
+        let bad = || {
+            format!(
+                "--until {s:?}: expected TERM=PRECISION with TERM N, K or B and PRECISION like 10% or 0.1"
+            )
+        };
+        let (term, value) = s.split_once('=').ok_or_else(bad)?;
+        let symbol = term.trim().to_ascii_uppercase();
+        if !matches!(symbol.as_str(), "N" | "K" | "B") {
+            return Err(bad());
+        }
+        let v = value.trim();
+        let x = match v.strip_suffix('%') {
+            Some(p) => p.trim().parse::<f64>().map(|p| p / 100.0),
+            None => v.parse::<f64>(),
+        }
+        .map_err(|_| bad())?;
+        if !(x.is_finite() && x > 0.0) {
+            return Err(bad());
+        }
+        Ok(Target {
+            symbol,
+            rel_halfwidth: x,
+        })
+    }
+}
+
+/// Where a channel stands against a [`Target`].
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetProgress {
+    /// Channel name.
+    pub channel: String,
+    /// `N`, `K` or `B`.
+    pub symbol: String,
+    /// The precision asked for (relative half-width).
+    pub target: f64,
+    /// The current relative half-width of the term's interval (None while the curve shows no
+    /// region of the term's slope: then it is only bounded).
+    pub rel_halfwidth: Option<f64>,
+    /// Reached.
+    pub reached: bool,
+    /// Estimated input time still needed (s): the half-width shrinks as 1/√EDF and the EDF
+    /// grows in proportion to the record at a fixed scale, so T_needed ≈ T·(h/target)². A rough
+    /// estimate (the region read may move as the record grows); None while not measurable.
+    pub time_left_s: Option<f64>,
 }
 
 impl Default for LiveSettings {
@@ -90,6 +161,7 @@ impl Default for LiveSettings {
             tau_max_s: 1000.0,
             every_s: 10.0,
             on_error: OnError::Stop,
+            until: Vec::new(),
         }
     }
 }
@@ -125,6 +197,10 @@ pub struct Snapshot {
     /// True for the snapshot at the end of the input.
     #[serde(rename = "final")]
     pub is_final: bool,
+    /// True when the `until` targets are all reached (the stream stops here).
+    pub reached: bool,
+    /// Each channel against each `until` target.
+    pub progress: Vec<TargetProgress>,
     /// One entry per channel.
     pub channels: Vec<ChannelSnapshot>,
 }
@@ -162,6 +238,7 @@ pub struct Live {
     every_n: u64,
     next_at: u64,
     stopped: Option<Error>,
+    reached: bool,
 }
 
 impl Live {
@@ -205,6 +282,7 @@ impl Live {
             every_n,
             next_at: every_n,
             stopped: None,
+            reached: false,
             settings,
         })
     }
@@ -225,12 +303,17 @@ impl Live {
         self.stopped.as_ref()
     }
 
+    /// True once the `until` targets are reached: later input is ignored.
+    pub fn reached(&self) -> bool {
+        self.reached
+    }
+
     /// Feeds the next bytes of the stream (cut anywhere, even inside a line or a UTF-8
     /// character). Returns the snapshots that fell due and the malformed lines met, in order.
     /// Errors (not line errors): an unknown `--columns` name, a bad `--unit` list.
     pub fn feed(&mut self, bytes: &[u8]) -> Result<Vec<Event>> {
         let mut events = Vec::new();
-        if self.stopped.is_some() {
+        if self.stopped.is_some() || self.reached {
             return Ok(events);
         }
         self.pending.extend_from_slice(bytes);
@@ -246,7 +329,7 @@ impl Live {
     /// The end of the stream: parses an unterminated last line and returns the final snapshot.
     /// Errors: no data row at all, too few rows for one scale.
     pub fn finish(&mut self) -> Result<Snapshot> {
-        if self.stopped.is_none() && !self.pending.is_empty() {
+        if self.stopped.is_none() && !self.reached && !self.pending.is_empty() {
             let mut last = std::mem::take(&mut self.pending);
             last.push(b'\n');
             let mut events = Vec::new();
@@ -402,6 +485,7 @@ impl Live {
             let e = match parse_text(&batch_of(text), &self.file, self.select.as_deref()) {
                 Ok(t) => {
                     let cols: Vec<Vec<f64>> = t.columns.into_iter().map(|c| c.into_vec()).collect();
+                    // rows after a reached target are left unread
                     self.push_rows(&cols, events)?;
                     self.lines += count_lines(text);
                     return Ok(());
@@ -423,6 +507,9 @@ impl Live {
                 let t = parse_text(&batch_of(good), &self.file, self.select.as_deref())?;
                 let cols: Vec<Vec<f64>> = t.columns.into_iter().map(|c| c.into_vec()).collect();
                 self.push_rows(&cols, events)?;
+                if self.reached {
+                    return Ok(());
+                }
             }
             // the batch's line 2 is stream line self.lines + 1
             let e = self.relocate(e, self.lines);
@@ -458,7 +545,11 @@ impl Live {
                 self.next_at += self.every_n;
                 // too short for one scale yet: no snapshot
                 if let Ok(s) = self.snapshot(false) {
+                    self.reached = s.reached;
                     events.push(Event::Snapshot(s));
+                    if self.reached {
+                        return Ok(());
+                    }
                 }
             }
         }
@@ -498,12 +589,51 @@ impl Live {
                 }
             })
             .collect();
+        let t_s = self.n as f64 / self.settings.rate_hz;
+        let mut progress = Vec::new();
+        for c in &channels {
+            for target in &self.settings.until {
+                progress.push(progress_of(c, target, t_s));
+            }
+        }
+        let reached = !progress.is_empty() && progress.iter().all(|p| p.reached);
         Ok(Snapshot {
-            t_s: self.n as f64 / self.settings.rate_hz,
+            t_s,
             n: self.n as usize,
             is_final,
+            reached,
+            progress,
             channels,
         })
+    }
+}
+
+/// Channel `c` against `target` at input time `t_s`.
+fn progress_of(c: &ChannelSnapshot, target: &Target, t_s: f64) -> TargetProgress {
+    let term = match target.symbol.as_str() {
+        "N" => &c.n_term,
+        "K" => &c.k_term,
+        _ => &c.b_term,
+    };
+    let h = term
+        .as_ref()
+        .and_then(|t| match (t.source, t.ci_lo, t.ci_hi) {
+            (gmwm_prep::noise_terms::TermSource::UpperBound, _, _) => None,
+            (_, Some(lo), Some(hi)) if t.value > 0.0 => Some((hi - lo) / (2.0 * t.value)),
+            _ => None,
+        });
+    let reached = h.is_some_and(|h| h <= target.rel_halfwidth);
+    let time_left_s = h.map(|h| {
+        let r = h / target.rel_halfwidth;
+        (t_s * (r * r - 1.0)).max(0.0)
+    });
+    TargetProgress {
+        channel: c.name.clone(),
+        symbol: target.symbol.clone(),
+        target: target.rel_halfwidth,
+        rel_halfwidth: h,
+        reached,
+        time_left_s,
     }
 }
 
