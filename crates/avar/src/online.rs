@@ -307,6 +307,14 @@ impl Online {
     }
 
     /// Number of samples accumulated so far.
+    ///
+    /// ```
+    /// use avar::{AvarConfig, online::Online};
+    /// let mut on = Online::new(1.0, 8, &AvarConfig::default()).unwrap();
+    /// assert!(on.is_empty());
+    /// on.update(&[0.5; 10]).unwrap();
+    /// assert_eq!((on.len(), on.max_m(), on.cluster_sizes()), (10, 8, &[2u64, 4, 8][..]));
+    /// ```
     pub fn len(&self) -> u64 {
         self.t
     }
@@ -440,6 +448,17 @@ impl Online {
     ///
     /// Errors as the batch estimator: no sample, fewer than [`MIN_SAMPLES`], a grid with no
     /// scale for this length.
+    ///
+    /// ```
+    /// use avar::{AvarConfig, AvarError, CiMethod, Scales, online::Online};
+    /// let cfg = AvarConfig { scales: Scales::Explicit(vec![1]), ci: CiMethod::None, ..Default::default() };
+    /// let mut on = Online::new(1.0, 1, &cfg).unwrap();
+    /// on.update(&[1.0, -1.0, 1.0]).unwrap();
+    /// assert!(matches!(on.snapshot(), Err(AvarError::TooShort { got: 3, need: 4 })));
+    /// on.update(&[-1.0]).unwrap();
+    /// // neighbours differ by ±2: AV(1) = 4/2 over T − 1 = 3 terms
+    /// assert_eq!(on.snapshot().unwrap().points[0].avar, 2.0);
+    /// ```
     pub fn snapshot(&self) -> Result<AllanVariance, AvarError> {
         let t = self.t as usize;
         crate::check_len(t, t)?;
@@ -566,6 +585,15 @@ impl OnlineChannels {
 
     /// Adds one chunk per channel (`chunks[i]` to channel i; lengths may differ). A non-finite
     /// sample in any chunk rejects the whole call (error naming the channel) and changes nothing.
+    ///
+    /// ```
+    /// use avar::{AvarConfig, online::OnlineChannels};
+    /// let mut on = OnlineChannels::new(2, 1.0, 4, &AvarConfig::default()).unwrap();
+    /// on.update(&[&[1.0, 2.0], &[3.0]]).unwrap(); // lengths may differ
+    /// let e = on.update(&[&[1.0], &[f64::NAN]]).unwrap_err();
+    /// assert_eq!(e.to_string(), "channel 1: non-finite sample NaN at index 1");
+    /// assert_eq!((on.channels()[0].len(), on.channels()[1].len()), (2, 1));
+    /// ```
     pub fn update(&mut self, chunks: &[&[f64]]) -> Result<(), AvarError> {
         if chunks.len() != self.chans.len() {
             return Err(AvarError::InvalidScales(format!(
