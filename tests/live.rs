@@ -342,3 +342,43 @@ fn until_stops_at_the_first_snapshot_reaching_the_precision() {
     assert_eq!(fin.n, last.n);
     assert!(fin.n < 400_000);
 }
+
+/// `--out DIR`: at the end of the input the report folder of `imunoise analyze` on all the
+/// rows read, the same results.json (both run the same batch pipeline on the same values).
+#[test]
+fn out_writes_the_analyze_report_at_the_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("imu.csv");
+    std::fs::write(&path, csv(30_000, None)).unwrap();
+    let (live_dir, batch_dir) = (dir.path().join("live"), dir.path().join("batch"));
+    let file = path.to_str().unwrap();
+    let out = bin()
+        .args([
+            "live", file, "--rate", "100", "--every", "100", "--json", "--out",
+        ])
+        .arg(&live_dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = bin()
+        .args(["analyze", file, "--rate", "100", "--out"])
+        .arg(&batch_dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let read = |d: &std::path::Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(d.join("results.json")).unwrap()).unwrap()
+    };
+    let (a, b) = (read(&live_dir), read(&batch_dir));
+    assert_eq!(a["channels"].as_array().unwrap().len(), 2);
+    assert_eq!(a["channels"], b["channels"]);
+    assert!(live_dir.join("report.html").is_file());
+}

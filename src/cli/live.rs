@@ -77,6 +77,11 @@ pub struct LiveArgs {
     /// estimate of the input time still needed.
     #[arg(long, value_name = "TERM=PRECISION")]
     pub until: Vec<Target>,
+    /// At the end (of the input, or at the --until target, or at a malformed line with
+    /// --on-error stop) also write the report folder of `imunoise analyze` on all the rows
+    /// read. Memory: every row is then kept (8 bytes per sample and channel).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
     /// One JSON object per snapshot and line (for other programs).
     #[arg(long)]
     pub json: bool,
@@ -119,7 +124,12 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         every_s: args.every,
         on_error: args.on_error,
         until: args.until.clone(),
+        keep_rows: args.out.is_some(),
     };
+    if let Some(dir) = &args.out {
+        // a bad --out fails before the work, not after it
+        crate::output::create_dir(dir, "--out")?;
+    }
     let stdin = args.file.as_os_str() == "-";
     let name = if stdin {
         "<stdin>".to_string()
@@ -167,7 +177,33 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         Err(e) if live.stopped().is_none() => return Err(e),
         Err(e) => ui.note(format!("no snapshot: {e}")),
     }
-    if let Some(e) = live.stopped() {
+    let stopped = live.stopped().map(|e| match e {
+        Error::Located {
+            file,
+            line,
+            column,
+            message,
+        } => Error::Located {
+            file: file.clone(),
+            line: *line,
+            column: *column,
+            message: message.clone(),
+        },
+        other => Error::Usage(other.to_string()),
+    });
+    let rows = live.len();
+    if let Some(dir) = &args.out
+        && let Some((table, units)) = live.into_table()
+    {
+        let settings = crate::pipeline::analyze::AnalyzeSettings::default();
+        let a = crate::pipeline::analyze::analyze(table, units, &settings, ui)?;
+        a.write_report(dir, ui)?;
+        ui.note(format!(
+            "report written to {}",
+            dir.join("report.html").display()
+        ));
+    }
+    if let Some(e) = &stopped {
         return Err(Error::Located {
             file: name,
             line: match e {
@@ -184,7 +220,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
                     Error::Located { message, .. } => message.clone(),
                     other => other.to_string(),
                 },
-                live.len()
+                rows
             ),
         });
     }

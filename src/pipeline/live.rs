@@ -78,6 +78,9 @@ pub struct LiveSettings {
     pub on_error: OnError,
     /// Stop once every channel reaches each of these precisions (checked at each snapshot).
     pub until: Vec<Target>,
+    /// Keep every row (8 bytes per sample and channel) for [`Live::into_table`], e.g. to
+    /// write the `analyze` report at the end.
+    pub keep_rows: bool,
 }
 
 /// A stopping rule: the 95 % (1 − alpha) interval of N, K or B read off the curve has a
@@ -162,6 +165,7 @@ impl Default for LiveSettings {
             every_s: 10.0,
             on_error: OnError::Stop,
             until: Vec::new(),
+            keep_rows: false,
         }
     }
 }
@@ -239,6 +243,8 @@ pub struct Live {
     next_at: u64,
     stopped: Option<Error>,
     reached: bool,
+    /// Every row so far, per channel (with `keep_rows`).
+    rows: Vec<Vec<f64>>,
 }
 
 impl Live {
@@ -283,6 +289,7 @@ impl Live {
             next_at: every_n,
             stopped: None,
             reached: false,
+            rows: Vec::new(),
             settings,
         })
     }
@@ -534,6 +541,12 @@ impl Live {
         while i < rows {
             let take = ((self.next_at - self.n) as usize).min(rows - i);
             let chunks: Vec<&[f64]> = cols.iter().map(|c| &c[i..i + take]).collect();
+            if self.settings.keep_rows {
+                self.rows.resize_with(chunks.len(), Vec::new);
+                for (all, c) in self.rows.iter_mut().zip(&chunks) {
+                    all.extend_from_slice(c);
+                }
+            }
             self.layout
                 .as_mut()
                 .expect("layout known")
@@ -554,6 +567,37 @@ impl Live {
             }
         }
         Ok(())
+    }
+
+    /// Every row accumulated (with `keep_rows`) as the [`crate::io::Table`] the `analyze`
+    /// pipeline takes, with the channels' units; None without `keep_rows` or before the first
+    /// row.
+    ///
+    /// ```
+    /// use imunoise::pipeline::live::{Live, LiveSettings};
+    /// let s = LiveSettings { rate_hz: 50.0, keep_rows: true, ..LiveSettings::default() };
+    /// let mut live = Live::new(s, "x.csv")?;
+    /// live.feed(b"gyro_x_dps\n0.5\n-0.25\n1\n")?;
+    /// let (table, units) = live.into_table().unwrap();
+    /// assert_eq!((table.names[0].as_str(), table.rate_hz), ("gyro_x_dps", Some(50.0)));
+    /// assert_eq!(&table.columns[0][..], &[0.5, -0.25, 1.0]);
+    /// assert_eq!(units, [imunoise::processes::Unit::DegPerSec]);
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
+    pub fn into_table(self) -> Option<(crate::io::Table, Vec<Unit>)> {
+        let layout = self.layout?;
+        if self.rows.is_empty() {
+            return None;
+        }
+        let table = crate::io::Table {
+            file: self.file,
+            names: layout.names,
+            columns: self.rows.into_iter().map(crate::io::Column::from).collect(),
+            rate_hz: Some(self.settings.rate_hz),
+            timing: None,
+            topic: None,
+        };
+        Some((table, layout.units))
     }
 
     /// The snapshot of everything so far (`is_final` marks the one at the end).
