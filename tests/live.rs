@@ -382,3 +382,42 @@ fn out_writes_the_analyze_report_at_the_end() {
     assert_eq!(a["channels"], b["channels"]);
     assert!(live_dir.join("report.html").is_file());
 }
+
+/// Ctrl-C (SIGINT) ends a stream that is still open like its end: the final snapshot of the
+/// rows read is printed and the exit code is 0.
+#[cfg(unix)]
+#[test]
+fn an_interrupt_ends_an_open_stream_with_the_final_snapshot() {
+    use std::io::Read;
+    let text = csv(20_000, None);
+    let mut child = bin()
+        .args(["live", "-", "--rate", "100", "--every", "1000", "--json"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // the stream stays open: stdin is kept until after the child has exited
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(text.as_bytes()).unwrap();
+    stdin.flush().unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        stdout.read_to_string(&mut s).unwrap();
+        s
+    });
+    std::thread::sleep(Duration::from_millis(1500));
+    // SAFETY: signals our own child process by its id
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
+        0
+    );
+    let status = child.wait().unwrap();
+    drop(stdin);
+    assert!(status.success(), "{status:?}");
+    let out = reader.join().unwrap();
+    let last: serde_json::Value = serde_json::from_str(out.lines().last().unwrap()).unwrap();
+    assert_eq!(last["final"], true);
+    assert_eq!(last["n"], 20_000);
+}

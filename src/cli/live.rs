@@ -17,7 +17,7 @@ pub const EXAMPLES: &str = "Examples:
 Every --every seconds of input time one line per channel (or one JSON line with --json):
 the Allan deviation at a few tau with its CI, and N (read off at tau = 1 s), K (at tau = 3 s)
 and B (the flat minimum) with their CIs, or an upper bound while the curve shows no such
-region. At the end of the input the final snapshot (marked final) is printed; it equals
+region. At the end of the input (or at Ctrl-C) the final snapshot (marked final) is printed; it equals
 `imunoise avar` on the same rows at the scales up to --tau-max. A malformed line is reported
 with its line number; --on-error skip leaves it out and goes on, stop (default) prints the
 final snapshot of the rows before it and exits with code 2.
@@ -96,6 +96,38 @@ pub enum CiArgLive {
     None,
 }
 
+/// Set by SIGINT/SIGTERM: stop reading, print the final snapshot (and write --out).
+static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+#[cfg(unix)]
+extern "C" fn on_signal(_: libc::c_int) {
+    INTERRUPTED.store(true, std::sync::atomic::Ordering::SeqCst);
+}
+
+/// Ctrl-C (and SIGTERM) end the input like EOF: the handler only sets a flag, and without
+/// SA_RESTART a blocked read returns EINTR, so the loop sees it at once.
+#[cfg(unix)]
+fn catch_interrupts() {
+    for sig in [libc::SIGINT, libc::SIGTERM] {
+        // SAFETY: a zeroed sigaction is valid; the handler is async-signal-safe (one atomic
+        // store); the old action is not needed.
+        unsafe {
+            let mut sa: libc::sigaction = std::mem::zeroed();
+            sa.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+            sa.sa_flags = 0;
+            libc::sigemptyset(&mut sa.sa_mask);
+            libc::sigaction(sig, &sa, std::ptr::null_mut());
+        }
+    }
+}
+
+#[cfg(not(unix))]
+fn catch_interrupts() {}
+
+fn interrupted() -> bool {
+    INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst)
+}
+
 /// Runs `imunoise live`.
 pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
@@ -146,7 +178,11 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
     let mut out = stdout.lock();
     let mut buf = vec![0u8; 1 << 16];
     let mut last_data = Instant::now();
+    catch_interrupts();
     loop {
+        if interrupted() {
+            break;
+        }
         let n = match input.read(&mut buf) {
             Ok(n) => n,
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
