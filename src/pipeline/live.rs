@@ -603,7 +603,7 @@ impl Live {
     /// The snapshot of everything so far (`is_final` marks the one at the end).
     /// Errors: no row yet, too few rows for one scale.
     pub fn snapshot(&self, is_final: bool) -> Result<Snapshot> {
-        let Some(layout) = &self.layout else {
+        let (Some(layout), true) = (&self.layout, self.n > 0) else {
             return Err(Error::File {
                 file: self.file.clone(),
                 message: "no data rows".into(),
