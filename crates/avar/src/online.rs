@@ -230,7 +230,8 @@ impl Online {
     /// let on = Online::new(100.0, 1 << 10, &AvarConfig::default()).unwrap();
     /// assert_eq!(on.cluster_sizes().len(), 10); // m = 2, 4, …, 1024
     /// let gauss = AvarConfig { ci: CiMethod::Gaussian, ..Default::default() };
-    /// assert!(Online::new(100.0, 64, &gauss).is_err());
+    /// let e = Online::new(100.0, 64, &gauss).unwrap_err();
+    /// assert!(e.to_string().starts_with("online estimator: it supports the overlapping"));
     /// ```
     pub fn new(rate_hz: f64, max_m: u64, config: &AvarConfig) -> Result<Online, AvarError> {
         validate_rate_alpha(rate_hz, config.alpha)?;
@@ -241,9 +242,9 @@ impl Online {
             || config.input != InputKind::Rate
             || config.ci == CiMethod::Gaussian
         {
-            return Err(AvarError::InvalidScales(format!(
-                "the online estimator supports the overlapping estimator on rate input with the \
-                 chi-square interval or none, not {:?} / {:?} / {:?}",
+            return Err(AvarError::Online(format!(
+                "it supports the overlapping estimator on rate input with the chi-square \
+                 interval or none, not {:?} / {:?} / {:?}",
                 config.estimator, config.input, config.ci
             )));
         }
@@ -596,7 +597,7 @@ impl OnlineChannels {
     /// ```
     pub fn update(&mut self, chunks: &[&[f64]]) -> Result<(), AvarError> {
         if chunks.len() != self.chans.len() {
-            return Err(AvarError::InvalidScales(format!(
+            return Err(AvarError::Online(format!(
                 "{} chunks for {} channels",
                 chunks.len(),
                 self.chans.len()
@@ -631,7 +632,7 @@ impl OnlineChannels {
     pub fn update_interleaved(&mut self, rows: &[f64]) -> Result<(), AvarError> {
         let n = self.chans.len();
         if !rows.len().is_multiple_of(n) {
-            return Err(AvarError::InvalidScales(format!(
+            return Err(AvarError::Online(format!(
                 "{} values are not whole rows of {n} channels",
                 rows.len()
             )));
