@@ -59,6 +59,7 @@ __all__ = [
     "InputError",
     "Model",
     "ModelError",
+    "Online",
     "OutputError",
     "Recording",
     "TheoryResult",
@@ -474,6 +475,78 @@ def avar(
         return res[0]
     assert len(res) == k
     return res
+
+
+class Online:
+    """An Allan variance that is updated as samples arrive (calibrating while recording).
+
+    ``Online(rate, channels=1, tau_max=1000.0, scales="dyadic", ci="chi2", alpha=0.05,
+    names=None)``: ``rate`` in Hz; ``tau_max`` the largest averaging time tracked, in s
+    (memory: 32 bytes per sample of ``tau_max * rate`` and channel, whatever the number of
+    samples fed); ``scales`` the grid of :func:`avar` (up to ``tau_max``); ``ci`` ``"chi2"``
+    or ``"none"`` at level 1 - ``alpha``. ``update(x)`` adds samples (1-D for one channel, 2-D
+    with samples in rows), in any chunk sizes; ``snapshot()`` gives the :class:`AvarResult`
+    (a list for several channels) of everything fed so far: the numbers of :func:`avar` on
+    the concatenated samples (the AV to ~1e-12 relative) at its scales up to ``tau_max``.
+
+    >>> import numpy as np, imunoise
+    >>> x = np.random.default_rng(2).normal(size=20000)
+    >>> on = imunoise.Online(rate=100.0)
+    >>> for chunk in np.array_split(x, 7):
+    ...     on.update(chunk)
+    >>> live, batch = on.snapshot(), imunoise.avar(x, rate=100.0)
+    >>> on.n, live.m.tolist() == batch.m.tolist()
+    (20000, True)
+    >>> bool(np.allclose(live.avar, batch.avar, rtol=1e-12, atol=0.0))
+    True
+    """
+
+    def __init__(
+        self,
+        rate: float,
+        channels: int = 1,
+        tau_max: float = 1000.0,
+        scales: Union[str, Sequence[int]] = "dyadic",
+        ci: str = "chi2",
+        alpha: float = 0.05,
+        names: Optional[Sequence[str]] = None,
+    ) -> None:
+        self._channels = int(channels)
+        self._native = _imunoise.NativeOnline(
+            self._channels,
+            float(rate),
+            float(tau_max),
+            _scales_text(scales),
+            ci,
+            float(alpha),
+            None if names is None else [str(n) for n in names],
+        )
+
+    def update(self, x: Any) -> None:
+        """Adds the next samples (input units; 1-D for one channel, 2-D with samples in rows
+        and one column per channel). A chunk with a NaN or an infinity is rejected whole
+        (:class:`EstimationError`) and changes nothing."""
+        a, _ = _as_channels(x)
+        if a.ndim == 1 and self._channels > 1:
+            raise UsageError(f"update: a 1-D array for {self._channels} channels")
+        self._native.update(a)
+
+    def snapshot(self) -> Union[AvarResult, List[AvarResult]]:
+        """The Allan variance of all samples so far (see the class docs)."""
+        res = [AvarResult(c, False) for c in self._native.snapshot()]
+        return res[0] if self._channels == 1 else res
+
+    @property
+    def n(self) -> int:
+        """Samples fed so far, per channel."""
+        return int(self._native.n)
+
+    def heap_bytes(self) -> int:
+        """Bytes held by the accumulators: set by ``tau_max * rate``, not by ``n``."""
+        return int(self._native.heap_bytes())
+
+    def __repr__(self) -> str:
+        return f"Online(channels={self._channels}, n={self.n})"
 
 
 def _template_text(model: Union[str, "Model"]) -> str:

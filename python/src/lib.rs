@@ -850,6 +850,87 @@ fn kernel_seconds(
     .map_err(|e| py_err(Error::Avar(e)))
 }
 
+/// An online Allan variance of one or more channels (see `imunoise.Online`): fed chunks of
+/// samples, its snapshot equals `imunoise.avar` of everything fed so far.
+#[pyclass(module = "imunoise._imunoise")]
+struct NativeOnline {
+    inner: imunoise::avar::OnlineChannels,
+    names: Vec<String>,
+}
+
+#[pymethods]
+impl NativeOnline {
+    #[new]
+    #[pyo3(signature = (channels, rate, tau_max, scales, ci, alpha, names=None))]
+    fn new(
+        channels: usize,
+        rate: f64,
+        tau_max: f64,
+        scales: &str,
+        ci: &str,
+        alpha: f64,
+        names: Option<Vec<String>>,
+    ) -> PyResult<Self> {
+        let rate = check_rate(rate)?;
+        if !(tau_max.is_finite() && tau_max > 0.0) {
+            return Err(usage(format!("tau_max must be > 0 s, got {tau_max}")));
+        }
+        if channels == 0 {
+            return Err(usage("channels must be at least 1".into()));
+        }
+        let cfg = avar_config(scales, ci, alpha, "rate", "overlapping")?;
+        let max_m = ((tau_max * rate).floor() as u64).max(1);
+        let inner = imunoise::avar::OnlineChannels::new(channels, rate, max_m, &cfg)
+            .map_err(|e| usage(e.to_string()))?;
+        Ok(NativeOnline {
+            inner,
+            names: channel_names(names, channels)?,
+        })
+    }
+
+    /// Adds the next samples: a 1-D array (one channel) or a 2-D one (rows = samples).
+    fn update(&mut self, py: Python<'_>, x: &Bound<'_, PyAny>) -> PyResult<()> {
+        let ch = Channels::extract(x)?;
+        let k = self.inner.channels().len();
+        if ch.n_channels() != k {
+            return Err(usage(format!(
+                "update: {} channels given, the accumulator has {k}",
+                ch.n_channels()
+            )));
+        }
+        let (cols, _) = ch.columns();
+        let slices: Vec<&[f64]> = cols.iter().map(|c| c.as_ref()).collect();
+        let inner = &mut self.inner;
+        py.detach(|| inner.update(&slices))
+            .map_err(|e| py_err(Error::Avar(e)))
+    }
+
+    /// The Allan variance of everything fed so far, one curve per channel.
+    fn snapshot(&self, py: Python<'_>) -> PyResult<Vec<Curve>> {
+        let avs = py
+            .detach(|| self.inner.snapshots())
+            .map_err(|e| py_err(Error::Avar(e)))?;
+        Ok(self
+            .names
+            .iter()
+            .cloned()
+            .zip(avs)
+            .map(|(name, av)| Curve { name, av })
+            .collect())
+    }
+
+    /// Samples fed so far (per channel).
+    #[getter]
+    fn n(&self) -> u64 {
+        self.inner.channels()[0].len()
+    }
+
+    /// Bytes held by the accumulators (independent of the number of samples fed).
+    fn heap_bytes(&self) -> usize {
+        self.inner.channels().iter().map(|c| c.heap_bytes()).sum()
+    }
+}
+
 #[pymodule]
 fn _imunoise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -861,6 +942,7 @@ fn _imunoise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("OutputError", py.get_type::<OutputError>())?;
     m.add_class::<Curve>()?;
     m.add_class::<NativeModel>()?;
+    m.add_class::<NativeOnline>()?;
     m.add_function(wrap_pyfunction!(avar, m)?)?;
     m.add_function(wrap_pyfunction!(avar_file, m)?)?;
     m.add_function(wrap_pyfunction!(fit_array, m)?)?;

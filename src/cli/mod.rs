@@ -15,6 +15,7 @@ pub mod avar_cmd;
 pub mod demo;
 pub mod export;
 pub mod fit;
+pub mod live;
 pub mod simulate;
 pub mod theory;
 pub mod topics;
@@ -57,6 +58,10 @@ pub enum Command {
     /// results.json, avar.csv and a Kalibr imu.yaml.
     #[command(after_help = analyze::EXAMPLES)]
     Analyze(analyze::AnalyzeArgs),
+    /// Calibrate while recording: the Allan deviation and N, K, B with their CIs, refreshed
+    /// as samples arrive on standard input, a FIFO, a serial device or a growing file.
+    #[command(after_help = live::EXAMPLES)]
+    Live(live::LiveArgs),
     /// Write the noise values of an analysis (results.json) into the config files of
     /// Kalibr, OpenVINS, ORB-SLAM3, VINS-Fusion and Basalt, with their conventions in comments.
     #[command(after_help = export::EXAMPLES)]
@@ -84,6 +89,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Avar(a) => avar_cmd::run(&a, &ui),
         Command::Fit(a) => fit::run(&a, &ui),
         Command::Analyze(a) => analyze::run(&a, &ui),
+        Command::Live(a) => live::run(&a, &ui),
         Command::Topics(a) => topics::run(&a, &ui),
         Command::Export(a) => export::run(&a, &ui),
         Command::Simulate(a) => simulate::run(&a, &ui),

@@ -42,6 +42,7 @@ pub mod analyze;
 pub mod curve;
 pub mod estimate;
 pub mod fit;
+pub mod live;
 pub mod read;
 pub mod report;
 pub mod simulate;

@@ -92,6 +92,10 @@ pub enum AvarError {
     /// A robust estimator's Gaussian efficiency or tuning constant out of its range.
     #[error("invalid robust efficiency: {0}")]
     InvalidEfficiency(String),
+    /// A request the online estimator ([`crate::online`]) does not support, or chunks that
+    /// do not match its channels.
+    #[error("online estimator: {0}")]
+    Online(String),
     /// An error in one channel of a multi-channel call.
     #[error("channel {channel}: {source}")]
     Channel {

@@ -84,6 +84,7 @@ pub mod config;
 pub mod error;
 mod haar;
 mod kernel;
+pub mod online;
 pub mod quality;
 mod range;
 pub mod result;
@@ -97,6 +98,7 @@ use std::borrow::Cow;
 pub use config::{AvarConfig, CiMethod, Estimator, InputKind, Scales};
 pub use error::AvarError;
 pub use haar::{HaarWaveletVariance, WvPoint, haar_wavelet_variance};
+pub use online::{Online, OnlineChannels};
 pub use result::{AllanVariance, AvarPoint, Slope};
 pub use source::{SampleSource, SliceSource, allan_variance_source};
 

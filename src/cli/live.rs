@@ -1,0 +1,334 @@
+//! `imunoise live`: the Allan deviation and N, K, B of samples as they are recorded.
+
+use super::{Ui, parse_rate, parse_scales};
+use crate::error::{Error, Result};
+pub use crate::pipeline::live::{Event, Live, LiveSettings, OnError, Snapshot, Target, adev_near};
+use avar::{CiMethod, Scales};
+use std::io::{Read, Write};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Examples shown by `imunoise live --help`.
+pub const EXAMPLES: &str = "Examples:
+  ros2 topic echo /imu/data_raw sensor_msgs/msg/Imu --csv | imunoise live - --rate 200 --columns 25-27 --unit rad/s
+  imunoise live /dev/ttyUSB0 --rate 100 --every 30
+  imunoise live imu.csv --follow --rate 400 --json > progress.jsonl
+
+Every --every seconds of input time one line per channel (or one JSON line with --json):
+the Allan deviation at a few tau with its CI, and N (read off at tau = 1 s), K (at tau = 3 s)
+and B (the flat minimum) with their CIs, or an upper bound while the curve shows no such
+region. At the end of the input (or at Ctrl-C) the final snapshot (marked final) is printed; it equals
+`imunoise avar` on the same rows at the scales up to --tau-max. A malformed line is reported
+with its line number; --on-error skip leaves it out and goes on, stop (default) prints the
+final snapshot of the rows before it and exits with code 2.
+
+JSON line shape: {\"t_s\",\"n\",\"final\",\"channels\":[{\"name\",\"unit\",\"rate_hz\",\"n\",
+\"points\":[as imunoise avar --format json],\"n_term\",\"k_term\",\"b_term\"}]}, each term
+{\"symbol\",\"value\",\"unit\",\"ci_lo\",\"ci_hi\",\"source\",\"basis\",…} or null.";
+
+/// Arguments of `imunoise live`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct LiveArgs {
+    /// Text input (CSV, TSV or whitespace-separated, with or without a header line): a file,
+    /// a FIFO or serial device, or `-` for standard input.
+    #[arg(default_value = "-")]
+    pub file: PathBuf,
+    /// Sampling rate in Hz (> 0).
+    #[arg(long, short = 'r', value_name = "HZ", value_parser = parse_rate, allow_negative_numbers = true)]
+    pub rate: f64,
+    /// Columns to analyse: header names or 1-based indices and ranges, e.g. `gyro_x,acc_z` or `1-3`.
+    #[arg(long, value_name = "LIST")]
+    pub columns: Option<String>,
+    /// Units: one for all channels or a comma list (deg/s, rad/s, g, m/s^2, none).
+    /// Default: inferred from name suffixes (_dps, _rads, _g, _mps2), else none.
+    #[arg(long, value_name = "UNIT")]
+    pub unit: Option<String>,
+    /// Input time between snapshots (seconds of samples, not of the wall clock).
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
+    pub every: f64,
+    /// Largest averaging time tracked (s). Memory: 32 bytes per sample of this τ and channel
+    /// (1000 s at 100 Hz: 3.2 MB per channel).
+    #[arg(long, value_name = "SECONDS", default_value_t = 1000.0)]
+    pub tau_max: f64,
+    /// Cluster sizes: dyadic (book default, m = 2^j), dyadic1, octave, decade, logN, or a
+    /// list m1,m2,… (up to --tau-max).
+    #[arg(long, default_value = "dyadic", value_parser = parse_scales)]
+    pub scales: Scales,
+    /// Confidence intervals: chi-square with equivalent degrees of freedom, or none.
+    #[arg(long, value_enum, default_value = "chi2")]
+    pub ci: CiArgLive,
+    /// CI level: intervals cover 1 − alpha.
+    #[arg(long, default_value_t = 0.05)]
+    pub alpha: f64,
+    /// A malformed line: stop (print the final snapshot of the rows before it, exit code 2)
+    /// or skip it and go on. Either way it is reported with its line number.
+    #[arg(long, value_enum, default_value = "stop")]
+    pub on_error: OnError,
+    /// Keep reading a file that is still being written (like `tail -f`): at its end wait for
+    /// more, until it has not grown for --idle seconds.
+    #[arg(long)]
+    pub follow: bool,
+    /// With --follow: the end of the input is this many seconds without new data.
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    pub idle: f64,
+    /// Stop when the 95 % (1 − alpha) interval of N, K or B, read off the curve, has at most
+    /// this relative half-width on every channel, e.g. `K=10%` (repeatable: all must hold).
+    /// Checked at each snapshot; each snapshot also prints the precision reached and a rough
+    /// estimate of the input time still needed.
+    #[arg(long, value_name = "TERM=PRECISION")]
+    pub until: Vec<Target>,
+    /// At the end (of the input, or at the --until target, or at a malformed line with
+    /// --on-error stop) also write the report folder of `imunoise analyze` on all the rows
+    /// read. Memory: every row is then kept (8 bytes per sample and channel).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// One JSON object per snapshot and line (for other programs).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `--ci` values of `imunoise live`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CiArgLive {
+    /// Chi-square with equivalent degrees of freedom.
+    Chi2,
+    /// No interval.
+    None,
+}
+
+/// Set by SIGINT/SIGTERM: stop reading, print the final snapshot (and write --out).
+static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+#[cfg(unix)]
+extern "C" fn on_signal(_: libc::c_int) {
+    INTERRUPTED.store(true, std::sync::atomic::Ordering::SeqCst);
+}
+
+/// Ctrl-C (and SIGTERM) end the input like EOF: the handler only sets a flag, and without
+/// SA_RESTART a blocked read returns EINTR, so the loop sees it at once.
+#[cfg(unix)]
+fn catch_interrupts() {
+    for sig in [libc::SIGINT, libc::SIGTERM] {
+        // SAFETY: a zeroed sigaction is valid; the handler is async-signal-safe (one atomic
+        // store); the old action is not needed.
+        unsafe {
+            let mut sa: libc::sigaction = std::mem::zeroed();
+            sa.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+            sa.sa_flags = 0;
+            libc::sigemptyset(&mut sa.sa_mask);
+            libc::sigaction(sig, &sa, std::ptr::null_mut());
+        }
+    }
+}
+
+#[cfg(not(unix))]
+fn catch_interrupts() {}
+
+fn interrupted() -> bool {
+    INTERRUPTED.load(std::sync::atomic::Ordering::SeqCst)
+}
+
+/// Runs `imunoise live`.
+pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
+    if !(args.alpha > 0.0 && args.alpha < 1.0) {
+        return Err(Error::Usage(format!(
+            "--alpha must lie in (0, 1), got {}",
+            args.alpha
+        )));
+    }
+    if !(args.idle.is_finite() && args.idle >= 0.0) {
+        return Err(Error::Usage(format!(
+            "--idle must be >= 0, got {}",
+            args.idle
+        )));
+    }
+    let settings = LiveSettings {
+        rate_hz: args.rate,
+        columns: args.columns.clone(),
+        unit: args.unit.clone(),
+        scales: args.scales.clone(),
+        ci: match args.ci {
+            CiArgLive::Chi2 => CiMethod::ChiSquare,
+            CiArgLive::None => CiMethod::None,
+        },
+        alpha: args.alpha,
+        tau_max_s: args.tau_max,
+        every_s: args.every,
+        on_error: args.on_error,
+        until: args.until.clone(),
+        keep_rows: args.out.is_some(),
+    };
+    if let Some(dir) = &args.out {
+        // a bad --out fails before the work, not after it
+        crate::output::create_dir(dir, "--out")?;
+    }
+    let stdin = args.file.as_os_str() == "-";
+    let name = if stdin {
+        "<stdin>".to_string()
+    } else {
+        args.file.display().to_string()
+    };
+    let mut live = Live::new(settings, &name)?;
+    let mut input: Box<dyn Read> = if stdin {
+        Box::new(std::io::stdin().lock())
+    } else {
+        Box::new(std::fs::File::open(&args.file).map_err(|e| Error::io(&name, e))?)
+    };
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    let mut buf = vec![0u8; 1 << 16];
+    let mut last_data = Instant::now();
+    catch_interrupts();
+    loop {
+        if interrupted() {
+            break;
+        }
+        let n = match input.read(&mut buf) {
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(Error::io(&name, e)),
+        };
+        if n == 0 {
+            if args.follow && !stdin && last_data.elapsed().as_secs_f64() < args.idle {
+                std::thread::sleep(Duration::from_millis(100));
+                continue;
+            }
+            break;
+        }
+        last_data = Instant::now();
+        for event in live.feed(&buf[..n])? {
+            match event {
+                Event::Snapshot(s) => print_snapshot(&mut out, &s, args.json)?,
+                // reported even with --quiet, as errors are
+                Event::BadLine(e) => eprintln!("malformed line: {e}"),
+            }
+        }
+        if live.stopped().is_some() || live.reached() {
+            break;
+        }
+    }
+    let fin = live.finish();
+    match fin {
+        Ok(s) => print_snapshot(&mut out, &s, args.json)?,
+        Err(e) if live.stopped().is_none() => return Err(e),
+        Err(e) => ui.note(format!("no snapshot: {e}")),
+    }
+    let stopped = live.stopped().map(|e| match e {
+        Error::Located {
+            file,
+            line,
+            column,
+            message,
+        } => Error::Located {
+            file: file.clone(),
+            line: *line,
+            column: *column,
+            message: message.clone(),
+        },
+        other => Error::Usage(other.to_string()),
+    });
+    let rows = live.len();
+    if let Some(dir) = &args.out
+        && let Some((table, units)) = live.into_table()
+    {
+        let settings = crate::pipeline::analyze::AnalyzeSettings::default();
+        let a = crate::pipeline::analyze::analyze(table, units, &settings, ui)?;
+        a.write_report(dir, ui)?;
+        ui.note(format!(
+            "report written to {}",
+            dir.join("report.html").display()
+        ));
+    }
+    if let Some(e) = &stopped {
+        return Err(Error::Located {
+            file: name,
+            line: match e {
+                Error::Located { line, .. } => *line,
+                _ => 0,
+            },
+            column: match e {
+                Error::Located { column, .. } => *column,
+                _ => 0,
+            },
+            message: format!(
+                "{} (--on-error stop: stopped after the {} rows before it)",
+                match e {
+                    Error::Located { message, .. } => message.clone(),
+                    other => other.to_string(),
+                },
+                rows
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Writes one snapshot: a JSON line, or one text line per channel.
+fn print_snapshot(out: &mut impl Write, s: &Snapshot, json: bool) -> Result<()> {
+    let res = if json {
+        serde_json::to_writer(&mut *out, s)?;
+        writeln!(out)
+    } else {
+        let mut r = Ok(());
+        for c in &s.channels {
+            let unit = if c.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" [{}]", c.unit)
+            };
+            let mut line = format!(
+                "{}t={:.1}s n={} {}{unit}:",
+                if s.is_final { "final " } else { "" },
+                s.t_s,
+                s.n,
+                c.name,
+            );
+            let g = |x: f64| processes::number::sig(x, 4);
+            for (tau, ad, lo, hi) in adev_near(&c.points, &[0.01, 0.1, 1.0, 10.0, 100.0, 1000.0]) {
+                line += &format!(" AD({}s)={}", g(tau), g(ad));
+                if let (Some(lo), Some(hi)) = (lo, hi) {
+                    line += &format!(" [{}, {}]", g(lo), g(hi));
+                }
+            }
+            for t in [&c.n_term, &c.k_term, &c.b_term].into_iter().flatten() {
+                line += &format!(" {}={}", t.symbol, t.display());
+            }
+            for p in s.progress.iter().filter(|p| p.channel == c.name) {
+                let g = |x: f64| processes::number::sig(x, 3);
+                line += &match (p.rel_halfwidth, p.time_left_s) {
+                    (Some(h), _) if p.reached => {
+                        format!(
+                            " {}: ±{}% reached (target {}%)",
+                            p.symbol,
+                            g(100.0 * h),
+                            g(100.0 * p.target)
+                        )
+                    }
+                    (Some(h), Some(left)) => format!(
+                        " {}: ±{}% (target {}%, about {} s more)",
+                        p.symbol,
+                        g(100.0 * h),
+                        g(100.0 * p.target),
+                        g(left)
+                    ),
+                    _ => format!(
+                        " {}: no {} region yet (target {}%)",
+                        p.symbol,
+                        p.symbol,
+                        g(100.0 * p.target)
+                    ),
+                };
+            }
+            r = writeln!(out, "{line}");
+            if r.is_err() {
+                break;
+            }
+        }
+        if r.is_ok() && s.reached {
+            r = writeln!(out, "target reached at t={:.1}s", s.t_s);
+        }
+        r
+    };
+    res.and_then(|_| out.flush())
+        .map_err(|e| Error::write("<stdout>", e))
+}

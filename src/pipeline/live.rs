@@ -1,0 +1,757 @@
+//! Calibrate while recording: the Allan variance and N, K, B of text samples as they arrive.
+//!
+//! A [`Live`] is fed the bytes of a text stream (CSV, TSV or whitespace-separated, one or
+//! more numeric columns, an optional header line; the rows `imunoise avar` reads) in pieces
+//! of any size, as they come from a pipe or a growing file. Complete lines are parsed with the
+//! same parser as `imunoise avar` ([`crate::io::parse_text`]), their values go into an
+//! [`avar::OnlineChannels`] (memory O(largest cluster size), not O(samples)), and every
+//! `every_s` seconds of input time a [`Snapshot`] is due: per channel the Allan variance of all
+//! the samples so far (equal to `imunoise avar` on them, at the scales up to `tau_max_s`)
+//! with CIs, and N, K, B read off it with their CIs ([`gmwm_prep::noise_terms`] without a
+//! model: the IEEE 952 read-off, N at τ = 1 s and K at τ = 3 s, else an upper bound).
+//!
+//! A malformed line is an [`Event::BadLine`] with its line number in the whole stream; with
+//! [`OnError::Skip`] the line is left out and reading goes on, with [`OnError::Stop`] the
+//! stream stops there ([`Live::stopped`]); what was accumulated before it is kept either way.
+//!
+//! ```
+//! use imunoise::pipeline::live::{Event, Live, LiveSettings};
+//! let settings = LiveSettings { rate_hz: 10.0, every_s: 50.0, ..LiveSettings::default() };
+//! let mut live = Live::new(settings, "<stdin>")?;
+//! // a header, then 1000 rows of a deterministic sequence, fed in two pieces cut mid-line
+//! let mut text = String::from("gx,gy\n");
+//! for i in 0..1000 {
+//!     text += &format!("{},{}\n", (i * 37 % 11) as f64, (i * 7 % 5) as f64);
+//! }
+//! let (a, b) = text.as_bytes().split_at(3001);
+//! let mut snaps = 0;
+//! for e in live.feed(a)?.into_iter().chain(live.feed(b)?) {
+//!     if let Event::Snapshot(_) = e { snaps += 1; }
+//! }
+//! assert_eq!(snaps, 2); // 50 s = 500 rows at 10 Hz
+//! let last = live.finish()?;
+//! assert_eq!(last.n, 1000);
+//! assert_eq!(last.channels[1].name, "gy");
+//! # Ok::<(), imunoise::Error>(())
+//! ```
+
+use crate::error::{Error, Result};
+use crate::io::{ColumnSpec, parse_columns, parse_text};
+use crate::pipeline::estimate::{PointJson, to_json};
+use avar::{AllanVariance, AvarConfig, CiMethod, OnlineChannels, Scales};
+use gmwm_prep::AvCurve;
+use gmwm_prep::noise_terms::{NoiseTerm, noise_terms_of};
+use processes::Unit;
+use serde::Serialize;
+
+/// What to do with a malformed line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum OnError {
+    /// Report it, print the last snapshot and stop (exit code 2).
+    #[default]
+    Stop,
+    /// Report it, leave the line out and go on.
+    Skip,
+}
+
+/// How to read and when to report.
+#[derive(Debug, Clone)]
+pub struct LiveSettings {
+    /// Sampling rate (Hz, > 0).
+    pub rate_hz: f64,
+    /// Columns to use (header names or 1-based indices and ranges, as `--columns`); all when None.
+    pub columns: Option<String>,
+    /// Units, as `--unit` (one for all or a comma list); else inferred from the names.
+    pub unit: Option<String>,
+    /// Cluster sizes (the batch estimator's grid), up to `tau_max_s`.
+    pub scales: Scales,
+    /// Chi-square interval or none (the Gaussian interval needs the whole series).
+    pub ci: CiMethod,
+    /// CI level: intervals cover 1 − alpha.
+    pub alpha: f64,
+    /// Largest averaging time τ tracked (s); the largest cluster size is ⌊τ·rate⌋ (at least 1).
+    /// Memory: 32 bytes per sample of that cluster size and channel.
+    pub tau_max_s: f64,
+    /// Input time between snapshots (s, > 0).
+    pub every_s: f64,
+    /// What a malformed line does.
+    pub on_error: OnError,
+    /// Stop once every channel reaches each of these precisions (checked at each snapshot).
+    pub until: Vec<Target>,
+    /// Keep every row (8 bytes per sample and channel) for [`Live::into_table`], e.g. to
+    /// write the `analyze` report at the end.
+    pub keep_rows: bool,
+}
+
+/// A stopping rule: the 95 % (1 − alpha) interval of N, K or B read off the curve has a
+/// relative half-width (hi − lo) / (2·value) of at most `rel_halfwidth` on every channel.
+///
+/// ```
+/// use imunoise::pipeline::live::Target;
+/// let t: Target = "K=10%".parse()?;
+/// assert_eq!((t.symbol.as_str(), t.rel_halfwidth), ("K", 0.1));
+/// assert_eq!("n=0.05".parse::<Target>()?.symbol, "N");
+/// assert!("Q=10%".parse::<Target>().is_err());
+/// assert!("K=0%".parse::<Target>().is_err());
+/// # Ok::<(), String>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Target {
+    /// `N`, `K` or `B`.
+    pub symbol: String,
+    /// The largest relative half-width accepted (0.1 for 10 %).
+    pub rel_halfwidth: f64,
+}
+
+impl std::str::FromStr for Target {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Target, String> {
+        let bad = || {
+            format!(
+                "--until {s:?}: expected TERM=PRECISION with TERM N, K or B and PRECISION like 10% or 0.1"
+            )
+        };
+        let (term, value) = s.split_once('=').ok_or_else(bad)?;
+        let symbol = term.trim().to_ascii_uppercase();
+        if !matches!(symbol.as_str(), "N" | "K" | "B") {
+            return Err(bad());
+        }
+        let v = value.trim();
+        let x = match v.strip_suffix('%') {
+            Some(p) => p.trim().parse::<f64>().map(|p| p / 100.0),
+            None => v.parse::<f64>(),
+        }
+        .map_err(|_| bad())?;
+        if !(x.is_finite() && x > 0.0) {
+            return Err(bad());
+        }
+        Ok(Target {
+            symbol,
+            rel_halfwidth: x,
+        })
+    }
+}
+
+/// Where a channel stands against a [`Target`].
+#[derive(Debug, Clone, Serialize)]
+pub struct TargetProgress {
+    /// Channel name.
+    pub channel: String,
+    /// `N`, `K` or `B`.
+    pub symbol: String,
+    /// The precision asked for (relative half-width).
+    pub target: f64,
+    /// The current relative half-width of the term's interval (None while the curve shows no
+    /// region of the term's slope: then it is only bounded).
+    pub rel_halfwidth: Option<f64>,
+    /// Reached.
+    pub reached: bool,
+    /// Estimated input time still needed (s): the half-width shrinks as 1/√EDF and the EDF
+    /// grows in proportion to the record at a fixed scale, so T_needed ≈ T·(h/target)². A rough
+    /// estimate (the region read may move as the record grows); None while not measurable.
+    pub time_left_s: Option<f64>,
+}
+
+impl Default for LiveSettings {
+    fn default() -> Self {
+        LiveSettings {
+            rate_hz: 1.0,
+            columns: None,
+            unit: None,
+            scales: Scales::Dyadic,
+            ci: CiMethod::ChiSquare,
+            alpha: 0.05,
+            tau_max_s: 1000.0,
+            every_s: 10.0,
+            on_error: OnError::Stop,
+            until: Vec::new(),
+            keep_rows: false,
+        }
+    }
+}
+
+/// One channel of a [`Snapshot`].
+#[derive(Debug, Serialize)]
+pub struct ChannelSnapshot {
+    /// Channel name (header, or col1, col2, … without one).
+    pub name: String,
+    /// Unit of the samples.
+    pub unit: String,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Samples so far.
+    pub n: usize,
+    /// The Allan variance so far, as `imunoise avar --format json` gives it.
+    pub points: Vec<PointJson>,
+    /// N (white noise), read off at τ = 1 s, with its CI (None while the curve is too short).
+    pub n_term: Option<NoiseTerm>,
+    /// K (rate random walk), read off at τ = 3 s.
+    pub k_term: Option<NoiseTerm>,
+    /// B (bias instability), from the flat region's minimum.
+    pub b_term: Option<NoiseTerm>,
+}
+
+/// The state after some input: per channel the AV so far and N, K, B.
+#[derive(Debug, Serialize)]
+pub struct Snapshot {
+    /// Input time so far: samples / rate (s).
+    pub t_s: f64,
+    /// Samples (rows) so far.
+    pub n: usize,
+    /// True for the snapshot at the end of the input.
+    #[serde(rename = "final")]
+    pub is_final: bool,
+    /// True when the `until` targets are all reached (the stream stops here).
+    pub reached: bool,
+    /// Each channel against each `until` target.
+    pub progress: Vec<TargetProgress>,
+    /// One entry per channel.
+    pub channels: Vec<ChannelSnapshot>,
+}
+
+/// What feeding bytes brought.
+#[derive(Debug)]
+pub enum Event {
+    /// A snapshot was due (every `every_s` seconds of input).
+    Snapshot(Snapshot),
+    /// A malformed line: the error names the file, the line in the whole stream and the column.
+    BadLine(Error),
+}
+
+/// The layout of the stream, known once its first line is in.
+struct Layout {
+    /// The header line (the file's, or col1,col2,… with the file's delimiter).
+    header: Vec<u8>,
+    names: Vec<String>,
+    units: Vec<Unit>,
+    online: OnlineChannels,
+}
+
+/// The online analysis of a text stream (see the [module](self) docs).
+pub struct Live {
+    settings: LiveSettings,
+    select: Option<Vec<ColumnSpec>>,
+    file: String,
+    max_m: u64,
+    layout: Option<Layout>,
+    /// Bytes of an incomplete last line.
+    pending: Vec<u8>,
+    /// Lines consumed so far (complete lines, any kind).
+    lines: usize,
+    n: u64,
+    every_n: u64,
+    next_at: u64,
+    stopped: Option<Error>,
+    reached: bool,
+    /// Every row so far, per channel (with `keep_rows`).
+    rows: Vec<Vec<f64>>,
+}
+
+impl Live {
+    /// A new analysis; `file` names the stream in messages. Errors: a bad rate, α, τ_max,
+    /// interval, `every_s` or `--columns` list.
+    pub fn new(settings: LiveSettings, file: &str) -> Result<Live> {
+        let r = settings.rate_hz;
+        if !(r.is_finite() && r > 0.0) {
+            return Err(Error::Usage(format!("--rate must be > 0, got {r}")));
+        }
+        if !(settings.every_s.is_finite() && settings.every_s > 0.0) {
+            return Err(Error::Usage(format!(
+                "--every must be > 0 seconds, got {}",
+                settings.every_s
+            )));
+        }
+        if !(settings.tau_max_s.is_finite() && settings.tau_max_s > 0.0) {
+            return Err(Error::Usage(format!(
+                "--tau-max must be > 0 seconds, got {}",
+                settings.tau_max_s
+            )));
+        }
+        if settings.ci == CiMethod::Gaussian {
+            return Err(Error::Usage(
+                "live: the Gaussian interval needs the whole series; use --ci chi2 or none".into(),
+            ));
+        }
+        let max_m = ((settings.tau_max_s * r).floor() as u64).max(1);
+        // validates the configuration (alpha, grid) once
+        avar::Online::new(r, max_m, &config(&settings))?;
+        let select = settings.columns.as_deref().map(parse_columns).transpose()?;
+        let every_n = ((settings.every_s * r).round() as u64).max(1);
+        Ok(Live {
+            select,
+            file: file.to_string(),
+            max_m,
+            layout: None,
+            pending: Vec::new(),
+            lines: 0,
+            n: 0,
+            every_n,
+            next_at: every_n,
+            stopped: None,
+            reached: false,
+            rows: Vec::new(),
+            settings,
+        })
+    }
+
+    /// Samples (rows) accumulated so far.
+    pub fn len(&self) -> u64 {
+        self.n
+    }
+
+    /// True before the first row.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The malformed line that stopped the stream ([`OnError::Stop`]), if any: later input
+    /// is ignored.
+    pub fn stopped(&self) -> Option<&Error> {
+        self.stopped.as_ref()
+    }
+
+    /// True once the `until` targets are reached: later input is ignored.
+    pub fn reached(&self) -> bool {
+        self.reached
+    }
+
+    /// Feeds the next bytes of the stream (cut anywhere, even inside a line or a UTF-8
+    /// character). Returns the snapshots that fell due and the malformed lines met, in order.
+    /// Errors (not line errors): an unknown `--columns` name, a bad `--unit` list.
+    pub fn feed(&mut self, bytes: &[u8]) -> Result<Vec<Event>> {
+        let mut events = Vec::new();
+        if self.stopped.is_some() || self.reached {
+            return Ok(events);
+        }
+        self.pending.extend_from_slice(bytes);
+        let Some(last_nl) = self.pending.iter().rposition(|&b| b == b'\n') else {
+            return Ok(events);
+        };
+        let rest = self.pending.split_off(last_nl + 1);
+        let complete = std::mem::replace(&mut self.pending, rest);
+        self.lines_in(&complete, &mut events)?;
+        Ok(events)
+    }
+
+    /// The end of the stream: parses an unterminated last line and returns the final snapshot.
+    /// Errors: no data row at all, too few rows for one scale.
+    pub fn finish(&mut self) -> Result<Snapshot> {
+        if self.stopped.is_none() && !self.reached && !self.pending.is_empty() {
+            let mut last = std::mem::take(&mut self.pending);
+            last.push(b'\n');
+            let mut events = Vec::new();
+            self.lines_in(&last, &mut events)?;
+        }
+        self.snapshot(true)
+    }
+
+    /// The finishing line errors of [`Live::feed`] for complete lines in `text`.
+    fn lines_in(&mut self, text: &[u8], events: &mut Vec<Event>) -> Result<()> {
+        let mut at = 0;
+        // the layout from the first line that is not blank or a comment
+        while self.layout.is_none() && at < text.len() {
+            let end = text[at..]
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(text.len(), |i| at + i + 1);
+            let line = &text[at..end];
+            let body = strip_eol(
+                if self.lines == 0 && line.starts_with(&[0xEF, 0xBB, 0xBF]) {
+                    &line[3..]
+                } else {
+                    line
+                },
+            );
+            let trimmed = body.iter().skip_while(|b| b.is_ascii_whitespace()).count();
+            if trimmed == 0 || body.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'#') {
+                self.lines += 1;
+                at = end;
+                continue;
+            }
+            match parse_text(body, &self.file, self.select.as_deref()) {
+                Ok(_) => {
+                    // no header: name the columns as `imunoise avar` does
+                    let (delim, ncols) = if body.contains(&b',') {
+                        (",", body.iter().filter(|&&b| b == b',').count() + 1)
+                    } else if body.contains(&b'\t') {
+                        ("\t", body.iter().filter(|&&b| b == b'\t').count() + 1)
+                    } else {
+                        (
+                            " ",
+                            String::from_utf8_lossy(body).split_whitespace().count(),
+                        )
+                    };
+                    let header = (1..=ncols)
+                        .map(|c| format!("col{c}"))
+                        .collect::<Vec<_>>()
+                        .join(delim);
+                    self.set_layout(header.into_bytes())?;
+                    // the line itself is data: parsed below with the rest
+                }
+                Err(Error::File { .. }) => {
+                    // no number in it: the header
+                    self.set_layout(body.to_vec())?;
+                    self.lines += 1;
+                    at = end;
+                }
+                Err(e @ Error::Located { .. }) => {
+                    // the line is line 1 of what was parsed
+                    let e = self.relocate(e, self.lines + 1);
+                    self.bad_line(e, events);
+                    self.lines += 1;
+                    at = end;
+                    if self.stopped.is_some() {
+                        return Ok(());
+                    }
+                }
+                // e.g. a --columns name without a header
+                Err(e) => return Err(e),
+            }
+        }
+        if at < text.len() {
+            self.rows_in(&text[at..], events)?;
+        }
+        Ok(())
+    }
+
+    fn set_layout(&mut self, header: Vec<u8>) -> Result<()> {
+        // the names after --columns, from the header and one dummy row
+        let probe_row = {
+            let t = String::from_utf8_lossy(&header).into_owned();
+            let delim = if t.contains(',') {
+                ','
+            } else if t.contains('\t') {
+                '\t'
+            } else {
+                ' '
+            };
+            let n = if delim == ' ' {
+                t.split_whitespace().count()
+            } else {
+                t.split(delim).count()
+            };
+            vec!["0"; n].join(&delim.to_string())
+        };
+        let mut probe = header.clone();
+        probe.push(b'\n');
+        probe.extend_from_slice(probe_row.as_bytes());
+        let t = parse_text(&probe, &self.file, self.select.as_deref())?;
+        let names = t.names.clone();
+        let units = crate::units::channel_units(&names, self.settings.unit.as_deref())?;
+        let online = OnlineChannels::new(
+            names.len(),
+            self.settings.rate_hz,
+            self.max_m,
+            &config(&self.settings),
+        )?;
+        self.layout = Some(Layout {
+            header,
+            names,
+            units,
+            online,
+        });
+        Ok(())
+    }
+
+    /// A parse error of a batch whose line 1 stands for line `first` (from 1) of the stream,
+    /// with the line number made that of the whole stream.
+    fn relocate(&self, e: Error, first: usize) -> Error {
+        match e {
+            Error::Located {
+                line,
+                column,
+                message,
+                ..
+            } => Error::Located {
+                file: self.file.clone(),
+                line: first + line.saturating_sub(1),
+                column,
+                message,
+            },
+            other => other,
+        }
+    }
+
+    fn bad_line(&mut self, e: Error, events: &mut Vec<Event>) {
+        if self.settings.on_error == OnError::Stop {
+            self.stopped = Some(clone_error(&e));
+        }
+        events.push(Event::BadLine(e));
+    }
+
+    /// Complete data lines (after the layout is known).
+    fn rows_in(&mut self, mut text: &[u8], events: &mut Vec<Event>) -> Result<()> {
+        let header = self.layout.as_ref().expect("layout known").header.clone();
+        let batch_of = |lines: &[u8]| {
+            let mut b = header.clone();
+            b.push(b'\n');
+            b.extend_from_slice(lines);
+            b
+        };
+        while !text.is_empty() {
+            let e = match parse_text(&batch_of(text), &self.file, self.select.as_deref()) {
+                Ok(t) => {
+                    let cols: Vec<Vec<f64>> = t.columns.into_iter().map(|c| c.into_vec()).collect();
+                    // rows after a reached target are left unread
+                    self.push_rows(&cols, events)?;
+                    self.lines += count_lines(text);
+                    return Ok(());
+                }
+                Err(Error::File { .. }) => {
+                    // only blank lines
+                    self.lines += count_lines(text);
+                    return Ok(());
+                }
+                Err(e) => e,
+            };
+            let bad = match &e {
+                // 0-based line of `text` (line 1 of the batch is the header)
+                Error::Located { line, .. } if *line >= 2 => line - 2,
+                _ => return Err(e),
+            };
+            let (good, rest) = split_lines(text, bad);
+            if !good.is_empty() {
+                let t = parse_text(&batch_of(good), &self.file, self.select.as_deref())?;
+                let cols: Vec<Vec<f64>> = t.columns.into_iter().map(|c| c.into_vec()).collect();
+                self.push_rows(&cols, events)?;
+                if self.reached {
+                    return Ok(());
+                }
+            }
+            // the batch's line 2 is stream line self.lines + 1
+            let e = self.relocate(e, self.lines);
+            self.lines += bad + 1;
+            self.bad_line(e, events);
+            if self.stopped.is_some() {
+                return Ok(());
+            }
+            // skip the bad line
+            text = match rest.iter().position(|&b| b == b'\n') {
+                Some(i) => &rest[i + 1..],
+                None => &[],
+            };
+        }
+        Ok(())
+    }
+
+    /// Adds rows (one vector per channel), cut at the snapshots that fall due.
+    fn push_rows(&mut self, cols: &[Vec<f64>], events: &mut Vec<Event>) -> Result<()> {
+        let rows = cols.first().map_or(0, Vec::len);
+        let mut i = 0;
+        while i < rows {
+            let take = ((self.next_at - self.n) as usize).min(rows - i);
+            let chunks: Vec<&[f64]> = cols.iter().map(|c| &c[i..i + take]).collect();
+            if self.settings.keep_rows {
+                self.rows.resize_with(chunks.len(), Vec::new);
+                for (all, c) in self.rows.iter_mut().zip(&chunks) {
+                    all.extend_from_slice(c);
+                }
+            }
+            self.layout
+                .as_mut()
+                .expect("layout known")
+                .online
+                .update(&chunks)?;
+            self.n += take as u64;
+            i += take;
+            if self.n == self.next_at {
+                self.next_at += self.every_n;
+                // too short for one scale yet: no snapshot
+                if let Ok(s) = self.snapshot(false) {
+                    self.reached = s.reached;
+                    events.push(Event::Snapshot(s));
+                    if self.reached {
+                        return Ok(());
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Every row accumulated (with `keep_rows`) as the [`crate::io::Table`] the `analyze`
+    /// pipeline takes, with the channels' units; None without `keep_rows` or before the first
+    /// row.
+    ///
+    /// ```
+    /// use imunoise::pipeline::live::{Live, LiveSettings};
+    /// let s = LiveSettings { rate_hz: 50.0, keep_rows: true, ..LiveSettings::default() };
+    /// let mut live = Live::new(s, "x.csv")?;
+    /// live.feed(b"gyro_x_dps\n0.5\n-0.25\n1\n")?;
+    /// let (table, units) = live.into_table().unwrap();
+    /// assert_eq!((table.names[0].as_str(), table.rate_hz), ("gyro_x_dps", Some(50.0)));
+    /// assert_eq!(&table.columns[0][..], &[0.5, -0.25, 1.0]);
+    /// assert_eq!(units, [imunoise::processes::Unit::DegPerSec]);
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
+    pub fn into_table(self) -> Option<(crate::io::Table, Vec<Unit>)> {
+        let layout = self.layout?;
+        if self.rows.is_empty() {
+            return None;
+        }
+        let table = crate::io::Table {
+            file: self.file,
+            names: layout.names,
+            columns: self.rows.into_iter().map(crate::io::Column::from).collect(),
+            rate_hz: Some(self.settings.rate_hz),
+            timing: None,
+            topic: None,
+        };
+        Some((table, layout.units))
+    }
+
+    /// The snapshot of everything so far (`is_final` marks the one at the end).
+    /// Errors: no row yet, too few rows for one scale.
+    pub fn snapshot(&self, is_final: bool) -> Result<Snapshot> {
+        let (Some(layout), true) = (&self.layout, self.n > 0) else {
+            return Err(Error::File {
+                file: self.file.clone(),
+                message: "no data rows".into(),
+            });
+        };
+        let avs = layout.online.snapshots()?;
+        let curves: Vec<(String, AllanVariance)> = layout.names.iter().cloned().zip(avs).collect();
+        let json = to_json(&curves);
+        let channels = json
+            .channels
+            .into_iter()
+            .zip(&curves)
+            .zip(&layout.units)
+            .map(|((c, (_, av)), unit)| {
+                let terms = AvCurve::from_avar(av).ok().and_then(|curve| {
+                    noise_terms_of(&[], &[], av.rate_hz, av.points[0].tau, None, &curve, unit).ok()
+                });
+                ChannelSnapshot {
+                    name: c.name,
+                    unit: unit.to_string(),
+                    rate_hz: c.rate_hz,
+                    n: c.n,
+                    points: c.points,
+                    n_term: terms.as_ref().map(|t| t.n.clone()),
+                    k_term: terms.as_ref().map(|t| t.k.clone()),
+                    b_term: terms.map(|t| t.b),
+                }
+            })
+            .collect();
+        let t_s = self.n as f64 / self.settings.rate_hz;
+        let mut progress = Vec::new();
+        for c in &channels {
+            for target in &self.settings.until {
+                progress.push(progress_of(c, target, t_s));
+            }
+        }
+        let reached = !progress.is_empty() && progress.iter().all(|p| p.reached);
+        Ok(Snapshot {
+            t_s,
+            n: self.n as usize,
+            is_final,
+            reached,
+            progress,
+            channels,
+        })
+    }
+}
+
+/// Channel `c` against `target` at input time `t_s`.
+fn progress_of(c: &ChannelSnapshot, target: &Target, t_s: f64) -> TargetProgress {
+    let term = match target.symbol.as_str() {
+        "N" => &c.n_term,
+        "K" => &c.k_term,
+        _ => &c.b_term,
+    };
+    let h = term
+        .as_ref()
+        .and_then(|t| match (t.source, t.ci_lo, t.ci_hi) {
+            (gmwm_prep::noise_terms::TermSource::UpperBound, _, _) => None,
+            (_, Some(lo), Some(hi)) if t.value > 0.0 => Some((hi - lo) / (2.0 * t.value)),
+            _ => None,
+        });
+    let reached = h.is_some_and(|h| h <= target.rel_halfwidth);
+    let time_left_s = h.map(|h| {
+        let r = h / target.rel_halfwidth;
+        (t_s * (r * r - 1.0)).max(0.0)
+    });
+    TargetProgress {
+        channel: c.name.clone(),
+        symbol: target.symbol.clone(),
+        target: target.rel_halfwidth,
+        rel_halfwidth: h,
+        reached,
+        time_left_s,
+    }
+}
+
+fn config(s: &LiveSettings) -> AvarConfig {
+    AvarConfig {
+        scales: s.scales.clone(),
+        ci: s.ci,
+        alpha: s.alpha,
+        ..AvarConfig::default()
+    }
+}
+
+fn strip_eol(line: &[u8]) -> &[u8] {
+    let mut l = line;
+    while let [rest @ .., b'\n' | b'\r'] = l {
+        l = rest;
+    }
+    l
+}
+
+fn count_lines(text: &[u8]) -> usize {
+    text.iter().filter(|&&b| b == b'\n').count()
+}
+
+/// (the first `k` lines, the rest) of `text`.
+fn split_lines(text: &[u8], k: usize) -> (&[u8], &[u8]) {
+    let mut at = 0;
+    for _ in 0..k {
+        match text[at..].iter().position(|&b| b == b'\n') {
+            Some(i) => at += i + 1,
+            None => return (text, &[]),
+        }
+    }
+    text.split_at(at)
+}
+
+/// A copy of a line error (the only kind kept by [`Live::stopped`]).
+fn clone_error(e: &Error) -> Error {
+    match e {
+        Error::Located {
+            file,
+            line,
+            column,
+            message,
+        } => Error::Located {
+            file: file.clone(),
+            line: *line,
+            column: *column,
+            message: message.clone(),
+        },
+        other => Error::Usage(other.to_string()),
+    }
+}
+
+/// The AD at the τ of the snapshot nearest each of `taus` (s, on a log scale), as
+/// (τ, AD, AD lower, AD upper) with the CI bounds when there are some.
+pub fn adev_near(points: &[PointJson], taus: &[f64]) -> Vec<(f64, f64, Option<f64>, Option<f64>)> {
+    let mut out: Vec<(f64, f64, Option<f64>, Option<f64>)> = Vec::new();
+    for &t in taus {
+        let Some(p) = points
+            .iter()
+            .min_by(|a, b| (a.tau / t).ln().abs().total_cmp(&(b.tau / t).ln().abs()))
+        else {
+            continue;
+        };
+        if out.last().is_some_and(|q| q.0 == p.tau) {
+            continue;
+        }
+        out.push((
+            p.tau,
+            p.adev,
+            p.avar_lo.map(|v| v.max(0.0).sqrt()),
+            p.avar_hi.map(f64::sqrt),
+        ));
+    }
+    out
+}
