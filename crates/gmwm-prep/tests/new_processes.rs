@@ -4,6 +4,7 @@
 //! - the GMWM recovers BI + WN + RW and SIN + WN without bias beyond 2 Monte Carlo
 //!   standard errors (R = 100 at T = 2^17 and 2^16 here; `cargo xtask gmwm-mc --case wn-rw-bi` runs
 //!   T = 10^6).
+//!
 //! Fixed seeds throughout.
 
 use avar::{AvarConfig, allan_variance};
