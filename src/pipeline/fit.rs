@@ -806,16 +806,42 @@ fn fit_restricted(
                 ..GmwmOptions::default()
             };
             let v0 = diagonal_covariance(&curve);
-            let (template, wic) = if settings.select {
+            let (template, wic, f) = if settings.select {
                 let cands = select_by_wic(&curve, &template, &opts, &v0).map_err(e)?;
-                let best = cands.first().ok_or_else(|| {
-                    Error::Usage(format!("channel {name:?}: no sub-model could be fitted"))
-                })?;
-                (best.template.parse::<Model>()?, Some(best.wic))
+                if cands.is_empty() {
+                    return Err(Error::Usage(format!(
+                        "channel {name:?}: no sub-model could be fitted"
+                    )));
+                }
+                // The selected model is refitted with all starts and the channel's own
+                // weighting; should that refit fail or not be identifiable (e.g. a component
+                // the search's fit kept vanishes), the next candidate by WIC is taken.
+                let mut chosen = None;
+                let mut first_err = None;
+                for c in &cands {
+                    let t = c.template.parse::<Model>()?;
+                    // identifiability (AᵀΩA at θ̂) does not depend on V: checked with V₀
+                    match gmwm::fit(&curve, &t, &opts)
+                        .and_then(|f| delta_method(&f, &v0, settings.alpha).map(|_| f))
+                    {
+                        Ok(f) => {
+                            chosen = Some((t, Some(c.wic), f));
+                            break;
+                        }
+                        Err(err) => {
+                            first_err.get_or_insert(err);
+                        }
+                    }
+                }
+                match (chosen, first_err) {
+                    (Some(c), _) => c,
+                    (None, Some(err)) => return Err(e(err)),
+                    (None, None) => unreachable!("a candidate either fits or fails"),
+                }
             } else {
-                (template, None)
+                let f = gmwm::fit(&curve, &template, &opts).map_err(e)?;
+                (template, None, f)
             };
-            let f = gmwm::fit(&curve, &template, &opts).map_err(e)?;
             let (v, method) = if settings.bootstrap > 0 {
                 let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
                 b.alpha = settings.alpha;

@@ -497,6 +497,7 @@ pub fn select_by_wic(
         Err(
             e @ (FitError::OptimizationFailed(_)
             | FitError::Unidentifiable(_)
+            | FitError::NotIdentifiable { .. }
             | FitError::TooFewScales { .. }),
         ) => largest_fitting_submodel(curve, full, opts).ok_or(e)?,
         Err(e) => return Err(e),
@@ -643,7 +644,11 @@ fn fit_candidate(
     // it must not abort the selection among the others
     let f = match fit(curve, &template, common) {
         Ok(f) => f,
-        Err(FitError::OptimizationFailed(_) | FitError::Unidentifiable(_)) => return Ok(None),
+        Err(
+            FitError::OptimizationFailed(_)
+            | FitError::Unidentifiable(_)
+            | FitError::NotIdentifiable { .. },
+        ) => return Ok(None),
         Err(e) => return Err(e),
     };
     let inf = match delta_method(&f, v, 0.05) {
