@@ -441,7 +441,8 @@ pub const CANDIDATE_STARTS: usize = 2;
 
 /// Ranks sub-models of `full` (subsets of its components) by WIC, each fitted with one
 /// common weighting matrix — the Ω of the full model's fit (of its largest sub-model that can
-/// be fitted, when the full model's optimization fails) — the WIC computed with the moments'
+/// be fitted, when the full model's optimization fails or it has more parameters than the
+/// curve has scales) — the WIC computed with the moments'
 /// covariance `v` (best first). Sub-models with more parameters than scales, and those that
 /// fail to converge or are not identifiable from these scales (singular AᵀΩA at their
 /// estimate), are skipped; an empty list means none could be fitted.
@@ -449,12 +450,18 @@ pub const CANDIDATE_STARTS: usize = 2;
 /// # The search
 /// - Up to [`EXHAUSTIVE_MAX_SUBMODELS`] distinct sub-models (e.g. the 24 of
 ///   `QN+WN+RW+2*AR1`): all of them are fitted.
-/// - Beyond (e.g. `QN+WN+RW+BI+2*AR1`, 48): backward elimination. From the full model, every
+/// - Beyond (e.g. `QN+WN+RW+BI+2*SIN+2*AR1`, 96): every sub-model of the core (the class
+///   without BI and SIN, e.g. the 24 of `QN+WN+RW+2*AR1`), so the result is never worse in
+///   WIC than the exhaustive search over the core; then backward elimination. From the full model, every
 ///   model with one component fewer is fitted and the one of least WIC kept, as long as it
 ///   improves the WIC (a model that cannot be fitted or identified counts as WIC = +∞, so the
 ///   search always moves off it); then the same from the kept model, down to one component.
-///   At most k + (k−1) + … + 1 fits for k components (21 for 6, against 48), every fitted
-///   model a candidate. Backward rather than forward: the small models miss whole regions of
+///   At most k + (k−1) + … + 1 fits for k components (36 for 8, against 96), every fitted
+///   model a candidate. The candidate fits start from the best [`CANDIDATE_STARTS`] grid
+///   points. Models the record cannot fit (more parameters than scales) or identify (a
+///   component the data do not need vanishes: singular AᵀΩA) count as WIC = +∞, so the
+///   search walks through them, and the core's exhaustive part covers what such a walk can
+///   miss (on an exact WN + RW curve of 10 scales the walk alone ends at WN + AR1). Backward rather than forward: the small models miss whole regions of
 ///   the curve, and their WIC (dominated by that misfit) says little about which component to
 ///   add; the larger ones all describe the curve, and removing the component the data do not
 ///   need is what the WIC penalty measures. It finds the exhaustive optimum whenever the WIC
@@ -483,13 +490,14 @@ pub fn select_by_wic(
     v: &CovMatrix,
 ) -> Result<Vec<Candidate>> {
     // Ω from the full model's fit, or, when its optimization fails (e.g. a second AR1 the
-    // data do not support) or it has more parameters than the curve has scales (a short
-    // record), from the largest sub-model that can be fitted
+    // data do not support), from the largest sub-model that can be fitted
     let full_fit = match fit(curve, full, opts) {
         Ok(f) => f,
+        // a full model with more parameters than a short record has scales, too
         Err(
             e @ (FitError::OptimizationFailed(_)
             | FitError::Unidentifiable(_)
+            | FitError::NotIdentifiable { .. }
             | FitError::TooFewScales { .. }),
         ) => largest_fitting_submodel(curve, full, opts).ok_or(e)?,
         Err(e) => return Err(e),
@@ -550,6 +558,27 @@ pub fn select_by_wic(
             evaluate(&mut seen, sub)?;
         }
     } else {
+        // every sub-model of the core (the class without BI and SIN, e.g. QN+WN+RW+2*AR1),
+        // when small enough: the search then never ends worse than the exhaustive one over it
+        let core: Vec<Vec<ProcessKind>> = subsets
+            .iter()
+            .filter(|s| {
+                s.iter()
+                    .all(|k| !matches!(k, ProcessKind::BiasInstability(_) | ProcessKind::Sinusoid))
+            })
+            .cloned()
+            .collect();
+        if core.len() <= EXHAUSTIVE_MAX_SUBMODELS {
+            let fitted: Vec<Result<Option<Candidate>>> = {
+                use rayon::prelude::*;
+                core.par_iter()
+                    .map(|sub| fit_candidate(curve, sub, &search, v, j))
+                    .collect()
+            };
+            for (sub, c) in core.into_iter().zip(fitted) {
+                seen.push((sub, c?));
+            }
+        }
         let wic_of = |c: &Option<Candidate>| c.as_ref().map_or(f64::INFINITY, |c| c.wic);
         let mut current = kinds.clone();
         let mut current_wic = wic_of(&evaluate(&mut seen, current.clone())?);
@@ -615,7 +644,11 @@ fn fit_candidate(
     // it must not abort the selection among the others
     let f = match fit(curve, &template, common) {
         Ok(f) => f,
-        Err(FitError::OptimizationFailed(_) | FitError::Unidentifiable(_)) => return Ok(None),
+        Err(
+            FitError::OptimizationFailed(_)
+            | FitError::Unidentifiable(_)
+            | FitError::NotIdentifiable { .. },
+        ) => return Ok(None),
         Err(e) => return Err(e),
     };
     let inf = match delta_method(&f, v, 0.05) {

@@ -4,6 +4,7 @@
 //! - the GMWM recovers BI + WN + RW and SIN + WN without bias beyond 2 Monte Carlo
 //!   standard errors (R = 100 at T = 2^17 and 2^16 here; `cargo xtask gmwm-mc --case wn-rw-bi` runs
 //!   T = 10^6).
+//!
 //! Fixed seeds throughout.
 
 use avar::{AvarConfig, allan_variance};
@@ -169,4 +170,30 @@ fn gmwm_recovers_sin_wn() {
             "{name}: mean {m} vs {t} (SE {se})"
         );
     }
+}
+
+#[test]
+fn selection_over_a_class_larger_than_the_curve() {
+    // 10 scales and the 12-parameter analyze class: the backward search starts below the
+    // full model (Ω from its largest sub-model that fits) and still finds the truth
+    use gmwm_prep::inference::{diagonal_covariance, select_by_wic};
+    let truth: Model = "WN(sigma2=1e-4) + RW(gamma2=1e-9)".parse().unwrap();
+    let m: Vec<u64> = (1..=10).map(|j| 1u64 << j).collect();
+    let av = model_avar(&truth, &m, RATE).unwrap();
+    let curve = AvCurve::from_m(&m, &av, RATE).unwrap().with_n(1 << 12);
+    let full: Model = "QN+WN+RW+BI+2*SIN+2*AR1".parse().unwrap();
+    assert!(full.n_params() > m.len());
+    let c = select_by_wic(
+        &curve,
+        &full,
+        &GmwmOptions::default(),
+        &diagonal_covariance(&curve),
+    )
+    .unwrap();
+    assert!(!c.is_empty());
+    assert!(c.iter().all(|c| c.n_params <= m.len()));
+    for x in &c {
+        eprintln!("{:<40} wic {:.6e} q {:.3e}", x.template, x.wic, x.objective);
+    }
+    assert_eq!(c[0].template, "WN + RW");
 }

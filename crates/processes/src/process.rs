@@ -617,6 +617,7 @@ impl fmt::Display for BiBand {
 /// - States faster than 2 samples are white noise at every m, so below m = 16 the AV falls
 ///   under the plateau (−3 % at m = 8, −35 % at m = 1); it is flat within
 ///   [`BI_FLAT_TOLERANCE`] over max(m_lo, 16) ≤ m ≤ m_hi.
+///
 /// A record of 5·10⁵ scales (m up to 2¹⁹) takes 14 states.
 ///
 /// ```
