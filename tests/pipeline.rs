@@ -218,8 +218,17 @@ fn selection_survives_a_full_model_that_cannot_be_fitted() {
     // the short-memory terms that stand in for it in the larger class) covers the truth
     // √(σ²Δt) (unitless channel: N in u·√s)
     let n = &f.noise_terms.as_ref().expect("N, K, B").n;
-    assert_eq!(n.source, imunoise::gmwm_prep::noise_terms::TermSource::Model, "{}", f.model);
+    assert_eq!(
+        n.source,
+        imunoise::gmwm_prep::noise_terms::TermSource::Model,
+        "{}",
+        f.model
+    );
     let (lo, hi) = (n.ci_lo.unwrap(), n.ci_hi.unwrap());
     let truth = (1e-4f64 / 200.0).sqrt();
-    assert!(lo < truth && truth < hi, "{}: N CI [{lo:e}, {hi:e}], truth {truth:e}", f.model);
+    assert!(
+        lo < truth && truth < hi,
+        "{}: N CI [{lo:e}, {hi:e}], truth {truth:e}",
+        f.model
+    );
 }

@@ -393,7 +393,12 @@ fn contamination_spread_through_the_record_is_described_not_located() {
     assert!(chk.contaminated, "{}", chk.message);
     let largest = chk.windows.iter().map(|w| w.share).fold(0.0, f64::max);
     assert!(largest < gmwm_prep::robust::SPREAD_SHARE, "{largest}");
-    assert!(chk.message.contains("heavier-tailed than Gaussian throughout"), "{}", chk.message);
+    assert!(
+        chk.message
+            .contains("heavier-tailed than Gaussian throughout"),
+        "{}",
+        chk.message
+    );
     assert!(!chk.message.contains("windows driving it"));
 
     // Gaussian noise (Box–Muller) with 100 samples of ±20 σ in the second 600–601 s
@@ -408,7 +413,11 @@ fn contamination_spread_through_the_record_is_described_not_located() {
     let chk = contamination_check(&x, &rob, 0.01, 5).unwrap();
     eprintln!("{}", chk.message);
     assert!(chk.contaminated, "{}", chk.message);
-    assert!(chk.message.contains("windows driving it"), "{}", chk.message);
+    assert!(
+        chk.message.contains("windows driving it"),
+        "{}",
+        chk.message
+    );
     let w = &chk.windows[0];
     assert!(w.start_s <= 600.0 && 601.0 <= w.end_s + 1.0, "{w:?}");
 }

@@ -320,7 +320,11 @@ fn to_allan_variance(name: &str, r: Rows, opts: &CurveOptions) -> Result<AllanVa
     if k < 2 {
         return Err(bad(format!("{k} scale(s); a fit needs at least 2")));
     }
-    if r.tau.windows(2).any(|w| !(w[1] > w[0])) || r.tau[0] <= 0.0 {
+    if r.tau
+        .windows(2)
+        .any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        || r.tau[0].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+    {
         return Err(bad("τ must be positive and increasing".into()));
     }
     if let Some(v) = r.avar.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
@@ -358,11 +362,11 @@ fn to_allan_variance(name: &str, r: Rows, opts: &CurveOptions) -> Result<AllanVa
         )));
     }
     let mut points = Vec::with_capacity(k);
-    for j in 0..k {
+    for (j, &mj) in m.iter().enumerate() {
         let avar = r.avar[j];
         let mut p = AvarPoint {
-            m: m[j],
-            tau: m[j] as f64 / rate,
+            m: mj,
+            tau: mj as f64 / rate,
             avar,
             adev: avar.sqrt(),
             avar_lo: None,
@@ -371,7 +375,7 @@ fn to_allan_variance(name: &str, r: Rows, opts: &CurveOptions) -> Result<AllanVa
             adev_hi: None,
             edf: r.edf[j],
             n_terms: r.n_terms[j]
-                .or_else(|| t.map(|t| t + 1 - 2 * m[j]))
+                .or_else(|| t.map(|t| t + 1 - 2 * mj))
                 .unwrap_or(0),
             noise_alpha: None,
             lower_negative: false,
@@ -388,10 +392,10 @@ fn to_allan_variance(name: &str, r: Rows, opts: &CurveOptions) -> Result<AllanVa
                 // shifted to the conservative side as the data path does for an uncertain
                 // identification: by 2·k·se with k = CONSERVATIVE_SE and se = 1/√n for the
                 // n = T/m cluster means
-                let se = 1.0 / ((t / m[j]) as f64).sqrt();
+                let se = 1.0 / ((t / mj) as f64).sqrt();
                 let alpha = if mu.is_finite() { -mu - 1.0 } else { 0.0 };
                 let alpha = (alpha - 2.0 * avar::ci::CONSERVATIVE_SE * se).clamp(-2.0, 2.0);
-                let edf = avar::ci::edf_greenhall_real(alpha, m[j], t + 1, true);
+                let edf = avar::ci::edf_greenhall_real(alpha, mj, t + 1, true);
                 p.edf = Some(edf);
                 p.noise_alpha = Some(alpha_of_slope(mu));
                 Some(avar::ci::chi_square_interval(avar, edf, opts.alpha))

@@ -237,6 +237,12 @@ pub fn white_noise_equivalent(
     }
 }
 
+/// Picks a component's contribution to a sum of per-sample parameters and its gradient.
+type Pick<'a> = dyn Fn(ProcessKind, &[f64]) -> Option<(f64, Vec<f64>)> + 'a;
+
+/// A model's value of a term: per-second value, per-second CI, and the source in words.
+type ModelValue = (f64, Option<(f64, f64)>, String);
+
 /// A term's value and CI in display units from its per-second value `v` (unit: the term's
 /// per-second unit) and per-second CI; the conversion to IEEE units is linear.
 fn display_term(
@@ -357,7 +363,7 @@ pub fn noise_terms_of(
     let p = theta.len();
 
     // Σ_c f_c(θ_c) with its gradient over all of θ, for the components `pick` takes
-    let sum_of = |pick: &dyn Fn(ProcessKind, &[f64]) -> Option<(f64, Vec<f64>)>| {
+    let sum_of = |pick: &Pick<'_>| {
         let mut v = 0.0;
         let mut g = vec![0.0; p];
         let mut codes = Vec::new();
@@ -431,7 +437,7 @@ pub fn noise_terms_of(
     };
 
     let assemble = |term: IeeeTerm,
-                    model: Option<(f64, Option<(f64, f64)>, String)>,
+                    model: Option<ModelValue>,
                     tau_at: f64,
                     read_words: String,
                     bound_of: &dyn Fn(f64, f64) -> f64,
