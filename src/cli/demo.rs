@@ -523,11 +523,11 @@ pub fn run(args: &DemoArgs, ui: &Ui) -> Result<()> {
     let html_yes = |c: Option<bool>| yes_no(c, "<span class=no>no</span>");
     for c in params {
         extra.push_str(&format!(
-            "<tr><td class=l>{}</td><td class=l>{}</td><td>{:.4e}</td><td>{:.4e}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+            "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
             c.channel,
             c.parameter,
-            c.truth,
-            c.estimate,
+            processes::number::sig(c.truth, 4),
+            processes::number::sig(c.estimate, 4),
             interval(c.ci, e4),
             interval(c.sim_ci, e4),
             html_yes(c.sim_covered()),

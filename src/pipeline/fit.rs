@@ -953,17 +953,23 @@ fn with_verdict(
             }
         }
     }
-    if let Some(t) = gmwm_prep::adequacy::filtered_small_scales(curve) {
+    let fitted: Vec<f64> = out.fitted.iter().map(|p| p.avar).collect();
+    out.adequacy = assess(curve, &fitted, out.j_test.as_ref().map(|j| j.p_value)).ok();
+    // smallest scales below the white-noise line (a filter's mark) that the model misses: an
+    // AR1 of small φ reproduces such a shape, and then there is nothing to suggest
+    if let (Some(t), Some(a)) = (
+        gmwm_prep::adequacy::filtered_small_scales(curve),
+        out.adequacy.as_ref(),
+    ) && a.scales.iter().any(|c| c.tau < t && !c.inside)
+    {
         out.warnings.push(format!(
             "the smallest scales (τ < {} s) lie below the white-noise line of the scales after \
-             them: an anti-aliasing or decimation filter shapes them, which no noise model \
-             here reproduces; try --tau-min {}",
+             them and the model misses them: an anti-aliasing or decimation filter may shape \
+             them; try --tau-min {}",
             processes::number::sig(t, 4),
             processes::number::sig(t, 4)
         ));
     }
-    let fitted: Vec<f64> = out.fitted.iter().map(|p| p.avar).collect();
-    out.adequacy = assess(curve, &fitted, out.j_test.as_ref().map(|j| j.p_value)).ok();
     if let Some(a) = out.adequacy.as_ref().filter(|a| !a.adequate) {
         out.warnings.push(format!(
             "the model does not describe the Allan variance ({}); N, K, B from it and the \
@@ -1217,7 +1223,11 @@ pub fn percent(level: f64) -> String {
 
 fn ci(lo: Option<f64>, hi: Option<f64>) -> String {
     match (lo, hi) {
-        (Some(a), Some(b)) => format!("[{a:.4e}, {b:.4e}]"),
+        (Some(a), Some(b)) => format!(
+            "[{}, {}]",
+            processes::number::sig(a, 4),
+            processes::number::sig(b, 4)
+        ),
         _ => "-".into(),
     }
 }
@@ -1226,10 +1236,10 @@ fn ci(lo: Option<f64>, hi: Option<f64>) -> String {
 fn write_param_row(out: &mut impl Write, indent: &str, p: &ParamJson) -> std::io::Result<()> {
     writeln!(
         out,
-        "{indent}{:<5} {:<7} {:>12.4e}  {}",
+        "{indent}{:<5} {:<7} {:>12}  {}",
         p.process,
         p.name,
-        p.value,
+        processes::number::sig(p.value, 4),
         ci(p.ci_lo, p.ci_hi)
     )
 }
@@ -1315,8 +1325,8 @@ pub fn write_table(
             }
             writeln!(
                 out,
-                "  IEEE {k} = {:.4e} {}  {}",
-                v.value,
+                "  IEEE {k} = {} {}  {}",
+                processes::number::sig(v.value, 4),
                 v.unit,
                 ci(v.ci_lo, v.ci_hi)
             )?;

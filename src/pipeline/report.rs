@@ -1244,7 +1244,7 @@ fn adev_series(label: &str, rate: f64, fitted: &[super::fit::FittedJson]) -> Ser
 
 fn fmt_ci(lo: Option<f64>, hi: Option<f64>) -> String {
     match (lo, hi) {
-        (Some(a), Some(b)) => format!("[{a:.4e}, {b:.4e}]"),
+        (Some(a), Some(b)) => format!("[{}, {}]", sig(a, 4), sig(b, 4)),
         _ => "-".into(),
     }
 }
@@ -1352,10 +1352,10 @@ fn robust_section(dir: &Path, inp: &ReportInput<'_>, rob: &RobustReport<'_>) -> 
                 let cell = |f: &ChannelFit| {
                     f.parameters.get(i).map_or("".to_string(), |p| {
                         format!(
-                            "{} {} = {:.4e} {}",
+                            "{} {} = {} {}",
                             p.process,
                             p.name,
-                            p.value,
+                            sig(p.value, 4),
                             fmt_ci(p.ci_lo, p.ci_hi)
                         )
                     })
