@@ -159,3 +159,53 @@ fn a_curve_without_intervals_is_refused() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--samples"));
 }
+
+/// `fit --curve --out DIR` writes the report folder of the curve: results.json carries the same
+/// fit as the command's JSON, and report.html the summary and the AD plot (no time series:
+/// the samples are not at hand).
+#[test]
+fn a_curve_gets_its_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("gyro_x.csv");
+    // white noise of σ² = 1e-4 per sample at 100 Hz: AV = σ²/m, 2^18 samples behind it
+    let text: String = std::iter::once("tau,avar".to_string())
+        .chain((1..=14).map(|j| {
+            let m = 1u64 << j;
+            format!("{},{:e}", m as f64 / 100.0, 1e-4 / m as f64)
+        }))
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&p, text).unwrap();
+    let out = dir.path().join("rep");
+    let args = [
+        "fit",
+        "--curve",
+        p.to_str().unwrap(),
+        "--rate",
+        "100",
+        "--samples",
+        "262144",
+        "--unit",
+        "deg/s",
+        "--model",
+        "WN",
+        "-f",
+        "json",
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let doc = json(&imunoise_ok(&args));
+    let res: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(res["channels"][0]["fit"], doc["channels"][0]);
+    // the exact curve of WN: σ² recovered, every scale inside its CI
+    let v = doc["channels"][0]["parameters"][0]["value"]
+        .as_f64()
+        .unwrap();
+    assert!((v / 1e-4 - 1.0).abs() < 1e-9, "{v}");
+    assert_eq!(doc["channels"][0]["adequacy"]["adequate"], true);
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("Summary: the values a filter needs"));
+    assert!(html.contains("gyro_x: Allan deviation") && !html.contains("time series"));
+}

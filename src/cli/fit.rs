@@ -15,7 +15,7 @@ pub const EXAMPLES: &str = "Examples:
   imunoise fit imu.csv.gz --rate 100 --method avlr
   imunoise fit imu.csv.gz --rate 100 --robust          # robust AV (biweight, 60 % efficiency): outliers
   imunoise fit day1.csv.gz day2.csv.gz --rate 100 --model \"WN+RW+AR1\" --format json   # one model, two recordings
-  imunoise fit --curve avar.csv --select               # a curve from `imunoise avar --format csv`
+  imunoise fit --curve avar.csv --select --out report/   # a curve from `imunoise avar --format csv`, with its report
   imunoise fit --curve datasheet.txt --rate 400 --samples 5760000 --unit deg/s   # a published AD curve
 
 --robust fits the robust Allan variance (Tukey biweight M-estimator of scale per scale at
@@ -163,6 +163,11 @@ pub struct FitArgs {
     /// With --curve: the record length T behind the curve, in samples.
     #[arg(long, value_name = "N", requires = "curve")]
     pub samples: Option<u64>,
+    /// With --curve: also write the report folder there (report.html with the summary, the
+    /// AD plots and the fit check, results.json, avar.csv, imu.yaml), as `analyze` does for
+    /// samples (without the time series and ACF plots, which need the samples).
+    #[arg(long, value_name = "DIR", requires = "curve")]
+    pub out: Option<std::path::PathBuf>,
     /// Output format: table, json or csv.
     #[arg(long, short, value_enum, default_value = "table")]
     pub format: super::Format,
@@ -218,7 +223,31 @@ pub fn run(args: &FitArgs, ui: &Ui) -> Result<()> {
         let curves = crate::pipeline::curve::read_curve_file(&args.input.file, &opts)?;
         let names: Vec<String> = curves.iter().map(|(n, _)| n.clone()).collect();
         let units = crate::units::channel_units(&names, args.input.unit.as_deref())?;
-        fit_all(&curves, &units, &settings, ui)?
+        let fits = fit_all(&curves, &units, &settings, ui)?;
+        if let Some(dir) = &args.out {
+            let source = args.input.file.display().to_string();
+            let inp = crate::pipeline::report::ReportInput {
+                source: &source,
+                rate_hz: curves.first().map_or(f64::NAN, |c| c.1.rate_hz),
+                names: &names,
+                columns: &[],
+                units: &units,
+                curves: &curves,
+                fits: &fits,
+                extra_html: String::new(),
+                bootstrap: settings.bootstrap,
+                topic: None,
+                timing: None,
+                robust: None,
+                record_halfwidth: 0.1,
+            };
+            crate::pipeline::report::write_report(dir, &inp, ui)?;
+            ui.note(format!(
+                "report written to {}",
+                dir.join("report.html").display()
+            ));
+        }
+        fits
     } else {
         let spec = args.input.spec();
         let table = spec.read(ui)?;

@@ -587,6 +587,14 @@ pub fn kalibr_yaml(inp: &ReportInput<'_>) -> String {
     s
 }
 
+/// Samples per channel: of the first column, or, for curves without their samples, of the
+/// record behind the first curve.
+fn samples_per_channel(inp: &ReportInput<'_>) -> usize {
+    inp.columns
+        .first()
+        .map_or_else(|| inp.curves.first().map_or(0, |c| c.1.n), |c| c.len())
+}
+
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     crate::output::write_file(path, bytes)
 }
@@ -958,8 +966,8 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
 "#,
         src = html_esc(inp.source),
         rate = inp.rate_hz,
-        n = inp.columns.first().map_or(0, |c| c.len()),
-        h = inp.columns.first().map_or(0, |c| c.len()) as f64 / inp.rate_hz / 3600.0,
+        n = samples_per_channel(inp),
+        h = samples_per_channel(inp) as f64 / inp.rate_hz / 3600.0,
         method = inp.fits.first().map_or("-".to_string(), |f| {
             let ci = match f.ci_method {
                 super::fit::CiMethod::None => "no CIs".to_string(),
@@ -997,7 +1005,7 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         100.0 * h
     );
     for (k, (name, av)) in inp.curves.iter().enumerate() {
-        let n = inp.columns.get(k).map_or(0, |c| c.len());
+        let n = inp.columns.get(k).map_or(av.n, |c| c.len());
         if let Some(r) = record_length(av, n, inp.rate_hz, h) {
             let _ = writeln!(
                 html,
@@ -1098,7 +1106,27 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
             };
             let svg = adev_svg(&plot, &format!("ad{k}"));
             write_plot(dir, &format!("adev_{stem}"), &svg)?;
-            let x = &inp.columns[k];
+            let check = match &f.adequacy {
+                Some(adq) => {
+                    let z_crit = gmwm_prep::stats::z_two_sided(1.0 - adq.ci_level);
+                    let taus: Vec<f64> = adq.scales.iter().map(|c| c.tau).collect();
+                    let zs: Vec<f64> = adq.scales.iter().map(|c| c.z).collect();
+                    let r = residuals_svg(
+                        &format!("{name}: fit check"),
+                        &taus,
+                        &zs,
+                        z_crit,
+                        &format!("rz{k}"),
+                    );
+                    write_plot(dir, &format!("fitcheck_{stem}"), &r)?;
+                    r
+                }
+                None => String::new(),
+            };
+            // a curve without its samples (`fit --curve --out`): no time series, no ACF
+            let Some(x) = inp.columns.get(k) else {
+                return Ok([svg, String::new(), String::new(), check]);
+            };
             let ts = timeseries_svg(
                 &format!("{name}: time series"),
                 inp.units[k].symbol(),
@@ -1120,23 +1148,6 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
                 &format!("acf{k}"),
             );
             write_plot(dir, &format!("acf_{stem}"), &a)?;
-            let check = match &f.adequacy {
-                Some(adq) => {
-                    let z_crit = gmwm_prep::stats::z_two_sided(1.0 - adq.ci_level);
-                    let taus: Vec<f64> = adq.scales.iter().map(|c| c.tau).collect();
-                    let zs: Vec<f64> = adq.scales.iter().map(|c| c.z).collect();
-                    let r = residuals_svg(
-                        &format!("{name}: fit check"),
-                        &taus,
-                        &zs,
-                        z_crit,
-                        &format!("rz{k}"),
-                    );
-                    write_plot(dir, &format!("fitcheck_{stem}"), &r)?;
-                    r
-                }
-                None => String::new(),
-            };
             Ok([svg, ts, a, check])
         })
         .collect::<Result<Vec<_>>>()?;
@@ -1155,10 +1166,13 @@ h2{{border-bottom:2px solid #0072B2;padding-bottom:4px;margin-top:32px}}.no{{col
         at..at + FIRST_SCREEN_END.len().min(html.len() - at),
         &ad_html,
     );
-    html.push_str(&series_html);
-    html.push_str("</div>\n");
-    html.push_str(&acf_html);
-    html.push_str("</div>\n<p><small>Made by imunoise. Dotted grey lines: IEEE 952 slope guides (−1 quantization, −1/2 white noise, +1/2 rate random walk, +1 ramp). Shaded band: 95% CI of the estimated Allan deviation.</small></p></body></html>\n");
+    if !inp.columns.is_empty() {
+        html.push_str(&series_html);
+        html.push_str("</div>\n");
+        html.push_str(&acf_html);
+        html.push_str("</div>\n");
+    }
+    html.push_str("<p><small>Made by imunoise. Dotted grey lines: IEEE 952 slope guides (−1 quantization, −1/2 white noise, +1/2 rate random walk, +1 ramp). Shaded band: 95% CI of the estimated Allan deviation.</small></p></body></html>\n");
     write_file(&dir.join("report.html"), html.as_bytes())
 }
 
