@@ -797,7 +797,6 @@ fn fit_restricted(
     on_replicate: &(dyn Fn() + Sync),
 ) -> Result<ChannelFit> {
     let e = |x| fit_err(name, x);
-    let curve = curve.clone();
     match settings.method {
         Method::Gmwm => {
             let opts = GmwmOptions {
