@@ -804,11 +804,11 @@ fn fit_restricted(
                 robust,
                 ..GmwmOptions::default()
             };
-            let v0 = diagonal_covariance(&curve);
+            let v0 = diagonal_covariance(curve);
             // the fit of one template with its covariance V of the AV estimates and the
             // delta-method inference
             let attempt = |template: &Model| -> std::result::Result<_, FitError> {
-                let f = gmwm::fit(&curve, template, &opts)?;
+                let f = gmwm::fit(curve, template, &opts)?;
                 let (v, method) = if settings.bootstrap > 0 {
                     let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
                     b.alpha = settings.alpha;
@@ -828,7 +828,7 @@ fn fit_restricted(
                 Ok((f, v, method, inf))
             };
             let (wic, (f, v, method, inf)) = if settings.select {
-                let cands = select_by_wic(&curve, &template, &opts, &v0).map_err(e)?;
+                let cands = select_by_wic(curve, &template, &opts, &v0).map_err(e)?;
                 // the best candidate by WIC, refitted with the fit's own weighting and every
                 // start; should that refit not converge or not identify a component (the
                 // search fitted it with the full model's Ω), the next one
@@ -879,11 +879,11 @@ fn fit_restricted(
             };
             let mut out = from_report(name, &r, wic, &kinds, ci);
             out.warnings = warnings;
-            Ok(with_verdict(out, &curve, &kinds, &theta, Some(&inf)))
+            Ok(with_verdict(out, curve, &kinds, &theta, Some(&inf)))
         }
         Method::Avlr => {
-            let w = gmwm_prep::avlr::AvlrWindows::auto(&curve).map_err(e)?;
-            let mut f = gmwm_prep::avlr::avlr(&curve, &w).map_err(e)?;
+            let w = gmwm_prep::avlr::AvlrWindows::auto(curve).map_err(e)?;
+            let mut f = gmwm_prep::avlr::avlr(curve, &w).map_err(e)?;
             let mut method = CiMethod::None;
             if settings.bootstrap > 0 {
                 let mut b = BootstrapOptions::new(settings.bootstrap, settings.seed, av.n);
@@ -901,13 +901,13 @@ fn fit_restricted(
                 inference: None,
             };
             let out = from_report(name, &r, None, &kinds, ci);
-            Ok(with_verdict(out, &curve, &kinds, &theta, None))
+            Ok(with_verdict(out, curve, &kinds, &theta, None))
         }
         Method::Ieee952 => {
             let out = ieee952(name, av, unit)?;
             let model: Model = out.model.parse()?;
             let theta: Vec<f64> = out.parameters.iter().map(|p| p.value).collect();
-            Ok(with_verdict(out, &curve, &model.kinds(), &theta, None))
+            Ok(with_verdict(out, curve, &model.kinds(), &theta, None))
         }
     }
 }
