@@ -268,6 +268,11 @@ impl Gen {
                 beta: p.beta(),
                 phase: 0.0,
             },
+            Process::ArP(_) => {
+                return Err(ProcessError::InvalidArgument(
+                    "AR2/AR3/AR4 are not simulated inside a model yet: use ArP::simulate (exact, sequential)".into(),
+                ));
+            }
         })
     }
 
