@@ -836,7 +836,8 @@ pub enum ProcessKind {
 
 impl ProcessKind {
     /// Every kind, in the conventional order QN, WN, RW, DR, AR1, GM, MA1, BI, SIN (BI with
-    /// an AUTO band).
+    /// an AUTO band), except AR2/AR3/AR4 ([`ProcessKind::ArP`]): the classes built from
+    /// this list stay as they were.
     ///
     /// ```
     /// use processes::ProcessKind;
