@@ -79,13 +79,11 @@ fn gmwm_recovers_ar2_wn_from_its_theoretical_curve() {
     )
     .unwrap();
     eprintln!("theta {:?}", f.theta);
-    for i in 0..4 {
+    for (i, (est, tr)) in f.theta.iter().zip(t).enumerate() {
         // exact curve: the minimum is the truth (1e-6 relative)
         assert!(
-            (f.theta[i] - t[i]).abs() <= 1e-6 * t[i].abs(),
-            "param {i}: {} vs {}",
-            f.theta[i],
-            t[i]
+            (est - tr).abs() <= 1e-6 * tr.abs(),
+            "param {i}: {est} vs {tr}"
         );
     }
 }
