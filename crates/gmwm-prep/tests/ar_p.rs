@@ -4,8 +4,8 @@
 //! - the GMWM recovers AR2 + WN exactly from its theoretical curve and without bias beyond
 //!   2.5 Monte Carlo standard errors from R = 20 simulated records of T = 10^5.
 //!
-//! Fixed seeds throughout. AR(p) paths come from `ArP::simulate` (exact, stationary start);
-//! `Model::simulate` does not take AR(p) yet, so WN is added from its own stream.
+//! Fixed seeds throughout. AR(p) paths come from `ArP::simulate` (exact, stationary start),
+//! which `Model::simulate_stream` calls for AR(p) components.
 
 use avar::{AvarConfig, allan_variance};
 use gmwm_prep::AvCurve;
@@ -92,16 +92,12 @@ fn gmwm_recovers_ar2_wn_from_its_theoretical_curve() {
 fn gmwm_recovers_ar2_wn_monte_carlo() {
     const N: usize = 100_000;
     const R: u64 = 20;
-    let (_, t) = truth();
-    let a = ArP::new(&t[..2], t[2]).unwrap();
-    let wn: Model = format!("WN(sigma2={})", t[3]).parse().unwrap();
+    let (model, t) = truth();
     let template: Model = "AR2 + WN".parse().unwrap();
     let mut est: Vec<[f64; 4]> = Vec::new();
     for r in 0..R {
-        let mut x = a.simulate(N, 777 + r).unwrap();
-        let w = wn.simulate_stream(N, RATE, 31, r).unwrap();
-        x.iter_mut().zip(w.values()).for_each(|(x, w)| *x += w);
-        let av = allan_variance(&x, RATE, &AvarConfig::default()).unwrap();
+        let x = model.simulate_stream(N, RATE, 777, r).unwrap();
+        let av = allan_variance(x.values(), RATE, &AvarConfig::default()).unwrap();
         let f = fit(
             &AvCurve::from_avar(&av).unwrap(),
             &template,
