@@ -105,6 +105,11 @@ impl Variogram {
                     let lam = g.beta() / rate_hz;
                     v.push_ar((-lam).exp(), Some(lam), g.sigma2())
                 }
+                Process::ArP(_) => {
+                    return Err(FitError::InvalidArgument(
+                        "the model covariance of the AV is not implemented for AR2/AR3/AR4".into(),
+                    ));
+                }
                 Process::Sinusoid(_) => {
                     return Err(FitError::InvalidArgument(
                         "the model covariance of the AV assumes a Gaussian process; a random-phase \

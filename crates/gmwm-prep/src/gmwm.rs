@@ -510,6 +510,33 @@ impl Problem {
                     th[at + 1] = eta[at + 1].exp();
                     t[(at + 1, at + 1)] = th[at + 1];
                 }
+                ProcessKind::ArP(_) => {
+                    // κ_k = tanh η_k (stationary for any η), φ = step-up(κ), σ² = e^η;
+                    // ∂φ/∂η by central differences in η (step 1e-6)
+                    let n = k.n_params() - 1;
+                    let phi_of = |e: &[f64]| {
+                        let kappa: Vec<f64> = e.iter().map(|x| x.tanh()).collect();
+                        processes::ar_p::phi_from_pacf(&kappa)
+                    };
+                    let e0 = &eta[at..at + n];
+                    if e0.iter().any(|x| x.tanh().abs() >= 1.0) {
+                        return None;
+                    }
+                    let phi = phi_of(e0);
+                    th[at..at + n].copy_from_slice(&phi);
+                    for jj in 0..n {
+                        let h = 1e-6;
+                        let (mut up, mut dn) = (e0.to_vec(), e0.to_vec());
+                        up[jj] += h;
+                        dn[jj] -= h;
+                        let (pu, pd) = (phi_of(&up), phi_of(&dn));
+                        for ii in 0..n {
+                            t[(at + ii, at + jj)] = (pu[ii] - pd[ii]) / (2.0 * h);
+                        }
+                    }
+                    th[at + n] = eta[at + n].exp();
+                    t[(at + n, at + n)] = th[at + n];
+                }
                 ProcessKind::Sinusoid => {
                     // α² = e^η, β = π·logistic(η) ∈ (0, π)
                     th[at] = eta[at].exp();
@@ -589,6 +616,16 @@ impl Problem {
                 ProcessKind::Ma1 => {
                     eta[at] = th[at].clamp(-0.999, 0.999).atanh();
                     eta[at + 1] = th[at + 1].ln();
+                }
+                ProcessKind::ArP(_) => {
+                    let n = k.n_params() - 1;
+                    let kappa = processes::ArP::new(&th[at..at + n], th[at + n].max(1e-300))
+                        .map(|a| a.pacf())
+                        .unwrap_or_else(|_| vec![0.0; n]);
+                    for (i, kk) in kappa.iter().enumerate() {
+                        eta[at + i] = kk.clamp(-0.999_999, 0.999_999).atanh();
+                    }
+                    eta[at + n] = th[at + n].ln();
                 }
                 ProcessKind::Sinusoid => {
                     eta[at] = th[at].ln();
@@ -901,7 +938,7 @@ pub(crate) fn full_whitening(v: &CovMatrix) -> Result<Mat<f64>> {
 
 /// Shapes g_k(m_j) (AV per unit variance) of component `c` for given nonlinear parameter.
 fn shape(kind: ProcessKind, nonlin: f64, m: &[f64], rate: f64, factor: f64) -> Vec<f64> {
-    let mut g = [0.0; 2];
+    let mut g = [0.0; 5];
     m.iter()
         .map(|&mj| {
             factor
@@ -913,10 +950,26 @@ fn shape(kind: ProcessKind, nonlin: f64, m: &[f64], rate: f64, factor: f64) -> V
                     }
                     ProcessKind::Ma1 => kind_avar_grad(kind, &[nonlin, 1.0], mj, rate, &mut g),
                     ProcessKind::Sinusoid => kind_avar_grad(kind, &[1.0, nonlin], mj, rate, &mut g),
+                    ProcessKind::ArP(_) => {
+                        let mut v = arp_start_phi(kind, nonlin);
+                        v.push(1.0);
+                        kind_avar_grad(kind, &v, mj, rate, &mut g)
+                    }
                     k => kind_avar_grad(k, &[1.0], mj, rate, &mut g),
                 }
         })
         .collect()
+}
+
+/// The AR(p) of a start: the damped oscillation at β rad/sample (the SIN grid), pole radius
+/// r = e^{−β/2} (φ_1 = 2r cos β, φ_2 = −r², higher coefficients 0).
+fn arp_start_phi(kind: ProcessKind, beta: f64) -> Vec<f64> {
+    let n = kind.n_params() - 1;
+    let r = (-0.5 * beta).exp();
+    let mut phi = vec![0.0; n];
+    phi[0] = 2.0 * r * beta.cos();
+    phi[1] = -r * r;
+    phi
 }
 
 /// All strictly increasing index tuples of length k from 0..n.
@@ -969,7 +1022,7 @@ impl Problem {
         let n_sin = self
             .kinds
             .iter()
-            .filter(|k| **k == ProcessKind::Sinusoid)
+            .filter(|k| matches!(**k, ProcessKind::Sinusoid | ProcessKind::ArP(_)))
             .count();
         // with SINs the grid is their β combinations times the λ ones: the λ grid gets a
         // share of the budget (its square root for two SINs, measured to change neither
@@ -1012,7 +1065,8 @@ impl Problem {
                 ProcessKind::Ar1
                 | ProcessKind::GaussMarkov
                 | ProcessKind::Ma1
-                | ProcessKind::Sinusoid => None,
+                | ProcessKind::Sinusoid
+                | ProcessKind::ArP(_) => None,
                 kd => Some(shape(kd, 0.0, &self.m, self.rate, self.factor)),
             })
             .collect();
@@ -1040,7 +1094,7 @@ impl Problem {
                 ProcessKind::Ar1 => lam.iter().map(|l| (-l).exp()).collect(),
                 ProcessKind::GaussMarkov => lam.clone(),
                 ProcessKind::Ma1 => ma_grid.clone(),
-                ProcessKind::Sinusoid => beta_grid.clone(),
+                ProcessKind::Sinusoid | ProcessKind::ArP(_) => beta_grid.clone(),
                 _ => Vec::new(),
             };
             for v in values {
@@ -1078,7 +1132,7 @@ impl Problem {
                             let kd = self.kinds[c];
                             let v = match kd {
                                 ProcessKind::Ma1 => th_ma,
-                                ProcessKind::Sinusoid => {
+                                ProcessKind::Sinusoid | ProcessKind::ArP(_) => {
                                     qs += 1;
                                     betas[qs - 1]
                                 }
@@ -1140,6 +1194,11 @@ impl Problem {
                         ProcessKind::Sinusoid => {
                             th[at] = cv;
                             th[at + 1] = nl[c];
+                        }
+                        ProcessKind::ArP(_) => {
+                            let phi = arp_start_phi(kd, nl[c]);
+                            th[at..at + phi.len()].copy_from_slice(&phi);
+                            th[at + phi.len()] = cv;
                         }
                         _ => th[at] = cv,
                     }

@@ -244,6 +244,20 @@ pub fn per_second(kind: ProcessKind, params: &[f64], rate_hz: f64, unit: &Unit) 
             Quantity::new("amplitude", params[0].sqrt(), u),
             Quantity::new("f", params[1] / (2.0 * std::f64::consts::PI * dt), "Hz"),
         ],
+        // AR(p): φ_k as given, the innovation σ and the stationary σ (unit)
+        ProcessKind::ArP(_) => {
+            let n = params.len() - 1;
+            let mut out: Vec<Quantity> = params[..n]
+                .iter()
+                .enumerate()
+                .map(|(i, &f)| Quantity::new(["phi1", "phi2", "phi3", "phi4"][i.min(3)], f, ""))
+                .collect();
+            out.push(Quantity::new("sigma_innov", params[n].sqrt(), u.clone()));
+            if let Ok(a) = processes::ArP::new(&params[..n], params[n]) {
+                out.push(Quantity::new("sigma", a.stationary_variance().sqrt(), u));
+            }
+            out
+        }
     }
 }
 

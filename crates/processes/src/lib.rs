@@ -30,6 +30,7 @@
 //! # Ok::<(), processes::ProcessError>(())
 //! ```
 
+pub mod ar_p;
 pub mod error;
 pub mod model;
 pub mod number;
@@ -37,6 +38,7 @@ pub mod process;
 pub mod series;
 pub mod simulate;
 
+pub use ar_p::{AR_MAX_ORDER, ArP};
 pub use error::{ProcessError, Result};
 pub use model::{Component, Model};
 pub use process::{

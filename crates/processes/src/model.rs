@@ -3,7 +3,7 @@
 //!
 //! # Text form
 //! `"WN(sigma2=1e-4) + RW(gamma2=1e-9) + 2*AR1"`: terms joined by `+`; a term is an
-//! optional repeat count `k*`, a process code (`WN QN DR RW AR1 GM MA1 BI SIN`, any case) and
+//! optional repeat count `k*`, a process code (`WN QN DR RW AR1 AR2 AR3 AR4 GM MA1 BI SIN`, any case) and
 //! optionally its parameters in parentheses, named (`AR1(phi=0.9, sigma2=1e-6)`) or
 //! positional in the order of [`ProcessKind::param_names`] (`AR1(0.9, 1e-6)`). A code
 //! without parameters (or with `()`) is a slot. Printing and parsing are lossless:
@@ -11,11 +11,14 @@
 //! `B` and, besides, its fixed band `m_lo`, `m_hi` (cluster sizes in samples, see
 //! [`BiBand`]): `BI` is a slot over the record's scales, `BI(B=1e-3)` has a value and the
 //! record's band, `BI(B=1e-3, m_lo=1, m_hi=65536)` is fully given and `BI(m_lo=1, m_hi=65536)`
-//! is a slot with a band.
+//! is a slot with a band. `AR2`, `AR3`, `AR4` (autoregressive of order p, [`crate::ArP`])
+//! take `phi1` … `phip` and the innovation variance `sigma2`, e.g.
+//! `AR2(phi1=1.6, phi2=-0.8, sigma2=1e-4)` (positional: `AR2(1.6, -0.8, 1e-4)`); a
+//! non-stationary set of coefficients is refused when parsed.
 //!
 //! # Identifiability
 //! As in the book's peer packages, a model holds at most one each of WN, QN, RW, DR (and
-//! MA1, BI); AR1, GM and SIN may repeat.
+//! MA1, BI); AR1, GM, SIN and AR2/AR3/AR4 may repeat.
 
 use crate::error::{ProcessError, Result};
 use crate::process::*;
@@ -672,14 +675,14 @@ impl<'a> Parser<'a> {
         if code.is_empty() {
             return Err(self.err(
                 self.pos,
-                "expected a process (WN, QN, DR, RW, AR1, GM, MA1, BI, SIN)",
+                "expected a process (WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN)",
             ));
         }
         let kind = ProcessKind::from_str(code).map_err(|_| {
             self.err(
                 code_pos,
                 format!(
-                    "unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, GM, MA1, BI, SIN"
+                    "unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN"
                 ),
             )
         })?;

@@ -4,6 +4,7 @@
 //! All parameters are **per sample** (the sampling interval is Δt = 1 / rate), except
 //! the Gauss-Markov process whose β is in 1/s and whose σ_G² is the stationary variance.
 
+use crate::ar_p::ArP;
 use crate::error::{ProcessError, Result};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -827,11 +828,16 @@ pub enum ProcessKind {
     /// Random-phase sinusoid, `SIN`.
     #[serde(rename = "SIN")]
     Sinusoid,
+    /// Autoregressive process of order p ∈ {2, 3, 4}, `AR2`/`AR3`/`AR4` ([`crate::ArP`]).
+    /// Not in [`ProcessKind::ALL`] (the classes built from it stay as they were).
+    #[serde(rename = "ARP")]
+    ArP(u8),
 }
 
 impl ProcessKind {
     /// Every kind, in the conventional order QN, WN, RW, DR, AR1, GM, MA1, BI, SIN (BI with
-    /// an AUTO band).
+    /// an AUTO band), except AR2/AR3/AR4 ([`ProcessKind::ArP`]): the classes built from
+    /// this list stay as they were.
     ///
     /// ```
     /// use processes::ProcessKind;
@@ -867,6 +873,9 @@ impl ProcessKind {
             ProcessKind::Ma1 => "MA1",
             ProcessKind::BiasInstability(_) => "BI",
             ProcessKind::Sinusoid => "SIN",
+            ProcessKind::ArP(3) => "AR3",
+            ProcessKind::ArP(4) => "AR4",
+            ProcessKind::ArP(_) => "AR2",
         }
     }
 
@@ -887,6 +896,9 @@ impl ProcessKind {
             ProcessKind::Ma1 => &["theta", "sigma2"],
             ProcessKind::BiasInstability(_) => &["B"],
             ProcessKind::Sinusoid => &["alpha2", "beta"],
+            ProcessKind::ArP(3) => &["phi1", "phi2", "phi3", "sigma2"],
+            ProcessKind::ArP(4) => &["phi1", "phi2", "phi3", "phi4", "sigma2"],
+            ProcessKind::ArP(_) => &["phi1", "phi2", "sigma2"],
         }
     }
 
@@ -923,7 +935,10 @@ impl ProcessKind {
     pub fn may_repeat(self) -> bool {
         matches!(
             self,
-            ProcessKind::Ar1 | ProcessKind::GaussMarkov | ProcessKind::Sinusoid
+            ProcessKind::Ar1
+                | ProcessKind::GaussMarkov
+                | ProcessKind::Sinusoid
+                | ProcessKind::ArP(_)
         )
     }
 }
@@ -940,12 +955,13 @@ impl std::str::FromStr for ProcessKind {
         let t = s.trim();
         ProcessKind::ALL
             .into_iter()
+            .chain((2..=crate::ar_p::AR_MAX_ORDER as u8).map(ProcessKind::ArP))
             .find(|k| k.code().eq_ignore_ascii_case(t))
             .ok_or_else(|| ProcessError::Parse {
                 input: s.to_string(),
                 position: 0,
                 message: format!(
-                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, GM, MA1, BI, SIN"
+                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN"
                 ),
             })
     }
@@ -984,6 +1000,8 @@ pub enum Process {
     BiasInstability(BiasInstability),
     /// Random-phase sinusoid.
     Sinusoid(Sinusoid),
+    /// Autoregressive process of order 2 … 4.
+    ArP(ArP),
 }
 
 macro_rules! impl_from_process {
@@ -1002,7 +1020,8 @@ impl_from_process!(
     GaussMarkov,
     Ma1,
     BiasInstability,
-    Sinusoid
+    Sinusoid,
+    ArP
 );
 
 impl Process {
@@ -1024,6 +1043,7 @@ impl Process {
             Process::Ma1(_) => ProcessKind::Ma1,
             Process::BiasInstability(b) => ProcessKind::BiasInstability(b.band()),
             Process::Sinusoid(_) => ProcessKind::Sinusoid,
+            Process::ArP(a) => ProcessKind::ArP(a.p),
         }
     }
 
@@ -1045,6 +1065,11 @@ impl Process {
             Process::Ma1(p) => vec![p.theta, p.sigma2],
             Process::BiasInstability(p) => vec![p.b],
             Process::Sinusoid(p) => vec![p.alpha2, p.beta],
+            Process::ArP(a) => {
+                let mut v = a.phi().to_vec();
+                v.push(a.sigma2);
+                v
+            }
         }
     }
 
@@ -1079,6 +1104,10 @@ impl Process {
             ProcessKind::Ma1 => Ma1::new(v[0], v[1])?.into(),
             ProcessKind::BiasInstability(band) => BiasInstability::new(v[0], band)?.into(),
             ProcessKind::Sinusoid => Sinusoid::new(v[0], v[1])?.into(),
+            ProcessKind::ArP(_) => {
+                let n = v.len();
+                ArP::new(&v[..n - 1], v[n - 1])?.into()
+            }
         })
     }
 
@@ -1193,6 +1222,12 @@ impl Process {
             }
             // (α²/2)·cos(βh), with βh reduced exactly enough for any h < 2^53
             Process::Sinusoid(p) => 0.5 * p.alpha2 * (p.beta * h as f64).cos(),
+            Process::ArP(a) => {
+                let h = usize::try_from(h).unwrap_or(usize::MAX);
+                // ρ decays geometrically: beyond ~1e-300 the value is 0 in f64
+                let rho = a.acf(h.min(1 << 24).saturating_add(1));
+                a.stationary_variance() * if h < rho.len() { rho[h] } else { 0.0 }
+            }
             Process::RandomWalk(_) | Process::Drift(_) => {
                 return Err(ProcessError::NotDefined {
                     what: "autocovariance γ(h)",
@@ -1244,6 +1279,8 @@ enum ProcessRepr {
     Ma1 { theta: f64, sigma2: f64 },
     #[serde(rename = "SIN")]
     Sinusoid { alpha2: f64, beta: f64 },
+    #[serde(rename = "ARP")]
+    ArP { phi: Vec<f64>, sigma2: f64 },
     #[serde(rename = "BI")]
     BiasInstability {
         #[serde(rename = "B")]
@@ -1265,6 +1302,7 @@ impl TryFrom<ProcessRepr> for Process {
             ProcessRepr::GaussMarkov { beta, sigma2 } => GaussMarkov::new(beta, sigma2)?.into(),
             ProcessRepr::Ma1 { theta, sigma2 } => Ma1::new(theta, sigma2)?.into(),
             ProcessRepr::Sinusoid { alpha2, beta } => Sinusoid::new(alpha2, beta)?.into(),
+            ProcessRepr::ArP { phi, sigma2 } => ArP::new(&phi, sigma2)?.into(),
             ProcessRepr::BiasInstability { b, m_lo, m_hi } => {
                 let band = if m_lo == 0 && m_hi == 0 {
                     BiBand::AUTO
@@ -1299,6 +1337,10 @@ impl From<Process> for ProcessRepr {
             Process::Sinusoid(p) => ProcessRepr::Sinusoid {
                 alpha2: p.alpha2,
                 beta: p.beta,
+            },
+            Process::ArP(a) => ProcessRepr::ArP {
+                phi: a.phi().to_vec(),
+                sigma2: a.sigma2,
             },
             Process::BiasInstability(p) => ProcessRepr::BiasInstability {
                 b: p.b,

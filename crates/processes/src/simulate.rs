@@ -268,6 +268,11 @@ impl Gen {
                 beta: p.beta(),
                 phase: 0.0,
             },
+            Process::ArP(_) => {
+                return Err(ProcessError::InvalidArgument(
+                    "AR2/AR3/AR4 are simulated by Model::simulate/simulate_components (sequentially, ArP::simulate), not by the chunked per-process path".into(),
+                ));
+            }
         })
     }
 
@@ -921,7 +926,66 @@ fn component_plans(
         .collect()
 }
 
+/// Key separating the seeds of AR(p) components (odd).
+const ARP_KEY: u64 = 0xE703_7ED1_A0B4_28DB;
+
 impl Model {
+    fn has_arp(&self) -> bool {
+        self.kinds()
+            .iter()
+            .any(|k| matches!(k, crate::ProcessKind::ArP(_)))
+    }
+
+    /// A model with AR(p) components: the other components through the chunked engine (as
+    /// the model without them), each AR(p) by [`crate::ArP::simulate`] (sequential, exact,
+    /// stationary start) with its own seed from (`seed`, `stream`, component index), added
+    /// in model order.
+    fn simulate_with_arp(
+        &self,
+        n: usize,
+        rate_hz: f64,
+        seed: u64,
+        stream: u64,
+    ) -> Result<Simulation> {
+        let processes = self.processes()?;
+        let rest: Vec<Process> = processes
+            .iter()
+            .filter(|p| !matches!(p, Process::ArP(_)))
+            .copied()
+            .collect();
+        let (mut total, mut rest_parts) = if rest.is_empty() {
+            (try_zeros(n)?, Vec::new())
+        } else {
+            let sim = Model::from_processes(rest)?
+                .simulate_components_stream(n, rate_hz, seed, stream)?;
+            (sim.total.values().to_vec(), sim.components)
+        };
+        rest_parts.reverse();
+        let mut components = Vec::with_capacity(processes.len());
+        for (c, (p, comp)) in processes.iter().zip(self.components()).enumerate() {
+            match p {
+                Process::ArP(a) => {
+                    let s = mix64(seed ^ ARP_KEY.wrapping_mul(c as u64 + 1))
+                        ^ mix64(stream.wrapping_add(ARP_KEY));
+                    let x = a.simulate(n, s)?;
+                    total.iter_mut().zip(&x).for_each(|(t, v)| *t += v);
+                    components.push(TimeSeries::from_checked(x, rate_hz, &comp.to_string()));
+                }
+                _ => components.push(rest_parts.pop().ok_or_else(|| {
+                    ProcessError::InvalidArgument("component bookkeeping".into())
+                })?),
+            }
+        }
+        let name = self.to_string();
+        if let Some(i) = total.iter().position(|x| !x.is_finite()) {
+            return Err(non_finite(&name, &total, i));
+        }
+        Ok(Simulation {
+            components,
+            total: TimeSeries::from_checked(total, rate_hz, &name),
+        })
+    }
+
     /// The plans of every component's parts and, for each plan, its component's index.
     fn plans(
         &self,
@@ -988,6 +1052,9 @@ impl Model {
     ) -> Result<TimeSeries> {
         check_args(n, rate_hz)?;
         self.processes()?;
+        if self.has_arp() {
+            return Ok(self.simulate_with_arp(n, rate_hz, seed, stream)?.total);
+        }
         let mut out = try_zeros(n)?;
         let (plans, _) = self.plans(n, rate_hz, seed, stream)?;
         let name = self.to_string();
@@ -1032,6 +1099,9 @@ impl Model {
     ) -> Result<Simulation> {
         check_args(n, rate_hz)?;
         self.processes()?;
+        if self.has_arp() {
+            return self.simulate_with_arp(n, rate_hz, seed, stream);
+        }
         let mut out = try_zeros(n)?;
         let (plans, owner) = self.plans(n, rate_hz, seed, stream)?;
         let mut parts = (0..plans.len())

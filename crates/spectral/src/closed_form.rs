@@ -332,6 +332,35 @@ fn av_and_gradient(process: &Process, m: u64, rate_hz: f64, grad: bool) -> Resul
             let b2 = b.b() * b.b();
             (b2 * unit, vec![2.0 * b.b() * unit])
         }
+        Process::ArP(a) => {
+            // AV ∝ σ², so ∂AV/∂σ² = AV/σ²; ∂AV/∂φ_j by central differences (step 1e-6, one
+            // sided where a step would leave the stationary region)
+            let av = arp_avar(&a, m);
+            let mut g = Vec::with_capacity(a.order() + 1);
+            if grad {
+                let phi = a.phi();
+                for j in 0..a.order() {
+                    let h = 1e-6;
+                    let at = |d: f64| {
+                        let mut q = phi.to_vec();
+                        q[j] += d;
+                        processes::ArP::new(&q, a.sigma2())
+                            .ok()
+                            .map(|b| arp_avar(&b, m))
+                    };
+                    g.push(match (at(h), at(-h)) {
+                        (Some(u), Some(d)) => (u - d) / (2.0 * h),
+                        (Some(u), None) => (u - av) / h,
+                        (None, Some(d)) => (av - d) / h,
+                        (None, None) => f64::NAN,
+                    });
+                }
+            } else {
+                g.resize(a.order(), f64::NAN);
+            }
+            g.push(av / a.sigma2());
+            (av, g)
+        }
         Process::Sinusoid(p) => {
             // a = βm/2, c = β/2: AV = α² sin⁴a / (m² sin²c);
             // ∂/∂β = α²/m² · (2m sin³a cos a / sin²c − sin⁴a cos c / sin³c)
@@ -535,4 +564,50 @@ pub fn model_haar_wavelet_variance_gradient(
     let mut g = model_allan_variance_gradient(model, m, rate_hz)?;
     g.iter_mut().for_each(|x| *x *= 0.5);
     Ok(g)
+}
+
+/// Theoretical AV of an AR(p) at cluster size `m` (unit², samples), by Lemma 4.2 regrouped
+/// by lag, AV = γ(0)/m² · [m(1 − ρ_m) + Σ_{k<m} (2m − 3k) ρ_k − Σ_{m<k<2m} (2m − k) ρ_k],
+/// with ρ_k from the AR recursion and the sum stopped once the last p values of ρ are below
+/// 1e-20 (the ACF decays geometrically, so the rest is below f64 resolution of the sum).
+/// O(min(m, decay length)): cheap for every m once the ACF has died out.
+///
+/// ```
+/// use processes::{Ar1, ArP};
+/// use spectral::closed_form::{ar1_unit_avar, arp_avar};
+/// // φ_2 = 0 is the AR(1) of the same φ and σ²
+/// let (a, f) = (arp_avar(&ArP::new(&[0.7, 0.0], 2.0)?, 10), ar1_unit_avar(0.7, 10).0);
+/// assert!((a - 2.0 * f).abs() < 1e-12 * a);
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+pub fn arp_avar(a: &processes::ArP, m: u64) -> f64 {
+    let p = a.order();
+    let phi = a.phi();
+    let mut rho = a.acf(p + 1); // ρ_0 … ρ_p
+    let mf = m as f64;
+    let mut b = crate::lemma42::KahanSum::default();
+    b.add(mf);
+    let w = |k: u64| -> f64 {
+        if k < m {
+            2.0 * mf - 3.0 * k as f64
+        } else if k == m {
+            -mf
+        } else {
+            -(2.0 * mf - k as f64)
+        }
+    };
+    let mut k = 1u64;
+    while k < 2 * m {
+        let i = k as usize;
+        if i >= rho.len() {
+            let v: f64 = (0..p).map(|j| phi[j] * rho[i - 1 - j]).sum();
+            rho.push(v);
+        }
+        b.add_product(w(k), rho[i]);
+        if i >= p && rho[i + 1 - p..=i].iter().all(|x| x.abs() < 1e-20) {
+            break;
+        }
+        k += 1;
+    }
+    a.stationary_variance() * b.value() / (mf * mf)
 }

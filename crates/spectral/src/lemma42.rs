@@ -207,6 +207,10 @@ fn variogram_parts(process: &Process, h: u64, rate: f64) -> (f64, f64) {
         },
         // γ(0) − γ(h) = (α²/2)(1 − cos βh) = α² sin²(βh/2), no cancellation
         Process::Sinusoid(p) => (p.alpha2(), (0.5 * p.beta() * hf).sin().powi(2)),
+        Process::ArP(a) => {
+            let rho = a.acf(h as usize + 1);
+            (a.stationary_variance(), 1.0 - rho[h as usize])
+        }
     }
 }
 
@@ -230,6 +234,12 @@ pub fn lemma42_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result
         && p.phi() < 0.0
     {
         return Ok(ar1_negative_phi_dd(p.phi(), p.sigma2(), m));
+    }
+    if let Process::ArP(a) = process {
+        // the exact ACF once up to 2m (O(m)), then the semivariogram form
+        let rho = a.acf(2 * m as usize + 1);
+        let unit = allan_variance_from_variogram(|h| 1.0 - rho[h as usize], m)?;
+        return Ok(a.stationary_variance() * unit);
     }
     let scale = variogram_parts(process, 1, rate).0;
     let unit = allan_variance_from_variogram(|h| variogram_parts(process, h, rate).1, m)?;

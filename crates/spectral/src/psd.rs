@@ -66,6 +66,18 @@ pub(crate) fn psd_sc(process: &Process, s: f64, c: f64, dt: f64) -> Option<f64> 
         }
         Process::RandomWalk(p) => p.gamma2() * dt / (4.0 * s),
         Process::Drift(_) | Process::Sinusoid(_) => return None,
+        Process::ArP(a) => {
+            // σ²Δt / |1 − Σ φ_k e^{−ikω}|², ω = 2πfΔt: cos ω = c − s, sin ω = 2√(sc)
+            let (c1, s1) = (c - s, 2.0 * (s * c).sqrt());
+            let (mut ck, mut sk) = (1.0, 0.0);
+            let (mut re, mut im) = (1.0, 0.0);
+            for &f in a.phi() {
+                (ck, sk) = (ck * c1 - sk * s1, sk * c1 + ck * s1);
+                re -= f * ck;
+                im += f * sk;
+            }
+            a.sigma2() * dt / (re * re + im * im)
+        }
         Process::BiasInstability(b) => {
             // the sum of its states' GM spectra (L_i = 1/T_i per sample)
             let (t, u) = b.band().states().ok()?;
