@@ -213,20 +213,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         Err(e) if live.stopped().is_none() => return Err(e),
         Err(e) => ui.note(format!("no snapshot: {e}")),
     }
-    let stopped = live.stopped().map(|e| match e {
-        Error::Located {
-            file,
-            line,
-            column,
-            message,
-        } => Error::Located {
-            file: file.clone(),
-            line: *line,
-            column: *column,
-            message: message.clone(),
-        },
-        other => Error::Usage(other.to_string()),
-    });
+    let stopped = live.stopped().map(crate::pipeline::live::clone_error);
     let rows = live.len();
     if let Some(dir) = &args.out
         && let Some((table, units)) = live.into_table()

@@ -715,7 +715,7 @@ fn split_lines(text: &[u8], k: usize) -> (&[u8], &[u8]) {
 }
 
 /// A copy of a line error (the only kind kept by [`Live::stopped`]).
-fn clone_error(e: &Error) -> Error {
+pub(crate) fn clone_error(e: &Error) -> Error {
     match e {
         Error::Located {
             file,
