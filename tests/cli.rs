@@ -324,6 +324,35 @@ fn theory_json_shape_and_closed_forms() {
 }
 
 #[test]
+fn theory_takes_a_sinusoid_in_hz_at_the_rate() {
+    // SIN(f_hz = 8) at 100 Hz is β = 2π·0.08 rad per sample; its AV (REFERENCES §11)
+    // α²·sin⁴(βm/2)/(m·sin(β/2))² at m = 3 is the same through either spelling.
+    let run = |model: &str| {
+        let out = imunoise_ok(&[
+            "theory", "--model", model, "--rate", "100", "--scales", "3", "--format", "json",
+        ]);
+        let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        doc["points"][0]["avar"].as_f64().unwrap()
+    };
+    let beta = 2.0 * std::f64::consts::PI * 0.08;
+    let hz = run("SIN(alpha2=2e-4, f_hz=8)");
+    let rad = run(&format!("SIN(alpha2=2e-4, beta={beta:?})"));
+    let closed = 2e-4 * (beta * 1.5).sin().powi(4) / (3.0 * (beta / 2.0).sin()).powi(2);
+    assert_eq!(hz, rad);
+    assert!((hz - closed).abs() < 1e-12 * closed, "{hz} vs {closed}");
+    // above Nyquist: a usage error naming the limit
+    let out = imunoise(&[
+        "theory",
+        "--model",
+        "SIN(alpha2=2e-4, f_hz=60)",
+        "--rate",
+        "100",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("Nyquist"));
+}
+
+#[test]
 fn help_of_every_subcommand_has_an_example() {
     for sub in ["avar", "fit", "analyze", "simulate", "theory", "demo"] {
         let out = imunoise(&[sub, "--help"]);

@@ -469,7 +469,7 @@ fn simulate_array<'py>(
     if channels == 0 {
         return Err(usage("channels must be at least 1".into()));
     }
-    let model: Model = model.parse().map_err(|e| py_err(Error::Process(e)))?;
+    let model = Model::parse_at_rate(model, rate).map_err(|e| py_err(Error::Process(e)))?;
     let cols = py
         .detach(|| simulate::simulate_channels(&model, n, rate, seed, channels))
         .map_err(py_err)?;
@@ -484,7 +484,7 @@ fn simulate_array<'py>(
 #[pyfunction]
 fn theory_json(model: &str, rate: f64, scales: &str, n: usize) -> PyResult<String> {
     let rate = check_rate(rate)?;
-    let model: Model = model.parse().map_err(|e| py_err(Error::Process(e)))?;
+    let model = Model::parse_at_rate(model, rate).map_err(|e| py_err(Error::Process(e)))?;
     let ms = estimate::parse_scales(scales)
         .map_err(|e| usage(format!("scales: {e}")))?
         .cluster_sizes(n)

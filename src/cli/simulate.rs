@@ -17,7 +17,8 @@ Channel k is stream k of the seed: the output depends only on (model, n, rate, s
 /// Arguments of `imunoise simulate`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SimulateArgs {
-    /// The model with all parameter values (per sample), e.g. "WN(sigma2=1e-4)+RW(gamma2=1e-10)".
+    /// The model with all parameter values (per sample), e.g. "WN(sigma2=1e-4)+RW(gamma2=1e-10)";
+    /// a sinusoid's frequency may be given in Hz at --rate: "SIN(alpha2=2e-4, f_hz=8)".
     #[arg(long, short)]
     pub model: String,
     /// Number of samples per channel.
@@ -40,7 +41,7 @@ pub struct SimulateArgs {
 
 /// Runs `imunoise simulate`.
 pub fn run(args: &SimulateArgs, ui: &Ui) -> Result<()> {
-    let model: Model = args.model.parse()?;
+    let model = Model::parse_at_rate(&args.model, args.rate)?;
     if args.channels == 0 {
         return Err(Error::Usage("--channels must be at least 1".into()));
     }

@@ -25,7 +25,8 @@ whole model; psd is two-sided, in u²/Hz at f in Hz).";
 /// Arguments of `imunoise theory`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct TheoryArgs {
-    /// The model with all parameter values (per sample).
+    /// The model with all parameter values (per sample); a sinusoid's frequency may be given
+    /// in Hz at --rate: "SIN(alpha2=2e-4, f_hz=8)".
     #[arg(long, short)]
     pub model: String,
     /// Sampling rate in Hz (> 0).
@@ -49,7 +50,7 @@ pub struct TheoryArgs {
 
 /// Runs `imunoise theory`.
 pub fn run(args: &TheoryArgs, _ui: &Ui) -> Result<()> {
-    let model: Model = args.model.parse()?;
+    let model = Model::parse_at_rate(&args.model, args.rate)?;
     let ms = args
         .scales
         .cluster_sizes(args.n)

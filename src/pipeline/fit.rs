@@ -302,7 +302,9 @@ impl FitSettings {
                 self.bootstrap
             )));
         }
-        Ok(self.model.parse()?)
+        // The rate is not known before the read: a SIN's `f_hz` passes here (any frequency
+        // below an unbounded Nyquist); the fit estimates every parameter anyway.
+        Ok(Model::parse_at_rate(&self.model, f64::MAX)?)
     }
 }
 
@@ -727,7 +729,7 @@ pub fn fit_channel_robust(
     let (restricted, excluded_taus) = within_tau_range(name, av, settings)?;
     let av = &restricted;
     let curve = AvCurve::from_avar(av).map_err(e)?;
-    let template: Model = settings.model.parse()?;
+    let template = Model::parse_at_rate(&settings.model, av.rate_hz)?;
     if robust.is_some() && settings.bootstrap > 0 {
         return Err(Error::Usage(
             "--bootstrap cannot be combined with --robust (the bootstrap replicates would use \

@@ -14,7 +14,10 @@
 //! is a slot with a band. `AR2`, `AR3`, `AR4` (autoregressive of order p, [`crate::ArP`])
 //! take `phi1` … `phip` and the innovation variance `sigma2`, e.g.
 //! `AR2(phi1=1.6, phi2=-0.8, sigma2=1e-4)` (positional: `AR2(1.6, -0.8, 1e-4)`); a
-//! non-stationary set of coefficients is refused when parsed.
+//! non-stationary set of coefficients is refused when parsed. `SIN` takes `alpha2` and
+//! `beta` (rad per sample); where the sampling rate is known ([`Model::parse_at_rate`],
+//! the CLI's `--model` with its rate) its frequency may be given in Hz instead:
+//! `SIN(alpha2=2e-4, f_hz=8)`.
 //!
 //! # Identifiability
 //! As in the book's peer packages, a model holds at most one each of WN, QN, RW, DR (and
@@ -587,6 +590,9 @@ impl fmt::Display for Model {
 struct Parser<'a> {
     input: &'a str,
     pos: usize,
+    /// The sampling rate (Hz) when the caller knows it: lets `SIN(f_hz=…)` give its
+    /// frequency in Hz instead of `beta` in rad per sample.
+    rate_hz: Option<f64>,
 }
 
 impl<'a> Parser<'a> {
@@ -734,6 +740,43 @@ impl<'a> Parser<'a> {
                 }
                 return Err(self.err(self.pos, "expected ',' or ')'"));
             }
+            if is_name && kind == ProcessKind::Sinusoid && w.eq_ignore_ascii_case("f_hz") {
+                // SIN's frequency in Hz: β = 2π·f/rate (rad per sample), needs the rate.
+                let Some(rate) = self.rate_hz else {
+                    return Err(self.err(
+                        item_pos,
+                        "SIN(f_hz=…) needs the sampling rate to turn Hz into rad per sample: \
+                         give beta (rad per sample) instead, or the rate (--rate)",
+                    ));
+                };
+                let f_pos = self.pos;
+                let f = self.number()?;
+                if !(rate.is_finite() && rate > 0.0) {
+                    return Err(self.err(item_pos, format!("sampling rate {rate} Hz is not > 0")));
+                }
+                if !(f > 0.0 && f < rate / 2.0) {
+                    return Err(self.err(
+                        f_pos,
+                        format!(
+                            "SIN's f_hz = {f} Hz must lie in (0, {}) Hz, below the Nyquist frequency of {rate} Hz",
+                            rate / 2.0
+                        ),
+                    ));
+                }
+                let idx = names.iter().position(|n| *n == "beta").unwrap_or(1);
+                if values[idx].is_some() {
+                    return Err(self.err(item_pos, "SIN's frequency given twice (beta and f_hz)"));
+                }
+                values[idx] = Some(2.0 * std::f64::consts::PI * f / rate);
+                positional += 1;
+                if self.eat(',') {
+                    continue;
+                }
+                if self.eat(')') {
+                    break;
+                }
+                return Err(self.err(self.pos, "expected ',' or ')'"));
+            }
             let idx = if is_name {
                 let canonical = match (kind, w.to_ascii_lowercase().as_str()) {
                     (ProcessKind::GaussMarkov, "sigma2_gm") => "sigma2",
@@ -826,27 +869,55 @@ impl<'a> Parser<'a> {
     }
 }
 
+impl Model {
+    /// Parses a model string (the text form of [`Model`]) for a record sampled at `rate_hz`
+    /// (Hz): besides everything [`str::parse`] takes, a sinusoid may give its frequency in
+    /// Hz, `SIN(alpha2=…, f_hz=…)`, turned into `beta` = 2π·f_hz/rate (rad per sample); the
+    /// frequency must lie below the Nyquist frequency rate/2.
+    ///
+    /// ```
+    /// use processes::{Component, Model, Process};
+    /// let m = Model::parse_at_rate("WN(sigma2=1) + SIN(alpha2=2e-4, f_hz=8)", 100.0)?;
+    /// let Component::Known(Process::Sinusoid(s)) = m.components()[1] else { unreachable!() };
+    /// assert!((s.beta() - 2.0 * std::f64::consts::PI * 0.08).abs() < 1e-15);
+    /// assert!("SIN(alpha2=2e-4, f_hz=8)".parse::<Model>().is_err()); // no rate: no Hz
+    /// assert!(Model::parse_at_rate("SIN(alpha2=2e-4, f_hz=60)", 100.0).is_err()); // > Nyquist
+    /// # Ok::<(), processes::ProcessError>(())
+    /// ```
+    pub fn parse_at_rate(s: &str, rate_hz: f64) -> Result<Self> {
+        parse_model(s, Some(rate_hz))
+    }
+}
+
 impl FromStr for Model {
     type Err = ProcessError;
     fn from_str(s: &str) -> Result<Self> {
-        let mut p = Parser { input: s, pos: 0 };
-        let mut comps = Vec::new();
+        parse_model(s, None)
+    }
+}
+
+fn parse_model(s: &str, rate_hz: Option<f64>) -> Result<Model> {
+    let mut p = Parser {
+        input: s,
+        pos: 0,
+        rate_hz,
+    };
+    let mut comps = Vec::new();
+    p.skip_ws();
+    if p.pos == s.len() {
+        return Err(p.err(0, "empty model; write e.g. \"WN + RW + AR1\""));
+    }
+    loop {
+        p.term(&mut comps)?;
         p.skip_ws();
         if p.pos == s.len() {
-            return Err(p.err(0, "empty model; write e.g. \"WN + RW + AR1\""));
+            break;
         }
-        loop {
-            p.term(&mut comps)?;
-            p.skip_ws();
-            if p.pos == s.len() {
-                break;
-            }
-            if !p.eat('+') {
-                return Err(p.err(p.pos, "expected '+' between components"));
-            }
+        if !p.eat('+') {
+            return Err(p.err(p.pos, "expected '+' between components"));
         }
-        Model::new(comps)
     }
+    Model::new(comps)
 }
 
 impl TryFrom<String> for Model {
