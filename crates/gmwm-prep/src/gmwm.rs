@@ -466,6 +466,21 @@ fn logistic(x: f64) -> f64 {
 }
 
 impl Problem {
+    /// Smallest angular frequency β (rad per sample) a fitted SIN may take: one period within
+    /// the longest fitted cluster size, 2π/m_max. A sinusoid of longer period shows no peak
+    /// or dip over the fitted scales; its AV there rises like a drift's (τ²) and, through its
+    /// turnover, can pass for a random walk's τ slope, so the AV cannot identify it (on a
+    /// simulated WN + RW record of 3 hours a SIN of period 3.7·10^6 samples was selected in
+    /// place of the RW before this bound).
+    fn sin_beta_min(&self) -> f64 {
+        let m_max = self.m.last().copied().unwrap_or(0.0);
+        if m_max > 2.0 {
+            2.0 * std::f64::consts::PI / m_max
+        } else {
+            0.0
+        }
+    }
+
     fn in_chain(&self, c: usize) -> bool {
         match self.kinds[c] {
             ProcessKind::GaussMarkov => true,
@@ -538,15 +553,17 @@ impl Problem {
                     t[(at + n, at + n)] = th[at + n];
                 }
                 ProcessKind::Sinusoid => {
-                    // α² = e^η, β = π·logistic(η) ∈ (0, π)
+                    // α² = e^η, β = β_min + (π − β_min)·logistic(η) ∈ (β_min, π)
                     th[at] = eta[at].exp();
                     t[(at, at)] = th[at];
                     let s = logistic(eta[at + 1]);
-                    th[at + 1] = std::f64::consts::PI * s;
+                    let lo = self.sin_beta_min();
+                    let span = std::f64::consts::PI - lo;
+                    th[at + 1] = lo + span * s;
                     if !(th[at + 1] > 0.0 && th[at + 1] < std::f64::consts::PI) {
                         return None;
                     }
-                    t[(at + 1, at + 1)] = th[at + 1] * (1.0 - s);
+                    t[(at + 1, at + 1)] = span * s * (1.0 - s);
                 }
                 ProcessKind::Ar1 | ProcessKind::GaussMarkov => {
                     if self.in_chain(c) {
@@ -629,7 +646,9 @@ impl Problem {
                 }
                 ProcessKind::Sinusoid => {
                     eta[at] = th[at].ln();
-                    let r = (th[at + 1] / std::f64::consts::PI).clamp(1e-12, 1.0 - 1e-12);
+                    let lo = self.sin_beta_min();
+                    let r =
+                        ((th[at + 1] - lo) / (std::f64::consts::PI - lo)).clamp(1e-12, 1.0 - 1e-12);
                     eta[at + 1] = (r / (1.0 - r)).ln();
                 }
                 ProcessKind::Ar1 | ProcessKind::GaussMarkov => {
@@ -1043,12 +1062,18 @@ impl Problem {
         };
         // SIN: β whose AV peaks at a scale of the curve (sin⁴x/x² is largest at x ≈ 1.1656,
         // x = βm/2), ordered increasing for several SINs
+        // (only periods within the fitted scales: β above 2π/m_max, see `sin_beta_min`)
+        let beta_lo = self.sin_beta_min();
         let mut beta_grid: Vec<f64> = self
             .m
             .iter()
             .rev()
             .map(|&m| (2.0 * 1.1656 / m).min(3.0))
+            .filter(|&b| b > beta_lo * 1.05)
             .collect();
+        if beta_grid.is_empty() {
+            beta_grid.push((2.0 * beta_lo).min(3.0));
+        }
         beta_grid.dedup();
         let budget = (MAX_SIN_GRID_COMBOS / combos.len().max(1) as f64).max(1.0);
         while n_sin > 0 && n_choose_k(beta_grid.len(), n_sin) > budget && beta_grid.len() > n_sin {

@@ -197,3 +197,43 @@ fn selection_over_a_class_larger_than_the_curve() {
     }
     assert_eq!(c[0].template, "WN + RW");
 }
+
+/// A fitted SIN's period stays within the longest fitted cluster size (β ≥ 2π/m_max): a
+/// slower sinusoid shows no peak or dip over the scales and cannot be identified. On the exact
+/// curve of WN + a SIN of period 4·m_max (β a quarter of the bound), the fitted β stays on or
+/// above the bound; without it the exact curve would return the true β.
+#[test]
+fn a_fitted_sinusoid_has_its_period_within_the_scales() {
+    let m: Vec<u64> = (0..=12).map(|j| 1u64 << j).collect();
+    let m_max = *m.last().unwrap() as f64;
+    let bound = 2.0 * std::f64::consts::PI / m_max;
+    let truth: Model = format!("WN(sigma2=1e-4) + SIN(alpha2=1e-3, beta={})", bound / 4.0)
+        .parse()
+        .unwrap();
+    let av = gmwm_prep::theory::model_avar(&truth, &m, RATE).unwrap();
+    let curve = AvCurve::from_m(&m, &av, RATE).unwrap().with_n(1 << 20);
+    let f = fit(
+        &curve,
+        &"WN + SIN".parse().unwrap(),
+        &GmwmOptions::default(),
+    )
+    .unwrap();
+    let beta = f.theta[2];
+    assert!(
+        beta >= bound * (1.0 - 1e-12),
+        "β = {beta} below 2π/m_max = {bound}"
+    );
+    // and a SIN inside the scales is recovered as before (exact curve: to 1e-6)
+    let inside: Model = "WN(sigma2=1e-4) + SIN(alpha2=1e-3, beta=0.05)"
+        .parse()
+        .unwrap();
+    let av = gmwm_prep::theory::model_avar(&inside, &m, RATE).unwrap();
+    let curve = AvCurve::from_m(&m, &av, RATE).unwrap().with_n(1 << 20);
+    let f = fit(
+        &curve,
+        &"WN + SIN".parse().unwrap(),
+        &GmwmOptions::default(),
+    )
+    .unwrap();
+    assert!((f.theta[2] / 0.05 - 1.0).abs() < 1e-6, "β = {}", f.theta[2]);
+}
