@@ -110,6 +110,11 @@ impl Variogram {
                         "the model covariance of the AV is not implemented for AR2/AR3/AR4".into(),
                     ));
                 }
+                Process::Arma(_) => {
+                    return Err(FitError::InvalidArgument(
+                        "the model covariance of the AV is not implemented for MA2/ARMA".into(),
+                    ));
+                }
                 Process::Sinusoid(_) => {
                     return Err(FitError::InvalidArgument(
                         "the model covariance of the AV assumes a Gaussian process; a random-phase \

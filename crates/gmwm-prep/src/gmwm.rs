@@ -552,6 +552,38 @@ impl Problem {
                     th[at + n] = eta[at + n].exp();
                     t[(at + n, at + n)] = th[at + n];
                 }
+                ProcessKind::Arma(pp, qq) => {
+                    // φ: κ = tanh η, φ = step-up(κ) (stationary); θ = −step-up(tanh η)
+                    // (invertible: the identifiability rule, the AV not telling a root from
+                    // its inverse); σ² = e^η; the two Jacobian blocks by central differences
+                    let (pp, qq) = (pp as usize, qq as usize);
+                    let e0 = &eta[at..at + pp + qq];
+                    if e0.iter().any(|x| x.tanh().abs() >= 1.0) {
+                        return None;
+                    }
+                    let coef_of = |e: &[f64]| {
+                        let kp: Vec<f64> = e[..pp].iter().map(|x| x.tanh()).collect();
+                        let kq: Vec<f64> = e[pp..].iter().map(|x| x.tanh()).collect();
+                        let mut c = processes::ar_p::phi_from_pacf(&kp);
+                        c.extend(processes::arma::theta_from_pacf(&kq));
+                        c
+                    };
+                    th[at..at + pp + qq].copy_from_slice(&coef_of(e0));
+                    for jj in 0..pp + qq {
+                        let h = 1e-6;
+                        let (mut up, mut dn) = (e0.to_vec(), e0.to_vec());
+                        up[jj] += h;
+                        dn[jj] -= h;
+                        let (cu, cd) = (coef_of(&up), coef_of(&dn));
+                        let block = if jj < pp { 0..pp } else { pp..pp + qq };
+                        for ii in block {
+                            t[(at + ii, at + jj)] = (cu[ii] - cd[ii]) / (2.0 * h);
+                        }
+                    }
+                    let n = pp + qq;
+                    th[at + n] = eta[at + n].exp();
+                    t[(at + n, at + n)] = th[at + n];
+                }
                 ProcessKind::Sinusoid => {
                     // α² = e^η, β = β_min + (π − β_min)·logistic(η) ∈ (β_min, π)
                     th[at] = eta[at].exp();
@@ -643,6 +675,18 @@ impl Problem {
                         eta[at + i] = kk.clamp(-0.999_999, 0.999_999).atanh();
                     }
                     eta[at + n] = th[at + n].ln();
+                }
+                ProcessKind::Arma(pp, qq) => {
+                    let (pp, qq) = (pp as usize, qq as usize);
+                    let kp = processes::arma::pacf_of_phi(&th[at..at + pp])
+                        .unwrap_or_else(|| vec![0.0; pp]);
+                    // a non-invertible θ starts from θ = 0 (its mirror has the same AV)
+                    let kq = processes::arma::pacf_of_theta(&th[at + pp..at + pp + qq])
+                        .unwrap_or_else(|| vec![0.0; qq]);
+                    for (i, kk) in kp.iter().chain(&kq).enumerate() {
+                        eta[at + i] = kk.clamp(-0.999_999, 0.999_999).atanh();
+                    }
+                    eta[at + pp + qq] = th[at + pp + qq].ln();
                 }
                 ProcessKind::Sinusoid => {
                     eta[at] = th[at].ln();
@@ -957,7 +1001,7 @@ pub(crate) fn full_whitening(v: &CovMatrix) -> Result<Mat<f64>> {
 
 /// Shapes g_k(m_j) (AV per unit variance) of component `c` for given nonlinear parameter.
 fn shape(kind: ProcessKind, nonlin: f64, m: &[f64], rate: f64, factor: f64) -> Vec<f64> {
-    let mut g = [0.0; 5];
+    let mut g = [0.0; 7];
     m.iter()
         .map(|&mj| {
             factor
@@ -971,6 +1015,11 @@ fn shape(kind: ProcessKind, nonlin: f64, m: &[f64], rate: f64, factor: f64) -> V
                     ProcessKind::Sinusoid => kind_avar_grad(kind, &[1.0, nonlin], mj, rate, &mut g),
                     ProcessKind::ArP(_) => {
                         let mut v = arp_start_phi(kind, nonlin);
+                        v.push(1.0);
+                        kind_avar_grad(kind, &v, mj, rate, &mut g)
+                    }
+                    ProcessKind::Arma(..) => {
+                        let mut v = arma_start_coef(kind, nonlin);
                         v.push(1.0);
                         kind_avar_grad(kind, &v, mj, rate, &mut g)
                     }
@@ -989,6 +1038,25 @@ fn arp_start_phi(kind: ProcessKind, beta: f64) -> Vec<f64> {
     phi[0] = 2.0 * r * beta.cos();
     phi[1] = -r * r;
     phi
+}
+
+/// The φ, θ of an ARMA start at β rad/sample (the SIN grid): p ≥ 2 the damped oscillation
+/// of [`arp_start_phi`], p = 1 the AR1 φ = e^{−β} (AV largest near m ≈ 2/β), p = 0 (MA2)
+/// none; θ = 0 (the MA part starts as white).
+fn arma_start_coef(kind: ProcessKind, beta: f64) -> Vec<f64> {
+    let ProcessKind::Arma(p, q) = kind else {
+        return Vec::new();
+    };
+    let (p, q) = (p as usize, q as usize);
+    let mut c = vec![0.0; p + q];
+    if p >= 2 {
+        let r = (-0.5 * beta).exp();
+        c[0] = 2.0 * r * beta.cos();
+        c[1] = -r * r;
+    } else if p == 1 {
+        c[0] = (-beta).exp();
+    }
+    c
 }
 
 /// All strictly increasing index tuples of length k from 0..n.
@@ -1041,7 +1109,10 @@ impl Problem {
         let n_sin = self
             .kinds
             .iter()
-            .filter(|k| matches!(**k, ProcessKind::Sinusoid | ProcessKind::ArP(_)))
+            .filter(|k| {
+                matches!(**k, ProcessKind::Sinusoid | ProcessKind::ArP(_))
+                    || matches!(**k, ProcessKind::Arma(p, _) if p > 0)
+            })
             .count();
         // with SINs the grid is their β combinations times the λ ones: the λ grid gets a
         // share of the budget (its square root for two SINs, measured to change neither
@@ -1092,6 +1163,7 @@ impl Problem {
                 | ProcessKind::Ma1
                 | ProcessKind::Sinusoid
                 | ProcessKind::ArP(_) => None,
+                ProcessKind::Arma(p, _) if p > 0 => None,
                 kd => Some(shape(kd, 0.0, &self.m, self.rate, self.factor)),
             })
             .collect();
@@ -1120,6 +1192,7 @@ impl Problem {
                 ProcessKind::GaussMarkov => lam.clone(),
                 ProcessKind::Ma1 => ma_grid.clone(),
                 ProcessKind::Sinusoid | ProcessKind::ArP(_) => beta_grid.clone(),
+                ProcessKind::Arma(p, _) if p > 0 => beta_grid.clone(),
                 _ => Vec::new(),
             };
             for v in values {
@@ -1157,7 +1230,9 @@ impl Problem {
                             let kd = self.kinds[c];
                             let v = match kd {
                                 ProcessKind::Ma1 => th_ma,
-                                ProcessKind::Sinusoid | ProcessKind::ArP(_) => {
+                                ProcessKind::Sinusoid
+                                | ProcessKind::ArP(_)
+                                | ProcessKind::Arma(..) => {
                                     qs += 1;
                                     betas[qs - 1]
                                 }
@@ -1224,6 +1299,11 @@ impl Problem {
                             let phi = arp_start_phi(kd, nl[c]);
                             th[at..at + phi.len()].copy_from_slice(&phi);
                             th[at + phi.len()] = cv;
+                        }
+                        ProcessKind::Arma(..) => {
+                            let c = arma_start_coef(kd, nl[c]);
+                            th[at..at + c.len()].copy_from_slice(&c);
+                            th[at + c.len()] = cv;
                         }
                         _ => th[at] = cv,
                     }

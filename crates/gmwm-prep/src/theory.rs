@@ -134,7 +134,7 @@ fn bi_unit_avar(band: processes::BiBand, m: u64) -> f64 {
 
 /// AV of an AR1 with unit innovation variance, f(φ, m), and ∂f/∂φ.
 pub(crate) fn ar1_unit(phi: f64, m: f64) -> (f64, f64) {
-    let mut g = [0.0; 5];
+    let mut g = [0.0; 7];
     let f = kind_avar_grad(ProcessKind::Ar1, &[phi, 1.0], m, 1.0, &mut g);
     (f, g[0])
 }
@@ -197,7 +197,7 @@ pub(crate) fn model_avar_jac(
 ) {
     let p = theta.len();
     av.iter_mut().for_each(|x| *x = 0.0);
-    let mut g = [0.0; 5];
+    let mut g = [0.0; 7];
     for (j, &mj) in m.iter().enumerate() {
         let mut at = 0;
         for &k in kinds {
@@ -216,7 +216,7 @@ pub(crate) fn component_avars(
     m: &[f64],
     rate_hz: f64,
 ) -> Vec<Vec<f64>> {
-    let mut g = [0.0; 5];
+    let mut g = [0.0; 7];
     let mut at = 0;
     kinds
         .iter()

@@ -258,6 +258,25 @@ pub fn per_second(kind: ProcessKind, params: &[f64], rate_hz: f64, unit: &Unit) 
             }
             out
         }
+        // MA2/ARMA: φ_k, θ_k as given, the innovation σ and the stationary σ (unit)
+        ProcessKind::Arma(p, q) => {
+            let (p, q) = (p as usize, q as usize);
+            let names = kind.param_names();
+            let mut out: Vec<Quantity> = params[..p + q]
+                .iter()
+                .zip(names)
+                .map(|(&f, &n)| Quantity::new(n, f, ""))
+                .collect();
+            out.push(Quantity::new(
+                "sigma_innov",
+                params[p + q].sqrt(),
+                u.clone(),
+            ));
+            if let Ok(a) = processes::Arma::new(&params[..p], &params[p..p + q], params[p + q]) {
+                out.push(Quantity::new("sigma", a.stationary_variance().sqrt(), u));
+            }
+            out
+        }
     }
 }
 

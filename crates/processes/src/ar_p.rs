@@ -37,7 +37,7 @@ pub struct ArP {
 
 /// Partial autocorrelations of the AR polynomial φ (Durbin-Levinson step-down); `None` if
 /// some |κ_k| ≥ 1 (not stationary) or a value is not finite.
-fn step_down(phi: &[f64]) -> Option<Vec<f64>> {
+pub(crate) fn step_down(phi: &[f64]) -> Option<Vec<f64>> {
     let p = phi.len();
     let mut a = phi.to_vec();
     let mut kappa = vec![0.0; p];

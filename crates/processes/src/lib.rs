@@ -31,6 +31,7 @@
 //! ```
 
 pub mod ar_p;
+pub mod arma;
 pub mod error;
 pub mod model;
 pub mod number;
@@ -39,6 +40,7 @@ pub mod series;
 pub mod simulate;
 
 pub use ar_p::{AR_MAX_ORDER, ArP};
+pub use arma::{Arma, MA_MAX_ORDER};
 pub use error::{ProcessError, Result};
 pub use model::{Component, Model};
 pub use process::{

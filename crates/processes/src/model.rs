@@ -14,14 +14,18 @@
 //! is a slot with a band. `AR2`, `AR3`, `AR4` (autoregressive of order p, [`crate::ArP`])
 //! take `phi1` … `phip` and the innovation variance `sigma2`, e.g.
 //! `AR2(phi1=1.6, phi2=-0.8, sigma2=1e-4)` (positional: `AR2(1.6, -0.8, 1e-4)`); a
-//! non-stationary set of coefficients is refused when parsed. `SIN` takes `alpha2` and
-//! `beta` (rad per sample); where the sampling rate is known ([`Model::parse_at_rate`],
-//! the CLI's `--model` with its rate) its frequency may be given in Hz instead:
-//! `SIN(alpha2=2e-4, f_hz=8)`.
+//! non-stationary set of coefficients is refused when parsed. `MA2(theta1=…, theta2=…,
+//! sigma2=…)` and `ARMApq(phi1=…, …, phip=…, theta1=…, …, thetaq=…, sigma2=…)` with p = 1…4
+//! and q = 1, 2 as two digits (`ARMA11` … `ARMA42`, e.g. `ARMA21(phi1=1.2, phi2=-0.8,
+//! theta1=0.4, sigma2=1e-4)`) are MA(2) and ARMA(p, q) ([`crate::Arma`]); MA(1) is `MA1`,
+//! ARMA(p, 0) is `AR1`…`AR4`.
+//! `SIN` takes `alpha2` and `beta` (rad per sample); where the sampling rate is known
+//! ([`Model::parse_at_rate`], the CLI's `--model` with its rate) its frequency may be given
+//! in Hz instead: `SIN(alpha2=2e-4, f_hz=8)`.
 //!
 //! # Identifiability
 //! As in the book's peer packages, a model holds at most one each of WN, QN, RW, DR (and
-//! MA1, BI); AR1, GM, SIN and AR2/AR3/AR4 may repeat.
+//! MA1, MA2, BI); AR1, GM, SIN, AR2/AR3/AR4 and ARMApq may repeat.
 
 use crate::error::{ProcessError, Result};
 use crate::process::*;
@@ -681,14 +685,14 @@ impl<'a> Parser<'a> {
         if code.is_empty() {
             return Err(self.err(
                 self.pos,
-                "expected a process (WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN)",
+                "expected a process (WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, MA2, ARMApq)",
             ));
         }
         let kind = ProcessKind::from_str(code).map_err(|_| {
             self.err(
                 code_pos,
                 format!(
-                    "unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN"
+                    "unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, MA2, ARMApq (p = 1…4, q = 1, 2)"
                 ),
             )
         })?;

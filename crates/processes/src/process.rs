@@ -5,6 +5,7 @@
 //! the Gauss-Markov process whose β is in 1/s and whose σ_G² is the stationary variance.
 
 use crate::ar_p::ArP;
+use crate::arma::Arma;
 use crate::error::{ProcessError, Result};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -832,6 +833,10 @@ pub enum ProcessKind {
     /// Not in [`ProcessKind::ALL`] (the classes built from it stay as they were).
     #[serde(rename = "ARP")]
     ArP(u8),
+    /// MA(2) (`MA2`, p = 0) or ARMA(p, q) (`ARMApq`, 1 ≤ p ≤ 4, q ∈ {1, 2}) as (p, q)
+    /// ([`crate::Arma`]). Not in [`ProcessKind::ALL`].
+    #[serde(rename = "ARMA")]
+    Arma(u8, u8),
 }
 
 impl ProcessKind {
@@ -876,6 +881,7 @@ impl ProcessKind {
             ProcessKind::ArP(3) => "AR3",
             ProcessKind::ArP(4) => "AR4",
             ProcessKind::ArP(_) => "AR2",
+            ProcessKind::Arma(p, q) => crate::arma::CODES[(p as usize).min(4)][(q as usize).min(2)],
         }
     }
 
@@ -899,6 +905,7 @@ impl ProcessKind {
             ProcessKind::ArP(3) => &["phi1", "phi2", "phi3", "sigma2"],
             ProcessKind::ArP(4) => &["phi1", "phi2", "phi3", "phi4", "sigma2"],
             ProcessKind::ArP(_) => &["phi1", "phi2", "sigma2"],
+            ProcessKind::Arma(p, q) => crate::arma::NAMES[(p as usize).min(4)][(q as usize).min(2)],
         }
     }
 
@@ -939,7 +946,7 @@ impl ProcessKind {
                 | ProcessKind::GaussMarkov
                 | ProcessKind::Sinusoid
                 | ProcessKind::ArP(_)
-        )
+        ) || matches!(self, ProcessKind::Arma(p, _) if p > 0)
     }
 }
 
@@ -956,12 +963,13 @@ impl std::str::FromStr for ProcessKind {
         ProcessKind::ALL
             .into_iter()
             .chain((2..=crate::ar_p::AR_MAX_ORDER as u8).map(ProcessKind::ArP))
+            .chain(crate::arma::orders().map(|(p, q)| ProcessKind::Arma(p as u8, q as u8)))
             .find(|k| k.code().eq_ignore_ascii_case(t))
             .ok_or_else(|| ProcessError::Parse {
                 input: s.to_string(),
                 position: 0,
                 message: format!(
-                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN"
+                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, MA2, ARMApq (p = 1…4, q = 1, 2)"
                 ),
             })
     }
@@ -1002,6 +1010,8 @@ pub enum Process {
     Sinusoid(Sinusoid),
     /// Autoregressive process of order 2 … 4.
     ArP(ArP),
+    /// MA(2) or ARMA(p, q).
+    Arma(Arma),
 }
 
 macro_rules! impl_from_process {
@@ -1021,7 +1031,8 @@ impl_from_process!(
     Ma1,
     BiasInstability,
     Sinusoid,
-    ArP
+    ArP,
+    Arma
 );
 
 impl Process {
@@ -1044,6 +1055,7 @@ impl Process {
             Process::BiasInstability(b) => ProcessKind::BiasInstability(b.band()),
             Process::Sinusoid(_) => ProcessKind::Sinusoid,
             Process::ArP(a) => ProcessKind::ArP(a.p),
+            Process::Arma(a) => ProcessKind::Arma(a.p, a.q),
         }
     }
 
@@ -1070,6 +1082,7 @@ impl Process {
                 v.push(a.sigma2);
                 v
             }
+            Process::Arma(a) => a.params(),
         }
     }
 
@@ -1108,6 +1121,7 @@ impl Process {
                 let n = v.len();
                 ArP::new(&v[..n - 1], v[n - 1])?.into()
             }
+            ProcessKind::Arma(p, q) => Arma::from_params(p as usize, q as usize, v)?.into(),
         })
     }
 
@@ -1228,6 +1242,12 @@ impl Process {
                 let rho = a.acf(h.min(1 << 24).saturating_add(1));
                 a.stationary_variance() * if h < rho.len() { rho[h] } else { 0.0 }
             }
+            Process::Arma(a) => {
+                let h = usize::try_from(h).unwrap_or(usize::MAX);
+                // γ decays geometrically (exactly 0 beyond q for MA2)
+                let g = a.acvf(h.min(1 << 24).saturating_add(1));
+                if h < g.len() { g[h] } else { 0.0 }
+            }
             Process::RandomWalk(_) | Process::Drift(_) => {
                 return Err(ProcessError::NotDefined {
                     what: "autocovariance γ(h)",
@@ -1281,6 +1301,12 @@ enum ProcessRepr {
     Sinusoid { alpha2: f64, beta: f64 },
     #[serde(rename = "ARP")]
     ArP { phi: Vec<f64>, sigma2: f64 },
+    #[serde(rename = "ARMA")]
+    Arma {
+        phi: Vec<f64>,
+        theta: Vec<f64>,
+        sigma2: f64,
+    },
     #[serde(rename = "BI")]
     BiasInstability {
         #[serde(rename = "B")]
@@ -1303,6 +1329,7 @@ impl TryFrom<ProcessRepr> for Process {
             ProcessRepr::Ma1 { theta, sigma2 } => Ma1::new(theta, sigma2)?.into(),
             ProcessRepr::Sinusoid { alpha2, beta } => Sinusoid::new(alpha2, beta)?.into(),
             ProcessRepr::ArP { phi, sigma2 } => ArP::new(&phi, sigma2)?.into(),
+            ProcessRepr::Arma { phi, theta, sigma2 } => Arma::new(&phi, &theta, sigma2)?.into(),
             ProcessRepr::BiasInstability { b, m_lo, m_hi } => {
                 let band = if m_lo == 0 && m_hi == 0 {
                     BiBand::AUTO
@@ -1346,6 +1373,11 @@ impl From<Process> for ProcessRepr {
                 b: p.b,
                 m_lo: p.band.m_lo,
                 m_hi: p.band.m_hi,
+            },
+            Process::Arma(a) => ProcessRepr::Arma {
+                phi: a.phi().to_vec(),
+                theta: a.theta().to_vec(),
+                sigma2: a.sigma2,
             },
         }
     }

@@ -273,6 +273,11 @@ impl Gen {
                     "AR2/AR3/AR4 are simulated by Model::simulate/simulate_components (sequentially, ArP::simulate), not by the chunked per-process path".into(),
                 ));
             }
+            Process::Arma(_) => {
+                return Err(ProcessError::InvalidArgument(
+                    "MA2/ARMA are simulated by Model::simulate/simulate_components (sequentially, Arma::simulate), not by the chunked per-process path".into(),
+                ));
+            }
         })
     }
 
@@ -933,7 +938,7 @@ impl Model {
     fn has_arp(&self) -> bool {
         self.kinds()
             .iter()
-            .any(|k| matches!(k, crate::ProcessKind::ArP(_)))
+            .any(|k| matches!(k, crate::ProcessKind::ArP(_) | crate::ProcessKind::Arma(..)))
     }
 
     /// A model with AR(p) components: the other components through the chunked engine (as
@@ -950,7 +955,7 @@ impl Model {
         let processes = self.processes()?;
         let rest: Vec<Process> = processes
             .iter()
-            .filter(|p| !matches!(p, Process::ArP(_)))
+            .filter(|p| !matches!(p, Process::ArP(_) | Process::Arma(_)))
             .copied()
             .collect();
         let (mut total, mut rest_parts) = if rest.is_empty() {
@@ -965,6 +970,14 @@ impl Model {
         for (c, (p, comp)) in processes.iter().zip(self.components()).enumerate() {
             match p {
                 Process::ArP(a) => {
+                    let s = mix64(seed ^ ARP_KEY.wrapping_mul(c as u64 + 1))
+                        ^ mix64(stream.wrapping_add(ARP_KEY));
+                    let x = a.simulate(n, s)?;
+                    total.iter_mut().zip(&x).for_each(|(t, v)| *t += v);
+                    components.push(TimeSeries::from_checked(x, rate_hz, &comp.to_string()));
+                }
+                Process::Arma(a) => {
+                    // the same seed derivation as AR(p): one seed per component index
                     let s = mix64(seed ^ ARP_KEY.wrapping_mul(c as u64 + 1))
                         ^ mix64(stream.wrapping_add(ARP_KEY));
                     let x = a.simulate(n, s)?;

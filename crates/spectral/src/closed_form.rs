@@ -361,6 +361,16 @@ fn av_and_gradient(process: &Process, m: u64, rate_hz: f64, grad: bool) -> Resul
             g.push(av / a.sigma2());
             (av, g)
         }
+        Process::Arma(a) => {
+            if grad {
+                crate::arma::arma_avar_gradient(&a, m)
+            } else {
+                let av = crate::arma::arma_avar(&a, m);
+                let mut g = vec![f64::NAN; a.p() + a.q()];
+                g.push(av / a.sigma2());
+                (av, g)
+            }
+        }
         Process::Sinusoid(p) => {
             // a = βm/2, c = β/2: AV = α² sin⁴a / (m² sin²c);
             // ∂/∂β = α²/m² · (2m sin³a cos a / sin²c − sin⁴a cos c / sin³c)

@@ -211,6 +211,10 @@ fn variogram_parts(process: &Process, h: u64, rate: f64) -> (f64, f64) {
             let rho = a.acf(h as usize + 1);
             (a.stationary_variance(), 1.0 - rho[h as usize])
         }
+        Process::Arma(a) => {
+            let g = a.acvf(h as usize + 1);
+            (g[0], 1.0 - g[h as usize] / g[0])
+        }
     }
 }
 
@@ -240,6 +244,12 @@ pub fn lemma42_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result
         let rho = a.acf(2 * m as usize + 1);
         let unit = allan_variance_from_variogram(|h| 1.0 - rho[h as usize], m)?;
         return Ok(a.stationary_variance() * unit);
+    }
+    if let Process::Arma(a) = process {
+        // the exact autocovariance once up to 2m (O(m)), then the semivariogram form
+        let g = a.acvf(2 * m as usize + 1);
+        let unit = allan_variance_from_variogram(|h| 1.0 - g[h as usize] / g[0], m)?;
+        return Ok(g[0] * unit);
     }
     let scale = variogram_parts(process, 1, rate).0;
     let unit = allan_variance_from_variogram(|h| variogram_parts(process, h, rate).1, m)?;

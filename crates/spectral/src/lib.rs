@@ -55,6 +55,7 @@
 //! - [`tolerances`]: the named tolerances of the tests, with their justification.
 
 pub mod ambiguity;
+pub mod arma;
 pub mod closed_form;
 mod dd;
 pub mod empirical;

@@ -19,6 +19,7 @@
 //! | AR1 | v² Δt / ((1−φ)² + 4φ s) (= v²Δt/(1 − 2φ cos 2πfΔt + φ²)) |
 //! | GM  | AR1 with φ = e^(−βΔt), v² = σ_G²(1 − φ²) |
 //! | MA1 | σ² Δt ((1+θ)² − 4θ s) |
+//! | MA2, ARMA(p,q) | σ² Δt \|1 + Σ θ_k e^{−ikω}\|² / \|1 − Σ φ_k e^{−ikω}\|², ω = 2πfΔt |
 //! | RW  | γ² Δt / (4 s) — *generalized* PSD (≈ γ²/(4π² f² Δt) near 0, a 1/f² law): the RW's increments are WN(γ²) and the difference filter has gain 4s |
 //! | SIN | not a function: the line spectrum (α²/4)[δ(f − f₀) + δ(f + f₀)], f₀ = β·rate/(2π) |
 //! | DR  | not a function: the ramp ωt has the generalized spectrum (ω·rate)²/(8π²) · δ''(f) |
@@ -77,6 +78,21 @@ pub(crate) fn psd_sc(process: &Process, s: f64, c: f64, dt: f64) -> Option<f64> 
                 im += f * sk;
             }
             a.sigma2() * dt / (re * re + im * im)
+        }
+        Process::Arma(a) => {
+            // σ²Δt |1 + Σ θ_k e^{−ikω}|² / |1 − Σ φ_k e^{−ikω}|², ω = 2πfΔt
+            let (c1, s1) = (c - s, 2.0 * (s * c).sqrt());
+            let poly = |coef: &[f64], sign: f64| {
+                let (mut ck, mut sk) = (1.0, 0.0);
+                let (mut re, mut im) = (1.0, 0.0);
+                for &f in coef {
+                    (ck, sk) = (ck * c1 - sk * s1, sk * c1 + ck * s1);
+                    re += sign * f * ck;
+                    im -= sign * f * sk;
+                }
+                re * re + im * im
+            };
+            a.sigma2() * dt * poly(a.theta(), 1.0) / poly(a.phi(), -1.0)
         }
         Process::BiasInstability(b) => {
             // the sum of its states' GM spectra (L_i = 1/T_i per sample)
