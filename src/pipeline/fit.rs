@@ -309,13 +309,13 @@ impl FitSettings {
 }
 
 /// Level of the significance test that each component beyond the book's class (BI, SIN,
-/// AR(p)) must pass to stay in a selected model (see [`drop_insignificant`]).
+/// AR(p), ARMA) must pass to stay in a selected model (see [`drop_insignificant`]).
 pub const TERM_SIGNIFICANCE: f64 = 0.01;
 
-/// Removes, one at a time, the components beyond the book's class (BI, SIN, AR(p)) that a
+/// Removes, one at a time, the components beyond the book's class (BI, SIN, AR(p), ARMA) that a
 /// model selected by WIC does not need: a component stays when the J statistic of the model
 /// without it exceeds the model's own by more than chance allows, P(χ²_k > ΔJ) <
-/// [`TERM_SIGNIFICANCE`] with k its number of parameters; for a SIN or an AR(p), whose
+/// [`TERM_SIGNIFICANCE`] with k its number of parameters; for a SIN, an AR(p) or an ARMA, whose
 /// frequency is searched over the whole scale range, that probability is multiplied by the
 /// number of scales J (Bonferroni over the frequencies the search could have picked). The
 /// least significant is removed first, and the test repeated on the smaller model.
@@ -340,7 +340,7 @@ fn drop_insignificant<T>(
         for (i, k) in kinds.iter().enumerate() {
             let looks = match k {
                 ProcessKind::BiasInstability(_) => 1.0,
-                ProcessKind::Sinusoid | ProcessKind::ArP(_) => n_scales,
+                ProcessKind::Sinusoid | ProcessKind::ArP(_) | ProcessKind::Arma(..) => n_scales,
                 _ => continue,
             };
             let sub: Vec<processes::Component> = kinds
