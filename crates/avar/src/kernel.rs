@@ -34,7 +34,7 @@ use rayon::prelude::*;
 
 use crate::error::AvarError;
 use crate::simd::SimdLevel;
-use crate::source::SampleWindow;
+use crate::source::io::{Io, Release, SampleWindow};
 
 /// Width of the fixed grid of k-chunks (terms) that partial sums are formed on.
 pub(crate) const CHUNK: usize = 1 << 14;
@@ -1300,27 +1300,6 @@ fn stream_chunk<const SEG: usize>(
 /// overflow.
 pub(crate) fn overlapping_sums_stream(x: &[f64], ms: &[u64]) -> Result<(Vec<f64>, f64), AvarError> {
     overlapping_sums_stream_io(x, ms, &Io::NONE)
-}
-
-/// What the streamed kernel calls when it is done with the samples [lo, hi) for now (a hint
-/// that lets a file-backed source drop their resident pages; no effect on any value).
-pub(crate) type Release<'a> = &'a (dyn Fn(usize, usize) + Sync);
-
-/// Makes a private window for one job of the far walk (see [`SampleWindow`]), or `None`.
-pub(crate) type Windows<'a> = &'a (dyn Fn() -> Option<Box<dyn SampleWindow + 'a>> + Sync);
-
-/// How the streamed kernel talks to a [`crate::source::SampleSource`].
-pub(crate) struct Io<'a> {
-    pub(crate) release: Release<'a>,
-    pub(crate) windows: Windows<'a>,
-}
-
-impl Io<'_> {
-    /// No release hints, no windows (an in-memory slice).
-    pub(crate) const NONE: Io<'static> = Io {
-        release: &|_, _| {},
-        windows: &|| None,
-    };
 }
 
 /// [`overlapping_sums_stream`] talking to a source: `release` is called on the ranges of

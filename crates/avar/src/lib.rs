@@ -257,7 +257,7 @@ fn estimate(
         if matches!(config.ci, CiMethod::None | CiMethod::ChiSquare) {
             // no series-sized buffer: the streamed kernel, and the chi-square interval's
             // noise identification from checkpoints and windows of the cumulative sum
-            return source::streamed(data, rate_hz, config, &kernel::Io::NONE);
+            return source::streamed(data, rate_hz, config, &source::io::Io::NONE);
         }
         // the Gaussian interval needs the cumulative sum; the AV itself comes from the
         // streamed kernel, as without a CI (faster at this length, and more precise at small

@@ -343,6 +343,8 @@ pub struct StabilityPoint {
     pub alpha: Option<i32>,
 }
 
+crate::range::quadratic_point!(StabilityPoint: var, var_lo, var_hi; dev, dev_lo, dev_hi);
+
 /// A stability curve: one [`StabilityPoint`] per cluster size, ascending in m.
 ///
 /// ```
