@@ -50,7 +50,7 @@ pub fn streams(t: usize, config: &AvarConfig) -> bool {
     matches!(config.input, InputKind::Rate)
         && matches!(config.estimator, Estimator::Overlapping)
         && matches!(config.ci, CiMethod::None | CiMethod::ChiSquare)
-        && t >= kernel::STREAM_MIN_T
+        && t >= kernel::streamed::STREAM_MIN_T
 }
 
 /// The Allan variance of the samples of `source`, bit-identical to [`crate::allan_variance`]
@@ -118,7 +118,7 @@ pub(crate) fn streamed(
     check_len(data.len(), data.len())?;
     let t = data.len();
     let ms = config.scales.cluster_sizes(t)?;
-    let (sums, mean) = kernel::overlapping_sums_stream_io(data, &ms, io)?;
+    let (sums, mean) = kernel::streamed::overlapping_sums_stream_io(data, &ms, io)?;
     let cum = Cumulative {
         c: Cow::Borrowed(&[]),
         factor: 1.0,
