@@ -48,6 +48,15 @@ fn max_exponent(data: &[f64]) -> Option<i32> {
     Some(((v.to_bits() >> 52) & 0x7ff) as i32 - 1023 - shift)
 }
 
+/// The scaled parts of a point: the bounds of the variance, the variance, the bounds of the
+/// deviation, the deviation.
+pub(crate) type Parts<'a> = (
+    [&'a mut Option<f64>; 2],
+    &'a mut f64,
+    [&'a mut Option<f64>; 2],
+    &'a mut f64,
+);
+
 /// A point of an estimate whose values are quadratic in the data (a variance, its bounds) or
 /// linear (the deviation and its bounds): the AV and every member of the stability family
 /// (each implements it with [`quadratic_point!`], naming its fields).
@@ -57,14 +66,7 @@ pub(crate) trait Quadratic {
     /// The variance and its bounds.
     fn variances(&self) -> [Option<f64>; 3];
     /// The variance and its bounds, and the deviation and its bounds, to scale.
-    fn parts(
-        &mut self,
-    ) -> (
-        [&mut Option<f64>; 2],
-        &mut f64,
-        [&mut Option<f64>; 2],
-        &mut f64,
-    );
+    fn parts(&mut self) -> Parts<'_>;
 }
 
 /// Implements [`Quadratic`] for a point type from the names of its fields:
@@ -78,14 +80,7 @@ macro_rules! quadratic_point {
             fn variances(&self) -> [Option<f64>; 3] {
                 [Some(self.$var), self.$lo, self.$hi]
             }
-            fn parts(
-                &mut self,
-            ) -> (
-                [&mut Option<f64>; 2],
-                &mut f64,
-                [&mut Option<f64>; 2],
-                &mut f64,
-            ) {
+            fn parts(&mut self) -> $crate::range::Parts<'_> {
                 (
                     [&mut self.$lo, &mut self.$hi],
                     &mut self.$var,

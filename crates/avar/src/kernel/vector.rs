@@ -107,109 +107,100 @@ pub(super) trait F64x: Copy {
     unsafe fn build_lanes<const SEG: usize>(x: &[f64], a: usize, halo: usize, dst: &mut [Line]);
 }
 
+/// Implements [`F64x`] for one vector type from its width, target features and instructions.
 #[cfg(target_arch = "x86_64")]
-impl F64x for __m512d {
-    const W: usize = 8;
-    type Rows = [__m512d; 8];
-    type Seg = [__m512d; NSEG / 8];
-    #[inline(always)]
-    unsafe fn zero_rows() -> Self::Rows {
-        unsafe { [_mm512_setzero_pd(); 8] }
-    }
-    #[inline(always)]
-    unsafe fn zero_seg() -> Self::Seg {
-        unsafe { [_mm512_setzero_pd(); NSEG / 8] }
-    }
-    #[inline(always)]
-    unsafe fn load(p: *const f64) -> Self {
-        unsafe { _mm512_load_pd(p) }
-    }
-    #[inline(always)]
-    unsafe fn loadu(p: *const f64) -> Self {
-        unsafe { _mm512_loadu_pd(p) }
-    }
-    #[inline(always)]
-    unsafe fn store(p: *mut f64, v: Self) {
-        unsafe { _mm512_store_pd(p, v) }
-    }
-    #[inline(always)]
-    unsafe fn storeu(p: *mut f64, v: Self) {
-        unsafe { _mm512_storeu_pd(p, v) }
-    }
-    #[inline(always)]
-    unsafe fn add(a: Self, b: Self) -> Self {
-        unsafe { _mm512_add_pd(a, b) }
-    }
-    #[inline(always)]
-    unsafe fn sub(a: Self, b: Self) -> Self {
-        unsafe { _mm512_sub_pd(a, b) }
-    }
-    #[inline(always)]
-    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
-        unsafe { _mm512_fmadd_pd(a, b, c) }
-    }
-    #[inline(always)]
-    unsafe fn transpose(rows: Self::Rows) -> Self::Rows {
-        unsafe { transpose8x8!(rows) }
-    }
-    #[target_feature(enable = "avx512f")]
-    unsafe fn build_lanes<const SEG: usize>(x: &[f64], a: usize, halo: usize, dst: &mut [Line]) {
-        // SAFETY: AVX-512F is available (caller contract).
-        unsafe { build_lanes_with::<Self, SEG>(x, a, halo, dst) }
-    }
+macro_rules! f64x_impl {
+    ($v:ident, $w:literal, $feat:literal, $zero:ident, $load:ident, $loadu:ident, $store:ident,
+     $storeu:ident, $add:ident, $sub:ident, $fmadd:ident, $transpose:ident) => {
+        impl F64x for $v {
+            const W: usize = $w;
+            type Rows = [$v; $w];
+            type Seg = [$v; NSEG / $w];
+            #[inline(always)]
+            unsafe fn zero_rows() -> Self::Rows {
+                unsafe { [$zero(); $w] }
+            }
+            #[inline(always)]
+            unsafe fn zero_seg() -> Self::Seg {
+                unsafe { [$zero(); NSEG / $w] }
+            }
+            #[inline(always)]
+            unsafe fn load(p: *const f64) -> Self {
+                unsafe { $load(p) }
+            }
+            #[inline(always)]
+            unsafe fn loadu(p: *const f64) -> Self {
+                unsafe { $loadu(p) }
+            }
+            #[inline(always)]
+            unsafe fn store(p: *mut f64, v: Self) {
+                unsafe { $store(p, v) }
+            }
+            #[inline(always)]
+            unsafe fn storeu(p: *mut f64, v: Self) {
+                unsafe { $storeu(p, v) }
+            }
+            #[inline(always)]
+            unsafe fn add(a: Self, b: Self) -> Self {
+                unsafe { $add(a, b) }
+            }
+            #[inline(always)]
+            unsafe fn sub(a: Self, b: Self) -> Self {
+                unsafe { $sub(a, b) }
+            }
+            #[inline(always)]
+            unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
+                unsafe { $fmadd(a, b, c) }
+            }
+            #[inline(always)]
+            unsafe fn transpose(rows: Self::Rows) -> Self::Rows {
+                unsafe { $transpose!(rows) }
+            }
+            #[target_feature(enable = $feat)]
+            unsafe fn build_lanes<const SEG: usize>(
+                x: &[f64],
+                a: usize,
+                halo: usize,
+                dst: &mut [Line],
+            ) {
+                // SAFETY: the instruction set is available (caller contract).
+                unsafe { build_lanes_with::<Self, SEG>(x, a, halo, dst) }
+            }
+        }
+    };
 }
 
 #[cfg(target_arch = "x86_64")]
-impl F64x for __m256d {
-    const W: usize = 4;
-    type Rows = [__m256d; 4];
-    type Seg = [__m256d; NSEG / 4];
-    #[inline(always)]
-    unsafe fn zero_rows() -> Self::Rows {
-        unsafe { [_mm256_setzero_pd(); 4] }
-    }
-    #[inline(always)]
-    unsafe fn zero_seg() -> Self::Seg {
-        unsafe { [_mm256_setzero_pd(); NSEG / 4] }
-    }
-    #[inline(always)]
-    unsafe fn load(p: *const f64) -> Self {
-        unsafe { _mm256_load_pd(p) }
-    }
-    #[inline(always)]
-    unsafe fn loadu(p: *const f64) -> Self {
-        unsafe { _mm256_loadu_pd(p) }
-    }
-    #[inline(always)]
-    unsafe fn store(p: *mut f64, v: Self) {
-        unsafe { _mm256_store_pd(p, v) }
-    }
-    #[inline(always)]
-    unsafe fn storeu(p: *mut f64, v: Self) {
-        unsafe { _mm256_storeu_pd(p, v) }
-    }
-    #[inline(always)]
-    unsafe fn add(a: Self, b: Self) -> Self {
-        unsafe { _mm256_add_pd(a, b) }
-    }
-    #[inline(always)]
-    unsafe fn sub(a: Self, b: Self) -> Self {
-        unsafe { _mm256_sub_pd(a, b) }
-    }
-    #[inline(always)]
-    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
-        unsafe { _mm256_fmadd_pd(a, b, c) }
-    }
-    #[inline(always)]
-    unsafe fn transpose(rows: Self::Rows) -> Self::Rows {
-        unsafe { transpose4x4!(rows) }
-    }
-    #[target_feature(enable = "avx2")]
-    unsafe fn build_lanes<const SEG: usize>(x: &[f64], a: usize, halo: usize, dst: &mut [Line]) {
-        // SAFETY: AVX2 is available (caller contract).
-        unsafe { build_lanes_with::<Self, SEG>(x, a, halo, dst) }
-    }
-}
+f64x_impl!(
+    __m512d,
+    8,
+    "avx512f",
+    _mm512_setzero_pd,
+    _mm512_load_pd,
+    _mm512_loadu_pd,
+    _mm512_store_pd,
+    _mm512_storeu_pd,
+    _mm512_add_pd,
+    _mm512_sub_pd,
+    _mm512_fmadd_pd,
+    transpose8x8
+);
+
+#[cfg(target_arch = "x86_64")]
+f64x_impl!(
+    __m256d,
+    4,
+    "avx2",
+    _mm256_setzero_pd,
+    _mm256_load_pd,
+    _mm256_loadu_pd,
+    _mm256_store_pd,
+    _mm256_storeu_pd,
+    _mm256_add_pd,
+    _mm256_sub_pd,
+    _mm256_fmadd_pd,
+    transpose4x4
+);
 
 /// Transposed copy of the NSEG rows of the full chunk [a, a + NSEG·SEG) with a halo of `halo`
 /// columns, written to `dst` (2·(halo + SEG) lines): `dst[2c + h]` holds, in lane r,
