@@ -24,8 +24,9 @@
 //!   walked in column blocks, all scales per block, each kernel generic over the vector type;
 //!   the same operations in the same order as the portable code.
 //! * [`streamed`]: the streamed MOAV kernel for long rate series: no series-sized buffer, the
-//!   near scales in jobs that build the checkpoints as they go, the far scales walked by
-//!   residue class so that their lagged blocks are still cached.
+//!   near scales in jobs that build the checkpoints as they go (`streamed/near.rs`), the far
+//!   scales walked by residue class so that their lagged blocks are still cached
+//!   (`streamed/far.rs`).
 //!
 //! The chi-square interval of a long series is streamed too, by the `ci_stream` module, from
 //! [`cumsum::checkpoints`] and [`cumsum::prefix_window`].

@@ -35,13 +35,13 @@ const fn tail_reach(s: usize) -> usize {
 }
 
 /// Halo (columns) of the transposed copy of a near chunk: scales with 2m ≤ XH read their lagged
-/// samples from the copy (see [`build_lanes_with`](super::vector::build_lanes_with)).
+/// samples from the copy (see `build_lanes_with` (vector)).
 const XH: usize = 512;
 const _: () = assert!(XH.is_multiple_of(8) && SEG_NEAR.is_multiple_of(8));
 
 /// The vector kernels of the chunk walk, each written once ([`block_lanes_with`],
 /// [`blocks_lanes_with`], [`block_rows_with`], [`chunk_all_with`]) and compiled for each vector
-/// type's instruction set by [`walk_entry_points!`].
+/// type's instruction set by `walk_entry_points!`.
 ///
 /// # Safety
 /// Every function needs the CPU to support the vector's instruction set (see [`F64x`]).
@@ -169,7 +169,7 @@ type Avx512 = std::arch::x86_64::__m512d;
 type Avx2 = std::arch::x86_64::__m256d;
 
 /// [`block_rows_with`] for N scales at once from lane-layout copies
-/// ([`build_lanes_with`](super::vector::build_lanes_with)) in `buf`: for scale q the columns
+/// (`build_lanes_with` (vector)) in `buf`: for scale q the columns
 /// x_k, x_{k−m}, x_{k−2m} of chunk column j are the line pairs at column `offs[q][0] + j`,
 /// `offs[q][1] + j`, `offs[q][2] + j` of `buf`. Over the columns [j0, j1): per scale and
 /// column, y = (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) from aligned loads, then
@@ -558,7 +558,7 @@ pub(super) struct Scratch {
     states: Vec<StateAt>,
     /// Scales (and states) that transpose their rows in registers ([`block_rows_with`]).
     regs: Vec<(usize, SegState)>,
-    /// The halo copy of the chunk ([`build_lanes_with`](super::vector::build_lanes_with)).
+    /// The halo copy of the chunk (`build_lanes_with` (vector)).
     xt: Vec<Line>,
     /// Column offsets and states of the scales that read `xt`, and of those that read `ring`.
     halo: Vec<([usize; 3], SegState)>,
