@@ -34,23 +34,6 @@ const CRATES: &[(&str, &str)] = &[
 /// The cycles that exist today and that issue 30 asks to remove: (crate, the modules of one
 /// strongly connected component). Remove an entry when its cycle is gone; never add one.
 const KNOWN: &[(&str, &[&str])] = &[
-    // The AV kernel takes its data through `source`, which imports the kernel back (and the
-    // streamed CI, the range rescaling and through it the stability family, which all sit on
-    // the kernel).
-    (
-        "avar",
-        &[
-            "ci_stream",
-            "kernel",
-            "range",
-            "source",
-            "stability",
-            "stability::blocks",
-            "stability::noise_id",
-            "stability::stream",
-            "stability::totdev",
-        ],
-    ),
     // The fit, its inference and diagnosis, and the robust fit call each other.
     ("gmwm-prep", &["diagnose", "gmwm", "inference", "robust"]),
 ];

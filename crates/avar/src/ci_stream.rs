@@ -2,10 +2,10 @@
 //!
 //! The default interval ([`crate::ci`]) identifies the noise at each scale from the m-cluster
 //! means, which the in-memory path reads from the centred cumulative sum C (8 bytes per
-//! sample). Here C is never held whole: its checkpoints ([`kernel::checkpoints`], 16 bytes per
+//! sample). Here C is never held whole: its checkpoints ([`kernel::cumsum::checkpoints`], 16 bytes per
 //! 64 samples) are built in one pass, and the series is then read two or three more times in
 //! windows of [`WINDOW`] samples, each window rebuilding its stretch of C exactly as the
-//! in-memory path stores it ([`kernel::prefix_window`]):
+//! in-memory path stores it ([`kernel::cumsum::prefix_window`]):
 //!
 //! * scales m < [`BIG_M`] (more than T/128 cluster means): the identification's blocks are
 //!   computed where they start, from the window: the least-squares line in the first pass,
@@ -78,7 +78,7 @@ impl Small {
 /// in and zero for every window).
 fn window_pass<R: Send>(
     x: &[f64],
-    ck: &kernel::Checkpoints,
+    ck: &kernel::cumsum::Checkpoints,
     reach: &[&Small],
     bufs: &[std::sync::Mutex<Vec<f64>>],
     release: &(dyn Fn(usize, usize) + Sync),
@@ -106,7 +106,7 @@ fn window_pass<R: Send>(
                         k_hi = k_hi.max(s.reach(r.end));
                     }
                 }
-                let k0 = kernel::prefix_window(x, ck, lo, k_hi.min(t), &mut buf);
+                let k0 = kernel::cumsum::prefix_window(x, ck, lo, k_hi.min(t), &mut buf);
                 out.push((w, f(&buf, k0, lo, hi)));
                 release(lo, hi.min(t));
             }
@@ -136,7 +136,7 @@ fn identify_within(
     budget: usize,
 ) -> Result<Vec<Option<NoiseId>>, AvarError> {
     let t = x.len();
-    let ck = kernel::checkpoints_io(x, release)?;
+    let ck = kernel::cumsum::checkpoints_io(x, release)?;
     let bufs: Vec<std::sync::Mutex<Vec<f64>>> = (0..rayon::current_num_threads().max(1))
         .map(|_| std::sync::Mutex::new(Vec::new()))
         .collect();
@@ -234,7 +234,7 @@ fn identify_within(
     // the lines of the small scales (end points from C at single indices)
     let c_at = |k: usize| {
         let mut buf = Vec::new();
-        let k0 = kernel::prefix_window(x, &ck, k, k, &mut buf);
+        let k0 = kernel::cumsum::prefix_window(x, &ck, k, k, &mut buf);
         buf[k - k0]
     };
     let lines: Vec<IdLine> = small
@@ -324,7 +324,7 @@ mod tests {
     /// The in-memory identification at each m (the whole cumulative sum).
     fn in_memory(x: &[f64], ms: &[u64]) -> Vec<Option<NoiseId>> {
         let mut c = Vec::new();
-        let mean = kernel::centred_prefix_into(x, &mut c).unwrap();
+        let mean = kernel::cumsum::centred_prefix_into(x, &mut c).unwrap();
         let cum = Cumulative {
             c: Cow::Owned(c),
             factor: 1.0,

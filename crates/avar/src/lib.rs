@@ -157,7 +157,7 @@ pub(crate) fn cumulative<'a>(
     match input {
         InputKind::Rate => {
             check_len(data.len(), data.len())?;
-            let mean = kernel::centred_prefix_into(data, scratch)?;
+            let mean = kernel::cumsum::centred_prefix_into(data, scratch)?;
             Ok(Cumulative {
                 c: Cow::Borrowed(&scratch[..]),
                 factor: 1.0,
@@ -168,7 +168,7 @@ pub(crate) fn cumulative<'a>(
         InputKind::Angle => {
             // T + 1 angle samples hold T rate samples.
             check_len(data.len(), data.len().saturating_sub(1))?;
-            kernel::check_finite(data)?;
+            kernel::cumsum::check_finite(data)?;
             let t = data.len() - 1;
             let mean = (data[t] - data[0]) * rate_hz / t as f64;
             if !mean.is_finite() {
@@ -252,27 +252,27 @@ fn estimate(
 ) -> Result<AllanVariance, AvarError> {
     if matches!(config.input, InputKind::Rate)
         && matches!(config.estimator, Estimator::Overlapping)
-        && data.len() >= kernel::STREAM_MIN_T
+        && data.len() >= kernel::streamed::STREAM_MIN_T
     {
         if matches!(config.ci, CiMethod::None | CiMethod::ChiSquare) {
             // no series-sized buffer: the streamed kernel, and the chi-square interval's
             // noise identification from checkpoints and windows of the cumulative sum
-            return source::streamed(data, rate_hz, config, &kernel::Io::NONE);
+            return source::streamed(data, rate_hz, config, &source::io::Io::NONE);
         }
         // the Gaussian interval needs the cumulative sum; the AV itself comes from the
         // streamed kernel, as without a CI (faster at this length, and more precise at small
         // m: no rounding of a long cumulative sum enters the differences)
         let cum = cumulative(data, rate_hz, config.input, scratch)?;
         let ms = config.scales.cluster_sizes(data.len())?;
-        let (sums, mean) = kernel::overlapping_sums_stream(data, &ms)?;
+        let (sums, mean) = kernel::streamed::overlapping_sums_stream(data, &ms)?;
         return finish(Cumulative { mean, ..cum }, rate_hz, config, &ms, &sums);
     }
     let cum = cumulative(data, rate_hz, config.input, scratch)?;
     let t = cum.t();
     let ms = config.scales.cluster_sizes(t)?;
     let sums = match config.estimator {
-        Estimator::Overlapping => kernel::overlapping_sums(&cum.c, &ms),
-        Estimator::NonOverlapping => kernel::nonoverlapping_sums(&cum.c, &ms),
+        Estimator::Overlapping => kernel::buffered::overlapping_sums(&cum.c, &ms),
+        Estimator::NonOverlapping => kernel::buffered::nonoverlapping_sums(&cum.c, &ms),
     };
     finish(cum, rate_hz, config, &ms, &sums)
 }
@@ -363,7 +363,7 @@ pub fn allan_variance_channels(
 /// ```
 pub fn moav_reference(data: &[f64], m: u64) -> Result<f64, AvarError> {
     check_len(data.len(), data.len())?;
-    kernel::check_finite(data)?;
+    kernel::cumsum::check_finite(data)?;
     let t = data.len();
     if m == 0 {
         return Err(AvarError::ZeroScale);

@@ -28,36 +28,12 @@ use rayon::prelude::*;
 use crate::ci::{NoiseId, apply_chi_square, decide_level};
 use crate::config::{AvarConfig, CiMethod, Estimator, InputKind};
 use crate::error::AvarError;
+use crate::kernel::compensated::Neumaier;
 use crate::result::{AllanVariance, AvarPoint};
 use crate::{MIN_SAMPLES, validate_rate_alpha};
 
 /// Samples per block of the update (the partial sums of squares hold at most this many terms).
 const BLOCK: usize = 1024;
-
-/// A Neumaier-compensated running sum.
-#[derive(Debug, Clone, Copy, Default)]
-struct Comp {
-    s: f64,
-    c: f64,
-}
-
-impl Comp {
-    #[inline]
-    fn add(&mut self, x: f64) {
-        let t = self.s + x;
-        if self.s.abs() >= x.abs() {
-            self.c += (self.s - t) + x;
-        } else {
-            self.c += (x - t) + self.s;
-        }
-        self.s = t;
-    }
-
-    #[inline]
-    fn get(&self) -> f64 {
-        self.s + self.c
-    }
-}
 
 /// Running moments of the non-overlapping cluster means u_i of one scale (i = 0..n−1), centred
 /// by the first one: v_i = u_i − u_0, w_i = v_{i+1} − v_i, z_i = w_{i+1} − w_i.
@@ -70,14 +46,14 @@ struct IdMoments {
     w_last: f64,
     z_first: f64,
     z_last: f64,
-    sv: Comp,
-    siv: Comp,
-    svv: Comp,
-    s1: Comp,
-    sww: Comp,
-    sw1: Comp,
-    szz: Comp,
-    sz1: Comp,
+    sv: Neumaier,
+    siv: Neumaier,
+    svv: Neumaier,
+    s1: Neumaier,
+    sww: Neumaier,
+    sw1: Neumaier,
+    szz: Neumaier,
+    sz1: Neumaier,
 }
 
 impl IdMoments {
@@ -123,16 +99,16 @@ impl IdMoments {
         }
         let nf = n as f64;
         let tm = (nf - 1.0) / 2.0;
-        let sv = self.sv.get();
+        let sv = self.sv.value();
         let a = sv / nf;
-        let stv = self.siv.get() - tm * sv;
+        let stv = self.siv.value() - tm * sv;
         let sxx = nf * (nf * nf - 1.0) / 12.0;
         let b = stv / sxx;
         let vl = self.v_last;
         // Σ r_i² and Σ r_i r_{i+1} of r_i = v_i − a − b·(i − tm) (v_0 = 0)
-        let den0 = self.svv.get() - a * sv - b * stv;
+        let den0 = self.svv.value() - a * sv - b * stv;
         let stt1 = sxx - tm * tm - tm;
-        let num0 = self.s1.get() - a * (2.0 * sv - vl) - b * (2.0 * stv - (tm + 1.0) * vl)
+        let num0 = self.s1.value() - a * (2.0 * sv - vl) - b * (2.0 * stv - (tm + 1.0) * vl)
             + a * a * (nf - 1.0)
             + b * b * stt1;
         if let Ok(id) = decide_level(&[(num0, den0)], 0, n) {
@@ -146,8 +122,8 @@ impl IdMoments {
             (num, den)
         };
         let p1 = centred(
-            self.sww.get(),
-            self.sw1.get(),
+            self.sww.value(),
+            self.sw1.value(),
             vl,
             self.w_first,
             self.w_last,
@@ -157,8 +133,8 @@ impl IdMoments {
             return id;
         }
         let p2 = centred(
-            self.szz.get(),
-            self.sz1.get(),
+            self.szz.value(),
+            self.sz1.value(),
             self.w_last - self.w_first,
             self.z_first,
             self.z_last,
@@ -172,7 +148,7 @@ impl IdMoments {
 #[derive(Debug, Clone, Default)]
 struct ScaleAcc {
     /// Σ (C_k − 2C_{k−m} + C_{k−2m})² over k = 2m..T.
-    sum: Comp,
+    sum: Neumaier,
     /// The next cluster boundary (a multiple of m) at which a cluster mean completes.
     next_boundary: u64,
     id: IdMoments,
@@ -485,7 +461,7 @@ impl Online {
             })?;
             let n_terms = crate::n_terms(t, m, Estimator::Overlapping);
             let scale = 1.0 / m as f64;
-            let avar = self.acc[j].sum.get() * scale * scale / (2.0 * n_terms as f64);
+            let avar = self.acc[j].sum.value() * scale * scale / (2.0 * n_terms as f64);
             points.push(AvarPoint::bare(m, self.rate_hz, avar, n_terms));
             if self.config.ci == CiMethod::ChiSquare {
                 ids.push(self.acc[j].id.identify());

@@ -262,7 +262,7 @@ pub fn data_quality_with(
             need: 64,
         });
     }
-    crate::kernel::check_finite(x)?;
+    crate::kernel::cumsum::check_finite(x)?;
     let t = x.len();
     let spikes = find_spikes(x, rate_hz, opts.spike_z);
     let level_shifts = find_shifts(x, &spikes, rate_hz, opts);

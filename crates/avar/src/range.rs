@@ -48,71 +48,52 @@ fn max_exponent(data: &[f64]) -> Option<i32> {
     Some(((v.to_bits() >> 52) & 0x7ff) as i32 - 1023 - shift)
 }
 
+/// The scaled parts of a point: the bounds of the variance, the variance, the bounds of the
+/// deviation, the deviation.
+pub(crate) type Parts<'a> = (
+    [&'a mut Option<f64>; 2],
+    &'a mut f64,
+    [&'a mut Option<f64>; 2],
+    &'a mut f64,
+);
+
 /// A point of an estimate whose values are quadratic in the data (a variance, its bounds) or
-/// linear (the deviation and its bounds): the AV and every member of the stability family.
+/// linear (the deviation and its bounds): the AV and every member of the stability family
+/// (each implements it with [`quadratic_point!`], naming its fields).
 pub(crate) trait Quadratic {
     /// Cluster size (samples).
     fn m(&self) -> u64;
     /// The variance and its bounds.
     fn variances(&self) -> [Option<f64>; 3];
     /// The variance and its bounds, and the deviation and its bounds, to scale.
-    fn parts(
-        &mut self,
-    ) -> (
-        [&mut Option<f64>; 2],
-        &mut f64,
-        [&mut Option<f64>; 2],
-        &mut f64,
-    );
+    fn parts(&mut self) -> Parts<'_>;
 }
 
-impl Quadratic for crate::AvarPoint {
-    fn m(&self) -> u64 {
-        self.m
-    }
-    fn variances(&self) -> [Option<f64>; 3] {
-        [Some(self.avar), self.avar_lo, self.avar_hi]
-    }
-    fn parts(
-        &mut self,
-    ) -> (
-        [&mut Option<f64>; 2],
-        &mut f64,
-        [&mut Option<f64>; 2],
-        &mut f64,
-    ) {
-        (
-            [&mut self.avar_lo, &mut self.avar_hi],
-            &mut self.avar,
-            [&mut self.adev_lo, &mut self.adev_hi],
-            &mut self.adev,
-        )
-    }
+/// Implements [`Quadratic`] for a point type from the names of its fields:
+/// `quadratic_point!(Type: var, var_lo, var_hi; dev, dev_lo, dev_hi)` (and a field `m`).
+macro_rules! quadratic_point {
+    ($ty:ty: $var:ident, $lo:ident, $hi:ident; $dev:ident, $dev_lo:ident, $dev_hi:ident) => {
+        impl $crate::range::Quadratic for $ty {
+            fn m(&self) -> u64 {
+                self.m
+            }
+            fn variances(&self) -> [Option<f64>; 3] {
+                [Some(self.$var), self.$lo, self.$hi]
+            }
+            fn parts(&mut self) -> $crate::range::Parts<'_> {
+                (
+                    [&mut self.$lo, &mut self.$hi],
+                    &mut self.$var,
+                    [&mut self.$dev_lo, &mut self.$dev_hi],
+                    &mut self.$dev,
+                )
+            }
+        }
+    };
 }
+pub(crate) use quadratic_point;
 
-impl Quadratic for crate::stability::StabilityPoint {
-    fn m(&self) -> u64 {
-        self.m
-    }
-    fn variances(&self) -> [Option<f64>; 3] {
-        [Some(self.var), self.var_lo, self.var_hi]
-    }
-    fn parts(
-        &mut self,
-    ) -> (
-        [&mut Option<f64>; 2],
-        &mut f64,
-        [&mut Option<f64>; 2],
-        &mut f64,
-    ) {
-        (
-            [&mut self.var_lo, &mut self.var_hi],
-            &mut self.var,
-            [&mut self.dev_lo, &mut self.dev_hi],
-            &mut self.dev,
-        )
-    }
-}
+quadratic_point!(crate::AvarPoint: avar, avar_lo, avar_hi; adev, adev_lo, adev_hi);
 
 /// Whether the first estimate may have lost digits to overflow or underflow.
 pub(crate) fn suspicious<P: Quadratic>(first: Result<&[P], &AvarError>) -> bool {

@@ -840,7 +840,7 @@ fn spike_scan(data: &[f64], threshold: f64, buf: Vec<f64>) -> Result<SpikeScan<'
             "the spike threshold must be finite and > 0, got {threshold}"
         )));
     }
-    crate::kernel::check_finite(data)?;
+    crate::kernel::cumsum::check_finite(data)?;
     let w = SPIKE_HALF_WINDOW;
     let t = data.len();
     let none = |sd: f64, beyond: usize| SpikeReplacement {
@@ -1834,7 +1834,7 @@ fn check_excess_args(
             max: (t / 2) as u64,
         });
     }
-    crate::kernel::check_finite(data)?;
+    crate::kernel::cumsum::check_finite(data)?;
     Ok((t, data.iter().sum::<f64>() / t as f64))
 }
 

@@ -17,7 +17,7 @@
 
 use rayon::prelude::*;
 
-use crate::kernel::Neumaier;
+use crate::kernel::compensated::Neumaier;
 
 /// Samples per parallel job.
 const CHUNK: usize = 1 << 14;

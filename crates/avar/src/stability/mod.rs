@@ -343,6 +343,8 @@ pub struct StabilityPoint {
     pub alpha: Option<i32>,
 }
 
+crate::range::quadratic_point!(StabilityPoint: var, var_lo, var_hi; dev, dev_lo, dev_hi);
+
 /// A stability curve: one [`StabilityPoint`] per cluster size, ascending in m.
 ///
 /// ```
@@ -513,7 +515,8 @@ fn stability_unscaled(
         && (matches!(
             statistic,
             Statistic::Ohdev | Statistic::Mdev | Statistic::Tdev
-        ) || (statistic == Statistic::Totdev && data.len() >= crate::kernel::STREAM_MIN_T))
+        ) || (statistic == Statistic::Totdev
+            && data.len() >= crate::kernel::streamed::STREAM_MIN_T))
     {
         let t = data.len();
         check_len(t, t)?;
@@ -629,7 +632,7 @@ pub(crate) fn plain_phase(
         InputKind::Angle => data.len().saturating_sub(1),
     };
     check_len(data.len(), t)?;
-    crate::kernel::check_finite(data)?;
+    crate::kernel::cumsum::check_finite(data)?;
     Ok(match input {
         InputKind::Rate => {
             let mut x = Vec::with_capacity(data.len() + 1);
@@ -731,7 +734,7 @@ where
         .into_par_iter()
         .map(|b| block(b * len, ((b + 1) * len).min(n)))
         .collect();
-    let mut acc = crate::kernel::Neumaier::default();
+    let mut acc = crate::kernel::compensated::Neumaier::default();
     for p in parts {
         acc.add(p);
     }
@@ -761,7 +764,7 @@ where
                 .collect()
         })
         .collect();
-    let mut acc = crate::kernel::Neumaier::default();
+    let mut acc = crate::kernel::compensated::Neumaier::default();
     for b in 0..nb {
         acc.add(walked[b % stride][b / stride]);
     }
@@ -805,7 +808,7 @@ where
     ns.iter()
         .enumerate()
         .map(|(k, &n)| {
-            let mut acc = crate::kernel::Neumaier::default();
+            let mut acc = crate::kernel::compensated::Neumaier::default();
             for part in &parts[..n.div_ceil(BLOCK)] {
                 acc.add(part[k]);
             }

@@ -29,7 +29,7 @@ use rayon::prelude::*;
 use super::{StabilityPoint, Statistic};
 use crate::Cumulative;
 use crate::config::InputKind;
-use crate::kernel::Neumaier;
+use crate::kernel::compensated::Neumaier;
 
 /// Stable32 switches from the lag-1 ACF to the B1 ratio below this many analysis points.
 pub const MIN_ACF_POINTS: usize = 30;
@@ -245,10 +245,10 @@ fn centred_sum(s: &[f64], pivot: f64) -> f64 {
 }
 
 impl<'a> IdData<'a> {
-    /// The view of rate samples `x`: centred on [`crate::kernel::pivot_of`], with their 8-sums
+    /// The view of rate samples `x`: centred on [`crate::kernel::cumsum::pivot_of`], with their 8-sums
     /// (one parallel pass).
     pub(crate) fn rate(x: &'a [f64]) -> IdData<'a> {
-        let pivot = crate::kernel::pivot_of(x);
+        let pivot = crate::kernel::cumsum::pivot_of(x);
         let mut sums8 = vec![0.0f64; x.len() / 8];
         sums8
             .par_chunks_mut(1 << 12)
@@ -552,12 +552,12 @@ mod tests {
     fn r_n_sums_from_the_samples_equal_those_of_the_cumulative_sum() {
         for (k, x) in rate_series().iter().enumerate() {
             let mut c = Vec::new();
-            crate::kernel::centred_prefix_into(x, &mut c).unwrap();
+            crate::kernel::cumsum::centred_prefix_into(x, &mut c).unwrap();
             let t = x.len();
             // down to the last m with 3m ≤ T + 1 (a single sum w_0)
             for m in [1, 2, 7, 64, t / 5, (t + 1) / 3] {
                 let (mv_c, av_c) = rn_sums_cum(&c, m);
-                let (mv_x, av_x) = rn_sums_rate(x, crate::kernel::pivot_of(x), m);
+                let (mv_x, av_x) = rn_sums_rate(x, crate::kernel::cumsum::pivot_of(x), m);
                 // two roundings of the same sums (recurrences over ≤ 5000 steps of O(1)
                 // values against sums of O(m) values): far below the R(n) boundaries
                 for (a, b) in [(mv_c, mv_x), (av_c, av_x)] {
@@ -577,7 +577,7 @@ mod tests {
         // of the cumulative sum
         for (k, x) in rate_series().iter().enumerate() {
             let mut c = Vec::new();
-            let mean = crate::kernel::centred_prefix_into(x, &mut c).unwrap();
+            let mean = crate::kernel::cumsum::centred_prefix_into(x, &mut c).unwrap();
             let t = x.len();
             let cum = Cumulative {
                 c: std::borrow::Cow::Borrowed(&c[..]),

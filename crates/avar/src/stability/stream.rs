@@ -46,9 +46,11 @@
 use rayon::prelude::*;
 
 use crate::error::AvarError;
+use crate::kernel::compensated::{LANES, Neumaier, reduce_lanes, two_sum};
+use crate::kernel::cumsum::{first_non_finite, pivot_of};
+use crate::kernel::vector::Line;
 #[cfg(target_arch = "x86_64")]
-use crate::kernel::build_lanes_avx512;
-use crate::kernel::{LANES, Line, Neumaier, first_non_finite, pivot_of, reduce_lanes, two_sum};
+use crate::kernel::vector::build_lanes_avx512;
 use crate::simd::SimdLevel;
 
 /// Spacing (samples) of the checkpoints of c and P.
@@ -657,7 +659,7 @@ unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
     j1: usize,
     st: &mut SegState,
 ) {
-    use crate::kernel::transpose8x8;
+    use crate::kernel::vector::transpose8x8;
     use std::arch::x86_64::*;
     assert!(
         rows.iter()

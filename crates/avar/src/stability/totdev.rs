@@ -227,10 +227,10 @@ pub(crate) fn totvar_stream(y: &[f64], ms: &[u64]) -> Result<Vec<f64>, AvarError
     use rayon::prelude::*;
     let t = y.len();
     // the phase from the far walk's checkpoints where it had far scales, else from its own
-    let (interior, ck) = crate::kernel::overlapping_sums_stream_checkpoints(y, ms)?;
+    let (interior, ck) = crate::kernel::streamed::overlapping_sums_stream_checkpoints(y, ms)?;
     let ck = match ck {
         Some(ck) => ck,
-        None => crate::kernel::checkpoints(y)?,
+        None => crate::kernel::cumsum::checkpoints(y)?,
     };
     let x = |p: usize| ck.at(y, p);
     // every (scale, end, segment) of the reflected terms, in a fixed order
@@ -296,7 +296,7 @@ pub(crate) fn totvar_stream(y: &[f64], ms: &[u64]) -> Result<Vec<f64>, AvarError
         .collect();
     let mut out = interior;
     for (o, s) in out.iter_mut().zip(0..) {
-        let mut acc = crate::kernel::Neumaier::default();
+        let mut acc = crate::kernel::compensated::Neumaier::default();
         acc.add(*o);
         for (job, v) in jobs.iter().zip(&sums) {
             if job.0 == s {
@@ -359,7 +359,7 @@ fn signed_sum(terms: &[(f64, (f64, f64))]) -> f64 {
     let mut hi = 0.0;
     let mut lo = 0.0;
     for &(c, (h, l)) in terms {
-        let (s, e) = crate::kernel::two_sum(hi, c * h);
+        let (s, e) = crate::kernel::compensated::two_sum(hi, c * h);
         hi = s;
         lo += e + c * l;
     }

@@ -20,97 +20,14 @@
 //! assert_eq!(a, b);
 //! ```
 
+pub(crate) mod io;
+
 use crate::config::{AvarConfig, CiMethod, Estimator, InputKind};
 use crate::error::AvarError;
 use crate::result::AllanVariance;
 use crate::{Cumulative, check_len, finish, kernel, range, validate_rate_alpha};
+pub use io::{SampleSource, SampleWindow, SliceSource};
 use std::borrow::Cow;
-
-/// A series of rate (or angle) samples read by position, possibly paged in on demand.
-///
-/// `samples()[k]` is sample k (0-based, any finite value, in the unit of the series); the
-/// slice must stay valid and unchanged while the source lives. Reading a position may page it
-/// in (a memory-mapped file); [`release`](SampleSource::release) is a hint that the estimator
-/// does not need the samples of a range for a while, after which a file-backed source may drop
-/// their resident pages (reading them again pages them in again). Release never changes a
-/// value, so results do not depend on it.
-///
-/// ```
-/// use avar::source::SampleSource;
-/// struct Ramp(Vec<f64>);
-/// impl SampleSource for Ramp {
-///     fn samples(&self) -> &[f64] { &self.0 }
-/// }
-/// let r = Ramp(vec![1.0, 2.0, 3.0]);
-/// assert_eq!(r.samples()[2], 3.0);
-/// r.release(0, 3); // the default does nothing
-/// ```
-pub trait SampleSource: Sync {
-    /// All samples, indexed by position.
-    fn samples(&self) -> &[f64];
-    /// The estimator is done with samples [lo, hi) for now (a hint; default: nothing).
-    fn release(&self, lo: usize, hi: usize) {
-        let _ = (lo, hi);
-    }
-    /// A private window for one thread of the far-scale walk, which reads small chunks spread
-    /// over the whole series (a file-backed source reads them into its own pages with
-    /// positioned reads, because mapping them would keep whole large page-cache folios of
-    /// the file resident); `None` (the default): the walk reads [`samples`](Self::samples).
-    fn window(&self) -> Option<Box<dyn SampleWindow + '_>> {
-        None
-    }
-}
-
-/// A position-indexed private copy of parts of a [`SampleSource`], for one thread.
-///
-/// ```
-/// use avar::source::SampleWindow;
-/// struct Copy { src: Vec<f64>, buf: Vec<f64> }
-/// impl SampleWindow for Copy {
-///     fn fill(&mut self, lo: usize, hi: usize) {
-///         let hi = hi.min(self.src.len());
-///         self.buf[lo..hi].copy_from_slice(&self.src[lo..hi]);
-///     }
-///     fn view(&self) -> &[f64] { &self.buf }
-///     fn clear(&mut self) { self.buf.iter_mut().for_each(|v| *v = 0.0) }
-/// }
-/// let mut w = Copy { src: vec![1.0, 2.0, 3.0], buf: vec![0.0; 3] };
-/// w.fill(1, 9);
-/// assert_eq!(w.view(), &[0.0, 2.0, 3.0]);
-/// ```
-pub trait SampleWindow {
-    /// Makes samples [lo, hi) (clamped to the series) readable in [`view`](Self::view).
-    fn fill(&mut self, lo: usize, hi: usize);
-    /// The window, as long as the series: `view()[k]` is sample k wherever filled since the
-    /// last [`clear`](Self::clear) (elsewhere unspecified).
-    fn view(&self) -> &[f64];
-    /// Forgets what was filled.
-    fn clear(&mut self);
-    /// Starts a walk whose chunks lie at `origin` + multiples of `period` (samples): what was
-    /// filled before is forgotten, and the window may place the samples anew (a file-backed
-    /// window maps the walk's chunks onto the pages of the previous walk, so that no page is
-    /// faulted in twice). Default: [`clear`](Self::clear).
-    fn rebase(&mut self, origin: usize, period: usize) {
-        let _ = (origin, period);
-        self.clear();
-    }
-}
-
-/// An in-memory slice as a [`SampleSource`] (release is a no-op).
-///
-/// ```
-/// use avar::source::{SampleSource, SliceSource};
-/// let v = [1.0, 2.0];
-/// assert_eq!(SliceSource(&v).samples().len(), 2);
-/// ```
-#[derive(Debug, Clone, Copy)]
-pub struct SliceSource<'a>(pub &'a [f64]);
-
-impl SampleSource for SliceSource<'_> {
-    fn samples(&self) -> &[f64] {
-        self.0
-    }
-}
 
 /// Whether [`allan_variance_source`] streams a series of `t` samples with `config` (holding
 /// no series-sized buffer, releasing the source's pages as it goes), rather than running the
@@ -133,7 +50,7 @@ pub fn streams(t: usize, config: &AvarConfig) -> bool {
     matches!(config.input, InputKind::Rate)
         && matches!(config.estimator, Estimator::Overlapping)
         && matches!(config.ci, CiMethod::None | CiMethod::ChiSquare)
-        && t >= kernel::STREAM_MIN_T
+        && t >= kernel::streamed::STREAM_MIN_T
 }
 
 /// The Allan variance of the samples of `source`, bit-identical to [`crate::allan_variance`]
@@ -170,7 +87,7 @@ pub fn allan_variance_source<S: SampleSource + ?Sized>(
     validate_rate_alpha(rate_hz, config.alpha)?;
     let release = |lo: usize, hi: usize| source.release(lo, hi);
     let windows = || source.window();
-    let io = kernel::Io {
+    let io = io::Io {
         release: &release,
         windows: &windows,
     };
@@ -183,7 +100,7 @@ pub fn allan_variance_source<S: SampleSource + ?Sized>(
         return first;
     };
     let scaled = range::scaled_copy(data, e);
-    let mut av = streamed(&scaled, rate_hz, config, &kernel::Io::NONE)?;
+    let mut av = streamed(&scaled, rate_hz, config, &io::Io::NONE)?;
     av.mean = range::ldexp(av.mean, e);
     range::scale_back(&mut av.points, e)?;
     Ok(av)
@@ -196,12 +113,12 @@ pub(crate) fn streamed(
     data: &[f64],
     rate_hz: f64,
     config: &AvarConfig,
-    io: &kernel::Io<'_>,
+    io: &io::Io<'_>,
 ) -> Result<AllanVariance, AvarError> {
     check_len(data.len(), data.len())?;
     let t = data.len();
     let ms = config.scales.cluster_sizes(t)?;
-    let (sums, mean) = kernel::overlapping_sums_stream_io(data, &ms, io)?;
+    let (sums, mean) = kernel::streamed::overlapping_sums_stream_io(data, &ms, io)?;
     let cum = Cumulative {
         c: Cow::Borrowed(&[]),
         factor: 1.0,
