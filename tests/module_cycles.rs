@@ -33,10 +33,7 @@ const CRATES: &[(&str, &str)] = &[
 
 /// The cycles that exist today and that issue 30 asks to remove: (crate, the modules of one
 /// strongly connected component). Remove an entry when its cycle is gone; never add one.
-const KNOWN: &[(&str, &[&str])] = &[
-    // The fit, its inference and diagnosis, and the robust fit call each other.
-    ("gmwm-prep", &["diagnose", "gmwm", "inference", "robust"]),
-];
+const KNOWN: &[(&str, &[&str])] = &[];
 
 /// The command's modules: (crate, module). No module outside one of them (library code) may
 /// name it or anything inside it.

@@ -308,6 +308,10 @@ impl FitSettings {
     }
 }
 
+/// One GMWM fit of a template: the fit, the covariance V of the AV estimates it used, how V
+/// was obtained, and the delta-method inference.
+type Attempt = (GmwmFit, CovMatrix, CiMethod, Inference);
+
 /// Level of the significance test that each component beyond the book's class (BI, SIN,
 /// AR(p), ARMA) must pass to stay in a selected model (see [`drop_insignificant`]).
 pub const TERM_SIGNIFICANCE: f64 = 0.01;
@@ -326,9 +330,9 @@ pub const TERM_SIGNIFICANCE: f64 = 0.01;
 /// (ΔJ = 4.1 for BI, 5.3 for SIN, J = 22 scales); both go under this test, and a real
 /// oscillation or flicker region moves J by hundreds (the ADIS16405 Z gyros' SIN).
 fn drop_insignificant<T>(
-    chosen: (GmwmFit, CovMatrix, CiMethod, Inference),
-    attempt: &dyn Fn(&Model) -> std::result::Result<(GmwmFit, CovMatrix, CiMethod, Inference), T>,
-) -> (GmwmFit, CovMatrix, CiMethod, Inference) {
+    chosen: Attempt,
+    attempt: &dyn Fn(&Model) -> std::result::Result<Attempt, T>,
+) -> Attempt {
     let mut cur = chosen;
     loop {
         let Some(j_cur) = cur.3.j_test.as_ref().map(|j| j.statistic) else {
@@ -336,7 +340,7 @@ fn drop_insignificant<T>(
         };
         let kinds = cur.0.kinds.clone();
         let n_scales = cur.0.m.len() as f64;
-        let mut weakest: Option<(f64, (GmwmFit, CovMatrix, CiMethod, Inference))> = None;
+        let mut weakest: Option<(f64, Attempt)> = None;
         for (i, k) in kinds.iter().enumerate() {
             let looks = match k {
                 ProcessKind::BiasInstability(_) => 1.0,

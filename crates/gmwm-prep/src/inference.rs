@@ -109,87 +109,7 @@ pub fn diagonal_covariance(curve: &AvCurve) -> CovMatrix {
     CovMatrix::diagonal(&d)
 }
 
-/// Covariance matrix (J×J, unit⁴) of the maximum-overlapping AV estimates (book eq. 4.2) at
-/// cluster sizes `m` (samples) of a series of `n` samples of the fully specified `model`
-/// (per-sample parameters, `rate_hz` used by GM only), assuming Gaussian noise. This is the
-/// exact finite-n covariance, not a large-n approximation.
-///
-/// **Derivation.** With C_t = x_1 + … + x_t (C_0 = 0) and D_i(t) = C_t − 2C_{t−m_i} + C_{t−2m_i},
-/// the estimator is AV̂_i = Q_i / (2 K_i m_i²), Q_i = Σ_{t=2m_i}^{n} D_i(t)², K_i = n − 2m_i + 1.
-/// D_i is stationary for every process here and, for independent components,
-/// g_ij(k) = Cov(D_i(t+k), D_j(t)) = −½ Σ_{a,b∈{0,1,2}} α_a α_b V(k − a m_i + b m_j), α = (1, −2, 1),
-/// where V(h) = Var(C_{t+h} − C_t) is the variogram of C summed over the components
-/// (−V/2 is a generalized covariance, valid because α annihilates constants and linear trends):
-/// WN σ²|h|; QN 2Q² (h ≠ 0); MA1 σ²((1+θ)²|h| − 2θ) (h ≠ 0); RW −γ²(|h|³ − |h|)/6;
-/// AR1 γ(0)(|h|(1 − φ²) − 2φ(1 − φ^|h|))/(1 − φ)², evaluated for φ > 0 as
-/// 2φγ(0)/(1−φ)² · (|h|(sinh λ − λ) + e^{−λ|h|} − 1 + λ|h|), λ = −ln φ (no cancellation);
-/// GM as AR1 with φ = e^{−β/rate}; V(0) = 0. (k = 0, i = j gives Var D = 4V(m) − V(2m), the
-/// book's Lemma 4.2.) For Gaussian zero-mean D, Isserlis' theorem gives
-/// Cov(D_i(s)², D_j(t)²) = 2 g_ij(s−t)², hence
-/// Cov(Q_i, Q_j) = 2 Σ_k N_ij(k) g_ij(k)², N_ij(k) = #{(s, t): s − t = k, s ≥ 2m_i, t ≥ 2m_j, s, t ≤ n}.
-/// A drift ω (deterministic) shifts D_i by μ_i = ω m_i²: it leaves no variance of its own but
-/// adds the cross term 4 μ_i μ_j Σ_k N_ij(k) g_ij(k). So
-/// Cov(AV̂_i, AV̂_j) = [2 Σ N g² + 4 μ_i μ_j Σ N g] / (4 K_i K_j m_i² m_j²).
-/// The lag sum runs over up to 2n lags; between its ≤ 13 kinks (zeros of the V arguments and
-/// of N's pieces) the summand is a polynomial plus exponentials in k, so it is summed exactly
-/// over 16 lags next to each kink and by graded 8-point Gauss–Legendre panels plus the
-/// Euler–Maclaurin end term in between (AR1 with φ < 0: even and odd lags separately).
-/// Cost O(J² log n), independent of m.
-///
-/// Errors: empty `m`, m = 0, 2m > n, non-positive rate, a model with unset parameters.
-///
-/// ```
-/// use gmwm_prep::inference::model_covariance;
-/// // White noise: Var(AV̂(m)) ≈ σ⁴(4m² + 5)/(3 K m³) for K = n − 2m + 1 ≫ m.
-/// let wn: processes::Model = "WN(sigma2=2)".parse()?;
-/// let v = model_covariance(&wn, &[8, 16], 1.0, 1_000_000)?;
-/// let k = (1_000_000 - 16 + 1) as f64;
-/// let approx = 4.0 * (4.0 * 64.0 + 5.0) / (3.0 * k * 512.0);
-/// assert!((v.get(0, 0) / approx - 1.0).abs() < 1e-4);
-/// assert!(v.get(0, 1) > 0.0 && v.get(0, 1) < v.get(0, 0));
-/// # Ok::<(), gmwm_prep::FitError>(())
-/// ```
-pub fn model_covariance(model: &Model, m: &[u64], rate_hz: f64, n: u64) -> Result<CovMatrix> {
-    use rayon::prelude::*;
-    if m.is_empty() {
-        return Err(FitError::InvalidArgument("no cluster sizes".into()));
-    }
-    if n > (i64::MAX / 8) as u64 {
-        return Err(FitError::InvalidArgument(format!(
-            "series length {n} too large"
-        )));
-    }
-    if let Some(&bad) = m.iter().find(|&&x| x == 0 || x > n / 2) {
-        return Err(FitError::InvalidArgument(format!(
-            "cluster size {bad} is not in [1, n/2] for n = {n}"
-        )));
-    }
-    let v = crate::avcov::Variogram::new(model, rate_hz)?;
-    let j = m.len();
-    let pairs: Vec<(usize, usize)> = (0..j).flat_map(|a| (a..j).map(move |b| (a, b))).collect();
-    let vals: Vec<f64> = pairs
-        .par_iter()
-        .map(|&(a, b)| {
-            let pair = crate::avcov::Pair {
-                v: &v,
-                mi: m[a] as i64,
-                mj: m[b] as i64,
-                n: n as i64,
-            };
-            let (s2, s1) = pair.sums();
-            let (mi, mj) = (m[a] as f64, m[b] as f64);
-            let (ki, kj) = ((n - 2 * m[a] + 1) as f64, (n - 2 * m[b] + 1) as f64);
-            let mu = v.drift * v.drift * mi * mi * mj * mj;
-            (2.0 * s2 + 4.0 * mu * s1) / (4.0 * ki * kj * mi * mi * mj * mj)
-        })
-        .collect();
-    let mut data = vec![0.0; j * j];
-    for (&(a, b), &x) in pairs.iter().zip(&vals) {
-        data[a * j + b] = x;
-        data[b * j + a] = x;
-    }
-    CovMatrix::new(j, data)
-}
+pub use crate::avcov::model_covariance;
 
 /// [`model_covariance`] at a fit: the covariance (J×J) of its moments ν̂ under the fitted
 /// model, at its scales and series length (Haar WV moments: ×¼; robust AV of efficiency e:
@@ -221,7 +141,7 @@ pub fn fit_covariance(fit: &GmwmFit) -> Result<CovMatrix> {
     if fit.moments == crate::gmwm::Moments::HaarWaveletVariance {
         v.data.iter_mut().for_each(|x| *x *= 0.25);
     }
-    let infl = crate::robust::inflation(fit.robust)?;
+    let infl = crate::efficiency::inflation(fit.robust)?;
     if infl != 1.0 {
         v.data.iter_mut().for_each(|x| *x *= infl);
     }

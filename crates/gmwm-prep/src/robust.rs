@@ -29,29 +29,7 @@ fn av_err(e: avar::AvarError) -> FitError {
 /// than by the windows, none of which drives it.
 pub const SPREAD_SHARE: f64 = 0.1;
 
-/// The variance inflation 1/e of the robust AV of efficiency e (1 for `None`).
-///
-/// Errors: e outside `avar::robust::EFFICIENCY_RANGE`.
-///
-/// ```
-/// assert_eq!(gmwm_prep::robust::inflation(None).unwrap(), 1.0);
-/// assert!((gmwm_prep::robust::inflation(Some(0.6)).unwrap() - 1.0 / 0.6).abs() < 1e-9);
-/// assert!(gmwm_prep::robust::inflation(Some(1.2)).is_err());
-/// ```
-pub fn inflation(robust: Option<f64>) -> Result<f64> {
-    match robust {
-        None => Ok(1.0),
-        Some(e) => {
-            let (lo, hi) = avar::robust::EFFICIENCY_RANGE;
-            if !(e.is_finite() && (lo..=hi).contains(&e)) {
-                return Err(FitError::InvalidArgument(format!(
-                    "robust efficiency must lie in [{lo}, {hi}], got {e}"
-                )));
-            }
-            Ok(1.0 / e)
-        }
-    }
-}
+pub use crate::efficiency::inflation;
 
 /// The robust AV of rate samples (at the scales and with the CI family of `config`) as a
 /// curve, beside the full robust result (classical curve, rejected counts).
