@@ -3,7 +3,8 @@
 //! GMWM-type estimator of `gmwm-prep` (issue 5, acceptance "simulation").
 //!
 //! For each case (WN + RW + AR1; QN + WN + RW; WN + 2*AR1 with time constants a decade
-//! apart; WN + RW + BI, the bias instability simulated over the band of the fitted scales), R series of T samples are simulated with fixed seeds (replicate r = stream r,
+//! apart; WN + RW + BI, the bias instability simulated over the band of the fitted scales;
+//! SIN + WN), R series of T samples are simulated with fixed seeds (replicate r = stream r,
 //! replicates run in parallel), the MOAV is computed at the book's dyadic scales with
 //! chi-square CIs (`avar` defaults), and
 //! - the GMWM is fitted (default weighting of `GmwmOptions`, or `--weighting`);
@@ -370,6 +371,13 @@ pub fn run(args: &[String]) -> Result<(), String> {
             "wn-rw-bi",
             "WN(sigma2=1e-4) + RW(gamma2=1e-10) + BI(B=7e-4)",
             "WN + RW + BI",
+        ),
+        // random-phase sinusoid (issue 28): period 2π/0.5 ≈ 12.6 samples; its AV
+        // α² sin⁴(βm/2) / (m² sin²(β/2)) is 0.51·α² at m = 4, twice the WN's AV there
+        (
+            "sin-wn",
+            "SIN(alpha2=1e-4, beta=0.5) + WN(sigma2=1e-4)",
+            "SIN + WN",
         ),
     ];
     // not an acceptance case: the slow AR1 carries a tenth of the fast one's variance and
