@@ -6,6 +6,7 @@
 
 use crate::ar_p::ArP;
 use crate::error::{ProcessError, Result};
+use crate::long_memory::{Fgn, Plp};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -832,6 +833,13 @@ pub enum ProcessKind {
     /// Not in [`ProcessKind::ALL`] (the classes built from it stay as they were).
     #[serde(rename = "ARP")]
     ArP(u8),
+    /// Power-law process ARFIMA(0, d, 0), `PLP` ([`crate::Plp`]). Not in
+    /// [`ProcessKind::ALL`].
+    #[serde(rename = "PLP")]
+    Plp,
+    /// Fractional Gaussian noise, `FGN` ([`crate::Fgn`]). Not in [`ProcessKind::ALL`].
+    #[serde(rename = "FGN")]
+    Fgn,
 }
 
 impl ProcessKind {
@@ -876,6 +884,8 @@ impl ProcessKind {
             ProcessKind::ArP(3) => "AR3",
             ProcessKind::ArP(4) => "AR4",
             ProcessKind::ArP(_) => "AR2",
+            ProcessKind::Plp => "PLP",
+            ProcessKind::Fgn => "FGN",
         }
     }
 
@@ -899,6 +909,8 @@ impl ProcessKind {
             ProcessKind::ArP(3) => &["phi1", "phi2", "phi3", "sigma2"],
             ProcessKind::ArP(4) => &["phi1", "phi2", "phi3", "phi4", "sigma2"],
             ProcessKind::ArP(_) => &["phi1", "phi2", "sigma2"],
+            ProcessKind::Plp => &["sigma2", "d"],
+            ProcessKind::Fgn => &["sigma2", "H"],
         }
     }
 
@@ -956,12 +968,13 @@ impl std::str::FromStr for ProcessKind {
         ProcessKind::ALL
             .into_iter()
             .chain((2..=crate::ar_p::AR_MAX_ORDER as u8).map(ProcessKind::ArP))
+            .chain([ProcessKind::Plp, ProcessKind::Fgn])
             .find(|k| k.code().eq_ignore_ascii_case(t))
             .ok_or_else(|| ProcessError::Parse {
                 input: s.to_string(),
                 position: 0,
                 message: format!(
-                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN"
+                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, PLP, FGN"
                 ),
             })
     }
@@ -1002,6 +1015,10 @@ pub enum Process {
     Sinusoid(Sinusoid),
     /// Autoregressive process of order 2 … 4.
     ArP(ArP),
+    /// Power-law process ARFIMA(0, d, 0).
+    Plp(Plp),
+    /// Fractional Gaussian noise.
+    Fgn(Fgn),
 }
 
 macro_rules! impl_from_process {
@@ -1021,7 +1038,9 @@ impl_from_process!(
     Ma1,
     BiasInstability,
     Sinusoid,
-    ArP
+    ArP,
+    Plp,
+    Fgn
 );
 
 impl Process {
@@ -1044,6 +1063,8 @@ impl Process {
             Process::BiasInstability(b) => ProcessKind::BiasInstability(b.band()),
             Process::Sinusoid(_) => ProcessKind::Sinusoid,
             Process::ArP(a) => ProcessKind::ArP(a.p),
+            Process::Plp(_) => ProcessKind::Plp,
+            Process::Fgn(_) => ProcessKind::Fgn,
         }
     }
 
@@ -1070,6 +1091,8 @@ impl Process {
                 v.push(a.sigma2);
                 v
             }
+            Process::Plp(p) => vec![p.sigma2, p.d],
+            Process::Fgn(p) => vec![p.sigma2, p.h],
         }
     }
 
@@ -1108,6 +1131,8 @@ impl Process {
                 let n = v.len();
                 ArP::new(&v[..n - 1], v[n - 1])?.into()
             }
+            ProcessKind::Plp => Plp::new(v[0], v[1])?.into(),
+            ProcessKind::Fgn => Fgn::new(v[0], v[1])?.into(),
         })
     }
 
@@ -1228,6 +1253,8 @@ impl Process {
                 let rho = a.acf(h.min(1 << 24).saturating_add(1));
                 a.stationary_variance() * if h < rho.len() { rho[h] } else { 0.0 }
             }
+            Process::Plp(p) => p.autocovariance(h),
+            Process::Fgn(p) => p.autocovariance(h),
             Process::RandomWalk(_) | Process::Drift(_) => {
                 return Err(ProcessError::NotDefined {
                     what: "autocovariance γ(h)",
@@ -1281,6 +1308,14 @@ enum ProcessRepr {
     Sinusoid { alpha2: f64, beta: f64 },
     #[serde(rename = "ARP")]
     ArP { phi: Vec<f64>, sigma2: f64 },
+    #[serde(rename = "PLP")]
+    Plp { sigma2: f64, d: f64 },
+    #[serde(rename = "FGN")]
+    Fgn {
+        sigma2: f64,
+        #[serde(rename = "H")]
+        h: f64,
+    },
     #[serde(rename = "BI")]
     BiasInstability {
         #[serde(rename = "B")]
@@ -1303,6 +1338,8 @@ impl TryFrom<ProcessRepr> for Process {
             ProcessRepr::Ma1 { theta, sigma2 } => Ma1::new(theta, sigma2)?.into(),
             ProcessRepr::Sinusoid { alpha2, beta } => Sinusoid::new(alpha2, beta)?.into(),
             ProcessRepr::ArP { phi, sigma2 } => ArP::new(&phi, sigma2)?.into(),
+            ProcessRepr::Plp { sigma2, d } => Plp::new(sigma2, d)?.into(),
+            ProcessRepr::Fgn { sigma2, h } => Fgn::new(sigma2, h)?.into(),
             ProcessRepr::BiasInstability { b, m_lo, m_hi } => {
                 let band = if m_lo == 0 && m_hi == 0 {
                     BiBand::AUTO
@@ -1346,6 +1383,14 @@ impl From<Process> for ProcessRepr {
                 b: p.b,
                 m_lo: p.band.m_lo,
                 m_hi: p.band.m_hi,
+            },
+            Process::Plp(p) => ProcessRepr::Plp {
+                sigma2: p.sigma2,
+                d: p.d,
+            },
+            Process::Fgn(p) => ProcessRepr::Fgn {
+                sigma2: p.sigma2,
+                h: p.h,
             },
         }
     }

@@ -211,6 +211,8 @@ fn variogram_parts(process: &Process, h: u64, rate: f64) -> (f64, f64) {
             let rho = a.acf(h as usize + 1);
             (a.stationary_variance(), 1.0 - rho[h as usize])
         }
+        Process::Plp(p) => (p.variance(), 1.0 - p.autocorrelation(h)),
+        Process::Fgn(f) => (f.sigma2(), 1.0 - f.autocovariance(h) / f.sigma2()),
     }
 }
 
@@ -240,6 +242,9 @@ pub fn lemma42_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result
         let rho = a.acf(2 * m as usize + 1);
         let unit = allan_variance_from_variogram(|h| 1.0 - rho[h as usize], m)?;
         return Ok(a.stationary_variance() * unit);
+    }
+    if let Process::Plp(p) = process {
+        return crate::long_memory::plp_lemma42_avar(p, m);
     }
     let scale = variogram_parts(process, 1, rate).0;
     let unit = allan_variance_from_variogram(|h| variogram_parts(process, h, rate).1, m)?;
