@@ -115,6 +115,40 @@ mod tests {
     }
 
     #[test]
+    fn av_gradient_used_by_the_fit_matches_central_differences() {
+        // ∂AV/∂σ² and ∂AV/∂d (∂AV/∂H) of the optimizer's route vs central differences of
+        // its value (step 1e-6 relative: truncation O(h²) and rounding ~1e-16/h ≈ 1e-10;
+        // the PLP d-derivative is itself a central difference: 1e-6 relative)
+        let mut g = [0.0; 5];
+        for (k, th) in [
+            (ProcessKind::Plp, [2e-4, 0.3]),
+            (ProcessKind::Plp, [1.0, -0.35]),
+            (ProcessKind::Fgn, [3e-5, 0.8]),
+            (ProcessKind::Fgn, [1.0, 0.2]),
+        ] {
+            for m in [1.0, 8.0, 4096.0] {
+                let v = crate::theory::kind_avar_grad(k, &th, m, 100.0, &mut g);
+                assert!(v.is_finite() && v > 0.0);
+                for i in 0..2 {
+                    let h = 1e-6 * th[i].abs();
+                    let (mut up, mut dn) = (th, th);
+                    up[i] += h;
+                    dn[i] -= h;
+                    let mut s = [0.0; 5];
+                    let fd = (crate::theory::kind_avar_grad(k, &up, m, 100.0, &mut s)
+                        - crate::theory::kind_avar_grad(k, &dn, m, 100.0, &mut s))
+                        / (2.0 * h);
+                    assert!(
+                        (g[i] - fd).abs() <= 1e-6 * fd.abs(),
+                        "{k:?} {th:?} m={m} i={i}: {} vs {fd}",
+                        g[i]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
     fn start_from_the_exact_slope() {
         // pure power laws: AV = m^{2d−1} and m^{2H−2} give d and H back exactly (to rounding)
         let m: Vec<f64> = (0..16).map(|j| 2f64.powi(j)).collect();
