@@ -246,6 +246,11 @@ pub fn lemma42_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result
     if let Process::Plp(p) = process {
         return crate::long_memory::plp_lemma42_avar(p, m);
     }
+    if let Process::Fgn(f) = process {
+        // the ACF form: its second differences of ρ carry no rounding of 1 − ρ(h), which
+        // the semivariogram form would amplify ~m^{3/2−2H} times for small H
+        return allan_variance_from_acf(f.sigma2(), |h| f.autocovariance(h) / f.sigma2(), m);
+    }
     let scale = variogram_parts(process, 1, rate).0;
     let unit = allan_variance_from_variogram(|h| variogram_parts(process, h, rate).1, m)?;
     Ok(scale * unit)

@@ -120,9 +120,10 @@ pub(crate) fn plp_avar_grad(p: &Plp, m: u64) -> (f64, [f64; 2]) {
     (av, [av / p.sigma2(), dd])
 }
 
-/// The PLP AV by the book's Lemma 4.2 in semivariogram form on the exact ACF
-/// (ρ(0 … 2m) by the ratio recursion ρ(h) = ρ(h−1)(h−1+d)/(h−d), relative error ≤ 2hε),
-/// summed with compensation: an O(m) route independent of [`plp_avar`].
+/// The PLP AV by the book's Lemma 4.2 (ACF form, compensated sum of the second
+/// differences 2ρ(m−i) − ρ(i) − ρ(2m−i)) on the exact ACF (ρ(0 … 2m) by the ratio recursion
+/// ρ(h) = ρ(h−1)(h−1+d)/(h−d), relative error ≤ 2hε): an O(m) route independent of
+/// [`plp_avar`].
 ///
 /// ```
 /// use processes::Plp;
@@ -135,8 +136,7 @@ pub(crate) fn plp_avar_grad(p: &Plp, m: u64) -> (f64, [f64; 2]) {
 pub fn plp_lemma42_avar(p: &Plp, m: u64) -> crate::Result<f64> {
     crate::error::check_m(m)?;
     let rho = p.acf(2 * m as usize + 1);
-    let unit = crate::lemma42::allan_variance_from_variogram(|h| 1.0 - rho[h as usize], m)?;
-    Ok(p.variance() * unit)
+    crate::lemma42::allan_variance_from_acf(p.variance(), |h| rho[h as usize], m)
 }
 
 /// Two-sided PSD of a PLP from s = sin²(πfΔt): σ²Δt(4s)^{−d} (unit²/Hz).
