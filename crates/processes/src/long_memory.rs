@@ -162,6 +162,10 @@ impl Plp {
     /// ```
     pub fn variance(&self) -> f64 {
         let d = self.d;
+        if d == 0.0 {
+            // white noise, exactly (ln Γ(1) evaluates to a few ulp, not to 0)
+            return self.sigma2;
+        }
         self.sigma2 * (ln_gamma(1.0 - 2.0 * d) - 2.0 * ln_gamma(1.0 - d)).exp()
     }
 

@@ -65,7 +65,7 @@ fn exact_acf() {
         }
         // Σ_{|h|<n} γ(h) = Var(sum of n) = σ² n^{2H} (fBm), n = 64
         let n = 64u64;
-        let s: f64 = f.autocovariance(0)
+        let s: f64 = n as f64 * f.autocovariance(0)
             + 2.0
                 * (1..n)
                     .map(|h| (n - h) as f64 * f.autocovariance(h))
