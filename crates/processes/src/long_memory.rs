@@ -424,7 +424,7 @@ pub fn circulant_embedding(acv: &[f64], n: usize, seed: u64, what: &str) -> Resu
     fft.process(&mut c);
     let lmax = c.iter().map(|z| z.re).fold(0.0f64, f64::max);
     let lmin = c.iter().map(|z| z.re).fold(f64::INFINITY, f64::min);
-    if !(lmax > 0.0) || lmin < -1e-10 * lmax {
+    if lmax.is_nan() || lmax <= 0.0 || lmin < -1e-10 * lmax {
         return Err(ProcessError::InvalidArgument(format!(
             "{what}: the circulant embedding of size {m} is not nonnegative definite (smallest eigenvalue {lmin:e}, largest {lmax:e}); exact simulation by Davies-Harte is not possible"
         )));
