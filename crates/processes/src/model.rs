@@ -675,14 +675,14 @@ impl<'a> Parser<'a> {
         if code.is_empty() {
             return Err(self.err(
                 self.pos,
-                "expected a process (WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN)",
+                "expected a process (WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, PLP, FGN)",
             ));
         }
         let kind = ProcessKind::from_str(code).map_err(|_| {
             self.err(
                 code_pos,
                 format!(
-                    "unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN"
+                    "unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, PLP, FGN"
                 ),
             )
         })?;
