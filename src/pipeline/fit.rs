@@ -313,10 +313,11 @@ impl FitSettings {
 type Attempt = (GmwmFit, CovMatrix, CiMethod, Inference);
 
 /// Level of the significance test that each component beyond the book's class (BI, SIN,
-/// AR(p), ARMA) must pass to stay in a selected model (see [`drop_insignificant`]).
+/// AR(p), ARMA, PLP, FGN) must pass to stay in a selected model (see [`drop_insignificant`]).
 pub const TERM_SIGNIFICANCE: f64 = 0.01;
 
-/// Removes, one at a time, the components beyond the book's class (BI, SIN, AR(p), ARMA) that a
+/// Removes, one at a time, the components beyond the book's class (BI, SIN, AR(p), ARMA, PLP,
+/// FGN) that a
 /// model selected by WIC does not need: a component stays when the J statistic of the model
 /// without it exceeds the model's own by more than chance allows, P(χ²_k > ΔJ) <
 /// [`TERM_SIGNIFICANCE`] with k its number of parameters; for a SIN, an AR(p) or an ARMA, whose
@@ -343,7 +344,7 @@ fn drop_insignificant<T>(
         let mut weakest: Option<(f64, Attempt)> = None;
         for (i, k) in kinds.iter().enumerate() {
             let looks = match k {
-                ProcessKind::BiasInstability(_) => 1.0,
+                ProcessKind::BiasInstability(_) | ProcessKind::Plp | ProcessKind::Fgn => 1.0,
                 ProcessKind::Sinusoid | ProcessKind::ArP(_) | ProcessKind::Arma(..) => n_scales,
                 _ => continue,
             };

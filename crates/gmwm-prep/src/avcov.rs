@@ -130,6 +130,13 @@ impl Variogram {
                         v.push_ar((-1.0 / t).exp(), Some(1.0 / t), b2 * u);
                     }
                 }
+                Process::Plp(_) | Process::Fgn(_) => {
+                    return Err(FitError::InvalidArgument(
+                        "the model covariance of the AV is not implemented for the long-memory \
+                         PLP/FGN (use the bootstrap covariance)"
+                            .into(),
+                    ));
+                }
             }
         }
         Ok(v)

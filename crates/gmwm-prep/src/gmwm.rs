@@ -547,6 +547,16 @@ impl Problem {
                     th[at + 1] = eta[at + 1].exp();
                     t[(at + 1, at + 1)] = th[at + 1];
                 }
+                ProcessKind::Plp | ProcessKind::Fgn => {
+                    let (v, dv) = crate::long_memory::memory_theta(k, eta[at + 1]);
+                    if !v.is_finite() {
+                        return None;
+                    }
+                    th[at] = eta[at].exp();
+                    t[(at, at)] = th[at];
+                    th[at + 1] = v;
+                    t[(at + 1, at + 1)] = dv;
+                }
             }
         }
         // the clamp has zero derivative: a coordinate held at its bound does not move θ
@@ -631,6 +641,10 @@ impl Problem {
                         eta[at] = th[at].clamp(-0.999_999, 0.999_999).atanh();
                     }
                     eta[at + 1] = th[at + 1].ln();
+                }
+                ProcessKind::Plp | ProcessKind::Fgn => {
+                    eta[at] = th[at].ln();
+                    eta[at + 1] = crate::long_memory::memory_eta(k, th[at + 1]);
                 }
             }
         }
@@ -937,6 +951,9 @@ fn shape(kind: ProcessKind, nonlin: f64, m: &[f64], rate: f64, factor: f64) -> V
                         v.push(1.0);
                         kind_avar_grad(kind, &v, mj, rate, &mut g)
                     }
+                    ProcessKind::Plp | ProcessKind::Fgn => {
+                        kind_avar_grad(kind, &[1.0, nonlin], mj, rate, &mut g)
+                    }
                     k => kind_avar_grad(k, &[1.0], mj, rate, &mut g),
                 }
         })
@@ -1008,6 +1025,18 @@ fn n_choose_k(n: usize, k: usize) -> f64 {
 }
 
 impl Problem {
+    /// The nonlinear parameter a start gives a component that is not gridded: d (PLP) or
+    /// H (FGN) from the log-log slope of the curve's upper half
+    /// ([`crate::long_memory::memory_start`]), 0 for the others (unused by their shapes).
+    fn fixed_nonlin(&self, kd: ProcessKind) -> f64 {
+        match kd {
+            ProcessKind::Plp | ProcessKind::Fgn => {
+                crate::long_memory::memory_start(kd, &self.m, &self.nu_hat)
+            }
+            _ => 0.0,
+        }
+    }
+
     /// Deterministic starting points (θ), best first.
     fn starts(&self, n_starts: usize) -> Vec<Vec<f64>> {
         let j = self.m.len();
@@ -1078,7 +1107,13 @@ impl Problem {
                 | ProcessKind::Sinusoid
                 | ProcessKind::ArP(_) => None,
                 ProcessKind::Arma(p, _) if p > 0 => None,
-                kd => Some(shape(kd, 0.0, &self.m, self.rate, self.factor)),
+                kd => Some(shape(
+                    kd,
+                    self.fixed_nonlin(kd),
+                    &self.m,
+                    self.rate,
+                    self.factor,
+                )),
             })
             .collect();
         let is_diag = (0..j).all(|a| (0..j).all(|b| a == b || self.w[(a, b)] == 0.0));
@@ -1180,7 +1215,11 @@ impl Problem {
                 for c in 0..ncomp {
                     let kd = self.kinds[c];
                     let at = self.offsets[c];
-                    let g = shape(kd, nl[c], &self.m, self.rate, self.factor);
+                    let nlc = match kd {
+                        ProcessKind::Plp | ProcessKind::Fgn => self.fixed_nonlin(kd),
+                        _ => nl[c],
+                    };
+                    let g = shape(kd, nlc, &self.m, self.rate, self.factor);
                     let bound = (0..j)
                         .map(|a| self.nu_hat[a] / g[a].max(1e-300))
                         .fold(f64::INFINITY, f64::min);
@@ -1218,6 +1257,10 @@ impl Problem {
                             let c = arma_start_coef(kd, nl[c]);
                             th[at..at + c.len()].copy_from_slice(&c);
                             th[at + c.len()] = cv;
+                        }
+                        ProcessKind::Plp | ProcessKind::Fgn => {
+                            th[at] = cv;
+                            th[at + 1] = nlc;
                         }
                         _ => th[at] = cv,
                     }

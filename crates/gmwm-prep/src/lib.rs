@@ -43,6 +43,7 @@ pub mod error;
 pub mod gmwm;
 pub mod ieee;
 pub mod inference;
+mod long_memory;
 mod magnitude;
 pub mod multi;
 pub mod noise_terms;

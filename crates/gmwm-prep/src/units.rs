@@ -277,6 +277,21 @@ pub fn per_second(kind: ProcessKind, params: &[f64], rate_hz: f64, unit: &Unit) 
             }
             out
         }
+        // PLP: the innovation σ, d and the stationary σ; FGN: σ of a sample and H
+        ProcessKind::Plp => {
+            let mut out = vec![
+                Quantity::new("sigma_innov", params[0].sqrt(), u.clone()),
+                Quantity::new("d", params[1], ""),
+            ];
+            if let Ok(p) = processes::Plp::new(params[0], params[1]) {
+                out.push(Quantity::new("sigma", p.variance().sqrt(), u));
+            }
+            out
+        }
+        ProcessKind::Fgn => vec![
+            Quantity::new("sigma", params[0].sqrt(), u),
+            Quantity::new("H", params[1], ""),
+        ],
     }
 }
 

@@ -33,6 +33,7 @@
 pub mod ar_p;
 pub mod arma;
 pub mod error;
+pub mod long_memory;
 pub mod model;
 pub mod number;
 pub mod process;
@@ -42,6 +43,7 @@ pub mod simulate;
 pub use ar_p::{AR_MAX_ORDER, ArP};
 pub use arma::{Arma, MA_MAX_ORDER};
 pub use error::{ProcessError, Result};
+pub use long_memory::{Fgn, Plp};
 pub use model::{Component, Model};
 pub use process::{
     Ar1, BI_FLAT_FROM_M, BI_FLAT_TOLERANCE, BI_MIN_CORRELATION_SAMPLES, BI_STATES_PER_DECADE,

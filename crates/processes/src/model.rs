@@ -685,14 +685,14 @@ impl<'a> Parser<'a> {
         if code.is_empty() {
             return Err(self.err(
                 self.pos,
-                "expected a process (WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, MA2, ARMApq)",
+                "expected a process (WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, MA2, ARMApq, PLP, FGN)",
             ));
         }
         let kind = ProcessKind::from_str(code).map_err(|_| {
             self.err(
                 code_pos,
                 format!(
-                    "unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, MA2, ARMApq (p = 1…4, q = 1, 2)"
+                    "unknown process {code:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, MA2, ARMApq (p = 1…4, q = 1, 2), PLP, FGN"
                 ),
             )
         })?;

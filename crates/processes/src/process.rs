@@ -7,6 +7,7 @@
 use crate::ar_p::ArP;
 use crate::arma::Arma;
 use crate::error::{ProcessError, Result};
+use crate::long_memory::{Fgn, Plp};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -837,6 +838,13 @@ pub enum ProcessKind {
     /// ([`crate::Arma`]). Not in [`ProcessKind::ALL`].
     #[serde(rename = "ARMA")]
     Arma(u8, u8),
+    /// Power-law process ARFIMA(0, d, 0), `PLP` ([`crate::Plp`]). Not in
+    /// [`ProcessKind::ALL`].
+    #[serde(rename = "PLP")]
+    Plp,
+    /// Fractional Gaussian noise, `FGN` ([`crate::Fgn`]). Not in [`ProcessKind::ALL`].
+    #[serde(rename = "FGN")]
+    Fgn,
 }
 
 impl ProcessKind {
@@ -882,6 +890,8 @@ impl ProcessKind {
             ProcessKind::ArP(4) => "AR4",
             ProcessKind::ArP(_) => "AR2",
             ProcessKind::Arma(p, q) => crate::arma::CODES[(p as usize).min(4)][(q as usize).min(2)],
+            ProcessKind::Plp => "PLP",
+            ProcessKind::Fgn => "FGN",
         }
     }
 
@@ -906,6 +916,8 @@ impl ProcessKind {
             ProcessKind::ArP(4) => &["phi1", "phi2", "phi3", "phi4", "sigma2"],
             ProcessKind::ArP(_) => &["phi1", "phi2", "sigma2"],
             ProcessKind::Arma(p, q) => crate::arma::NAMES[(p as usize).min(4)][(q as usize).min(2)],
+            ProcessKind::Plp => &["sigma2", "d"],
+            ProcessKind::Fgn => &["sigma2", "H"],
         }
     }
 
@@ -964,12 +976,13 @@ impl std::str::FromStr for ProcessKind {
             .into_iter()
             .chain((2..=crate::ar_p::AR_MAX_ORDER as u8).map(ProcessKind::ArP))
             .chain(crate::arma::orders().map(|(p, q)| ProcessKind::Arma(p as u8, q as u8)))
+            .chain([ProcessKind::Plp, ProcessKind::Fgn])
             .find(|k| k.code().eq_ignore_ascii_case(t))
             .ok_or_else(|| ProcessError::Parse {
                 input: s.to_string(),
                 position: 0,
                 message: format!(
-                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, MA2, ARMApq (p = 1…4, q = 1, 2)"
+                    "unknown process {t:?}; expected one of WN, QN, DR, RW, AR1, AR2, AR3, AR4, GM, MA1, BI, SIN, MA2, ARMApq (p = 1…4, q = 1, 2), PLP, FGN"
                 ),
             })
     }
@@ -1012,6 +1025,10 @@ pub enum Process {
     ArP(ArP),
     /// MA(2) or ARMA(p, q).
     Arma(Arma),
+    /// Power-law process ARFIMA(0, d, 0).
+    Plp(Plp),
+    /// Fractional Gaussian noise.
+    Fgn(Fgn),
 }
 
 macro_rules! impl_from_process {
@@ -1032,7 +1049,9 @@ impl_from_process!(
     BiasInstability,
     Sinusoid,
     ArP,
-    Arma
+    Arma,
+    Plp,
+    Fgn
 );
 
 impl Process {
@@ -1056,6 +1075,8 @@ impl Process {
             Process::Sinusoid(_) => ProcessKind::Sinusoid,
             Process::ArP(a) => ProcessKind::ArP(a.p),
             Process::Arma(a) => ProcessKind::Arma(a.p, a.q),
+            Process::Plp(_) => ProcessKind::Plp,
+            Process::Fgn(_) => ProcessKind::Fgn,
         }
     }
 
@@ -1083,6 +1104,8 @@ impl Process {
                 v
             }
             Process::Arma(a) => a.params(),
+            Process::Plp(p) => vec![p.sigma2, p.d],
+            Process::Fgn(p) => vec![p.sigma2, p.h],
         }
     }
 
@@ -1122,6 +1145,8 @@ impl Process {
                 ArP::new(&v[..n - 1], v[n - 1])?.into()
             }
             ProcessKind::Arma(p, q) => Arma::from_params(p as usize, q as usize, v)?.into(),
+            ProcessKind::Plp => Plp::new(v[0], v[1])?.into(),
+            ProcessKind::Fgn => Fgn::new(v[0], v[1])?.into(),
         })
     }
 
@@ -1248,6 +1273,8 @@ impl Process {
                 let g = a.acvf(h.min(1 << 24).saturating_add(1));
                 if h < g.len() { g[h] } else { 0.0 }
             }
+            Process::Plp(p) => p.autocovariance(h),
+            Process::Fgn(p) => p.autocovariance(h),
             Process::RandomWalk(_) | Process::Drift(_) => {
                 return Err(ProcessError::NotDefined {
                     what: "autocovariance γ(h)",
@@ -1307,6 +1334,14 @@ enum ProcessRepr {
         theta: Vec<f64>,
         sigma2: f64,
     },
+    #[serde(rename = "PLP")]
+    Plp { sigma2: f64, d: f64 },
+    #[serde(rename = "FGN")]
+    Fgn {
+        sigma2: f64,
+        #[serde(rename = "H")]
+        h: f64,
+    },
     #[serde(rename = "BI")]
     BiasInstability {
         #[serde(rename = "B")]
@@ -1330,6 +1365,8 @@ impl TryFrom<ProcessRepr> for Process {
             ProcessRepr::Sinusoid { alpha2, beta } => Sinusoid::new(alpha2, beta)?.into(),
             ProcessRepr::ArP { phi, sigma2 } => ArP::new(&phi, sigma2)?.into(),
             ProcessRepr::Arma { phi, theta, sigma2 } => Arma::new(&phi, &theta, sigma2)?.into(),
+            ProcessRepr::Plp { sigma2, d } => Plp::new(sigma2, d)?.into(),
+            ProcessRepr::Fgn { sigma2, h } => Fgn::new(sigma2, h)?.into(),
             ProcessRepr::BiasInstability { b, m_lo, m_hi } => {
                 let band = if m_lo == 0 && m_hi == 0 {
                     BiBand::AUTO
@@ -1378,6 +1415,14 @@ impl From<Process> for ProcessRepr {
                 phi: a.phi().to_vec(),
                 theta: a.theta().to_vec(),
                 sigma2: a.sigma2,
+            },
+            Process::Plp(p) => ProcessRepr::Plp {
+                sigma2: p.sigma2,
+                d: p.d,
+            },
+            Process::Fgn(p) => ProcessRepr::Fgn {
+                sigma2: p.sigma2,
+                h: p.h,
             },
         }
     }

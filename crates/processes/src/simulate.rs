@@ -278,6 +278,11 @@ impl Gen {
                     "MA2/ARMA are simulated by Model::simulate/simulate_components (sequentially, Arma::simulate), not by the chunked per-process path".into(),
                 ));
             }
+            Process::Plp(_) | Process::Fgn(_) => {
+                return Err(ProcessError::InvalidArgument(
+                    "PLP/FGN are simulated by Model::simulate/simulate_components (circulant embedding, whole record at once), not by the chunked per-process path".into(),
+                ));
+            }
         })
     }
 
@@ -936,9 +941,15 @@ const ARP_KEY: u64 = 0xE703_7ED1_A0B4_28DB;
 
 impl Model {
     fn has_arp(&self) -> bool {
-        self.kinds()
-            .iter()
-            .any(|k| matches!(k, crate::ProcessKind::ArP(_) | crate::ProcessKind::Arma(..)))
+        self.kinds().iter().any(|k| {
+            matches!(
+                k,
+                crate::ProcessKind::ArP(_)
+                    | crate::ProcessKind::Arma(..)
+                    | crate::ProcessKind::Plp
+                    | crate::ProcessKind::Fgn
+            )
+        })
     }
 
     /// A model with AR(p) components: the other components through the chunked engine (as
@@ -955,7 +966,12 @@ impl Model {
         let processes = self.processes()?;
         let rest: Vec<Process> = processes
             .iter()
-            .filter(|p| !matches!(p, Process::ArP(_) | Process::Arma(_)))
+            .filter(|p| {
+                !matches!(
+                    p,
+                    Process::ArP(_) | Process::Arma(_) | Process::Plp(_) | Process::Fgn(_)
+                )
+            })
             .copied()
             .collect();
         let (mut total, mut rest_parts) = if rest.is_empty() {
@@ -981,6 +997,18 @@ impl Model {
                     let s = mix64(seed ^ ARP_KEY.wrapping_mul(c as u64 + 1))
                         ^ mix64(stream.wrapping_add(ARP_KEY));
                     let x = a.simulate(n, s)?;
+                    total.iter_mut().zip(&x).for_each(|(t, v)| *t += v);
+                    components.push(TimeSeries::from_checked(x, rate_hz, &comp.to_string()));
+                }
+                // PLP/FGN: the whole record by circulant embedding, seeded like an AR(p)
+                Process::Plp(_) | Process::Fgn(_) => {
+                    let s = mix64(seed ^ ARP_KEY.wrapping_mul(c as u64 + 1))
+                        ^ mix64(stream.wrapping_add(ARP_KEY));
+                    let x = match p {
+                        Process::Plp(q) => q.simulate(n, s)?,
+                        Process::Fgn(q) => q.simulate(n, s)?,
+                        _ => unreachable!("matched PLP/FGN"),
+                    };
                     total.iter_mut().zip(&x).for_each(|(t, v)| *t += v);
                     components.push(TimeSeries::from_checked(x, rate_hz, &comp.to_string()));
                 }

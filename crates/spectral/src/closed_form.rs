@@ -382,6 +382,14 @@ fn av_and_gradient(process: &Process, m: u64, rate_hz: f64, grad: bool) -> Resul
                 * (2.0 * mf * sa.powi(3) * ca / (sc * sc) - sa.powi(4) * cc / sc.powi(3));
             (alpha2 * unit, vec![unit, d_beta])
         }
+        Process::Plp(p) => {
+            let (av, g) = crate::long_memory::plp_avar_grad(&p, m);
+            (av, g.to_vec())
+        }
+        Process::Fgn(f) => {
+            let (av, g) = crate::long_memory::fgn_avar_grad(&f, m);
+            (av, g.to_vec())
+        }
     })
 }
 

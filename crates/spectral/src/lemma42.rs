@@ -215,6 +215,8 @@ fn variogram_parts(process: &Process, h: u64, rate: f64) -> (f64, f64) {
             let g = a.acvf(h as usize + 1);
             (g[0], 1.0 - g[h as usize] / g[0])
         }
+        Process::Plp(p) => (p.variance(), 1.0 - p.autocorrelation(h)),
+        Process::Fgn(f) => (f.sigma2(), 1.0 - f.autocovariance(h) / f.sigma2()),
     }
 }
 
@@ -250,6 +252,14 @@ pub fn lemma42_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result
         let g = a.acvf(2 * m as usize + 1);
         let unit = allan_variance_from_variogram(|h| 1.0 - g[h as usize] / g[0], m)?;
         return Ok(g[0] * unit);
+    }
+    if let Process::Plp(p) = process {
+        return crate::long_memory::plp_lemma42_avar(p, m);
+    }
+    if let Process::Fgn(f) = process {
+        // the ACF form: its second differences of ρ carry no rounding of 1 − ρ(h), which
+        // the semivariogram form would amplify ~m^{3/2−2H} times for small H
+        return allan_variance_from_acf(f.sigma2(), |h| f.autocovariance(h) / f.sigma2(), m);
     }
     let scale = variogram_parts(process, 1, rate).0;
     let unit = allan_variance_from_variogram(|h| variogram_parts(process, h, rate).1, m)?;

@@ -52,6 +52,7 @@
 //! - [`quadrature`]: Lemma 4.1 in continuous and discrete time.
 //! - [`ambiguity`]: §4.1, Φ(f) = 2Φ(2f) (example `examples/spectral_ambiguity.rs`).
 //! - [`empirical`]: ACV/ACF by FFT (realfft), periodogram, Welch with chi-square CIs.
+//! - [`long_memory`]: AV (closed forms, Lemma 4.2) and PSD of PLP and FGN.
 //! - [`tolerances`]: the named tolerances of the tests, with their justification.
 
 pub mod ambiguity;
@@ -61,6 +62,7 @@ mod dd;
 pub mod empirical;
 pub mod error;
 pub mod lemma42;
+pub mod long_memory;
 pub mod psd;
 pub mod quadrature;
 pub mod tolerances;

@@ -109,6 +109,8 @@ pub(crate) fn psd_sc(process: &Process, s: f64, c: f64, dt: f64) -> Option<f64> 
                 })
                 .sum()
         }
+        Process::Plp(p) => crate::long_memory::plp_psd(&p, s, dt),
+        Process::Fgn(f) => crate::long_memory::fgn_psd(&f, s, c, dt),
     })
 }
 
