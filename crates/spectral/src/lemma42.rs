@@ -254,7 +254,9 @@ pub fn lemma42_allan_variance(process: &Process, m: u64, rate_hz: f64) -> Result
         return Ok(g[0] * unit);
     }
     if let Process::Plp(p) = process {
-        return crate::long_memory::plp_lemma42_avar(p, m);
+        // the exact ACF once up to 2m (its ratio recursion), then the ACF form
+        let rho = p.acf(2 * m as usize + 1);
+        return allan_variance_from_acf(p.variance(), |h| rho[h as usize], m);
     }
     if let Process::Fgn(f) = process {
         // the ACF form: its second differences of ρ carry no rounding of 1 − ρ(h), which
