@@ -54,6 +54,8 @@ pub struct RobustAllanVariance {
     /// Per scale: false where the estimating equation had no root (see [`RobustScale`]).
     pub root_found: Vec<bool>,
     /// The spikes replaced before the M-estimator (see [`replace_spikes`]).
+    ///
+    /// [`replace_spikes`]: super::replace_spikes
     pub spikes: SpikeReplacement,
 }
 
@@ -155,6 +157,9 @@ fn check_supported(config: &AvarConfig) -> Result<(), AvarError> {
 /// assert!(cl > 5.0 * rob);
 /// assert!((rob / (1.0 / 24.0) - 1.0).abs() < 0.1, "{rob}");
 /// ```
+///
+/// [`EFFICIENCY_RANGE`]: super::EFFICIENCY_RANGE
+/// [`DEFAULT_EFFICIENCY`]: super::DEFAULT_EFFICIENCY
 pub fn robust_allan_variance(
     data: &[f64],
     rate_hz: f64,

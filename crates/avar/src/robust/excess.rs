@@ -57,6 +57,8 @@ pub struct ExcessWindow {
 /// assert!(w[0].start_s <= 50.0 && 50.0 <= w[0].end_s);
 /// assert!(w[0].share > 0.99);
 /// ```
+///
+/// [`robust_allan_variance`]: super::robust_allan_variance
 pub fn excess_windows(
     data: &[f64],
     rate_hz: f64,

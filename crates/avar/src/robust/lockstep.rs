@@ -54,8 +54,8 @@ fn lockstep_pass<const N: usize>(c: &[f64], ms: &[usize], f: &BlockSums<N>) -> V
 }
 
 simd_dispatch! {
-    /// Σ χ_c(u), −Σ u χ_c'(u) (as [`chi_sums`]) over u = D²·`inv`, D formed from the three
-    /// slices.
+    /// Σ χ_c(u), −Σ u χ_c'(u) (as `chi_sums` of `m_scale`) over u = D²·`inv`, D formed from
+    /// the three slices.
     fn chi_sums_diff(
         hi: &[f64],
         mid: &[f64],
@@ -180,6 +180,9 @@ fn count_beyond_diff_lanes(hi: &[f64], mid: &[f64], lo: &[f64], inv_m: f64, lim:
 /// [`robust_mean_square_detail`] on the materialized differences (it agrees to rounding: the
 /// sums are taken in another order); a scale whose Newton iteration leaves the start's
 /// neighbourhood is `None`, for the caller to solve alone. Per scale: (s, rejected).
+///
+/// [`STRIDE_DIVISOR`]: super::STRIDE_DIVISOR
+/// [`robust_mean_square_detail`]: super::robust_mean_square_detail
 pub(super) fn solve_lockstep(
     c: &[f64],
     ms: &[usize],

@@ -258,6 +258,8 @@ fn newton_from_start(x0: f64, g0: f64, dg0: f64, eval: &dyn Fn(f64) -> (f64, f64
 
 /// The state of [`newton_from_start`] (so that several scales can step together, each pass
 /// over the data evaluating g for all of them: [`solve_lockstep`]).
+///
+/// [`solve_lockstep`]: super::lockstep::solve_lockstep
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Newton {
     x: f64,
