@@ -6,8 +6,47 @@
 
 use imunoise::io::{BinaryType, ReadOptions, read_bytes};
 use imunoise::logs::{self, GapPolicy, LogFormat};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+
+/// The system allocator, noting the largest single allocation of the calling thread (what
+/// libFuzzer's -malloc_limit_mb checks), so that a test can bound it.
+struct Largest;
+
+thread_local! {
+    static LARGEST: Cell<usize> = const { Cell::new(0) };
+}
+
+fn note(size: usize) {
+    let _ = LARGEST.try_with(|l| l.set(l.get().max(size)));
+}
+
+// SAFETY: every call is passed on to the system allocator unchanged.
+unsafe impl GlobalAlloc for Largest {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note(layout.size());
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note(new_size);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Largest = Largest;
+
+/// `f`'s value and the largest single allocation it made on this thread, in bytes.
+fn largest_allocation<T>(f: impl FnOnce() -> T) -> (T, usize) {
+    LARGEST.with(|l| l.set(0));
+    let r = f();
+    (r, LARGEST.with(|l| l.get()))
+}
 
 fn fixture(target: &str, name: &str) -> Vec<u8> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -20,6 +59,7 @@ fn fixture(target: &str, name: &str) -> Vec<u8> {
 /// What the log targets do (fuzz/src/lib.rs): open, summarize, read every IMU topic and order
 /// it by stamp. Returns the first error (or `None` when everything read), and checks the time
 /// limit of the fuzzing (1 s, here 10 s for slow debug builds under a loaded machine).
+#[allow(dead_code)] // for the log readers' inputs
 fn read_log(format: LogFormat, ext: &str, bytes: &[u8]) -> Option<imunoise::Error> {
     let dir = tempfile::tempdir().unwrap();
     let path: PathBuf = dir.path().join(format!("x.{ext}"));
@@ -43,6 +83,7 @@ fn read_log(format: LogFormat, ext: &str, bytes: &[u8]) -> Option<imunoise::Erro
 }
 
 /// An error the command reports with exit code 2 (bad input), not an internal error.
+#[allow(dead_code)]
 fn user_error(e: Option<imunoise::Error>) -> String {
     let e = e.expect("an error");
     assert_eq!(e.exit_code(), 2, "{e}");
@@ -57,4 +98,28 @@ fn raw(kind: BinaryType, channels: usize, bytes: &[u8], name: &str) -> imunoise:
         ..Default::default()
     };
     read_bytes(bytes, name, &opts).map(|t| t.n_rows())
+}
+
+/// A 27-byte gzip file (`gx\n1\n2\n`) whose trailer claims 4,294,967,280 bytes uncompressed:
+/// the reader reserved that much before decompressing (libFuzzer: out-of-memory,
+/// malloc(4294967280)). The hint is now capped at 1032 times the input (deflate's largest
+/// expansion), so the file reads: its CRC and size disagree with the data, an error.
+#[test]
+fn gzip_trailer_claiming_4_gib_reserves_no_more_than_the_input_can_give() {
+    let bytes = fixture("gzip", "forged-trailer-4gib.gz");
+    assert_eq!(bytes.len(), 27);
+    let size = u32::from_le_bytes(bytes[23..27].try_into().unwrap());
+    assert_eq!(size, 0xffff_fff0);
+    let (r, largest) =
+        largest_allocation(|| read_bytes(&bytes, "x.csv.gz", &ReadOptions::default()));
+    // the cap: 27 · 1032 bytes; the decoder's own state is a few tens of kB (bound 1 MiB)
+    assert!(largest < 1 << 20, "largest allocation {largest} bytes");
+    let e = r.unwrap_err();
+    assert_eq!(e.exit_code(), 2, "{e}");
+    assert!(e.to_string().contains("cannot decompress gzip data"), "{e}");
+    // the same data with its true size (7 bytes) in the trailer reads
+    let mut fixed = bytes.clone();
+    fixed[23..27].copy_from_slice(&7u32.to_le_bytes());
+    let t = read_bytes(&fixed, "x.csv.gz", &ReadOptions::default()).unwrap();
+    assert_eq!(t.columns, vec![vec![1.0, 2.0]]);
 }
