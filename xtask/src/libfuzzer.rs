@@ -1,4 +1,4 @@
-//! `cargo xtask fuzz --coverage --minutes N [--target NAME] [--no-line-coverage]`:
+//! `cargo xtask fuzz --coverage --minutes N [--target NAME[,NAME…]] [--no-line-coverage]`:
 //! coverage-guided fuzzing of the readers with cargo-fuzz (libFuzzer) on the nightly toolchain.
 //!
 //! 1. cargo-fuzz comes from `scripts/fuzz-setup.sh` (into `target/tools`, with the nightly
@@ -71,12 +71,16 @@ pub fn run(rest: &[String]) -> Result<(), String> {
         .ok_or("no workspace root")?
         .to_path_buf();
     let targets: Vec<(&str, &str)> = match only {
-        Some(t) => vec![
-            *TARGETS
-                .iter()
-                .find(|(n, _)| *n == t)
-                .ok_or_else(|| format!("no fuzz target {t:?}; targets: {}", names()))?,
-        ],
+        Some(list) => list
+            .split(',')
+            .map(|t| {
+                TARGETS
+                    .iter()
+                    .find(|(n, _)| *n == t)
+                    .copied()
+                    .ok_or_else(|| format!("no fuzz target {t:?}; targets: {}", names()))
+            })
+            .collect::<Result<_, _>>()?,
         None => TARGETS.to_vec(),
     };
     let fz = root.join("target/fuzz");
