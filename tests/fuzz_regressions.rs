@@ -59,7 +59,6 @@ fn fixture(target: &str, name: &str) -> Vec<u8> {
 /// What the log targets do (fuzz/src/lib.rs): open, summarize, read every IMU topic and order
 /// it by stamp. Returns the first error (or `None` when everything read), and checks the time
 /// limit of the fuzzing (1 s, here 10 s for slow debug builds under a loaded machine).
-#[allow(dead_code)] // for the log readers' inputs
 fn read_log(format: LogFormat, ext: &str, bytes: &[u8]) -> Option<imunoise::Error> {
     let dir = tempfile::tempdir().unwrap();
     let path: PathBuf = dir.path().join(format!("x.{ext}"));
@@ -83,7 +82,6 @@ fn read_log(format: LogFormat, ext: &str, bytes: &[u8]) -> Option<imunoise::Erro
 }
 
 /// An error the command reports with exit code 2 (bad input), not an internal error.
-#[allow(dead_code)]
 fn user_error(e: Option<imunoise::Error>) -> String {
     let e = e.expect("an error");
     assert_eq!(e.exit_code(), 2, "{e}");
@@ -122,4 +120,39 @@ fn gzip_trailer_claiming_4_gib_reserves_no_more_than_the_input_can_give() {
     fixed[23..27].copy_from_slice(&7u32.to_le_bytes());
     let t = read_bytes(&fixed, "x.csv.gz", &ReadOptions::default()).unwrap();
     assert_eq!(t.columns, vec![vec![1.0, 2.0]]);
+}
+
+/// A ULog file and a DataFlash log (mutated seeds) whose IMU stamps lie more than 2^63 ns
+/// (292 years) apart: the differences of sorted stamps overflowed i64 (debug builds: "attempt
+/// to subtract with overflow" in `rate_from_stamps` and `timing::prepare`). A difference beyond
+/// i64 now counts as i64::MAX ns; the files read to the end, a value or a user error.
+#[test]
+fn stamps_further_apart_than_i64_do_not_overflow() {
+    // closed form: two stamps 2^64 − 1 ns apart give Δt = i64::MAX ns
+    assert_eq!(
+        logs::rate_from_stamps(&[i64::MIN, i64::MAX]),
+        Some(1e9 / i64::MAX as f64)
+    );
+    let stamps = vec![i64::MIN, 0, 1, 2, i64::MAX];
+    let cols = vec![vec![0.0; 5]];
+    let r = logs::timing::prepare(stamps, cols, None, GapPolicy::Longest, "x");
+    assert!(r.is_ok() || r.unwrap_err().exit_code() == 2);
+    for (format, ext, dir, name) in [
+        (
+            LogFormat::Ulog,
+            "ulg",
+            "ulog",
+            "stamps-apart-beyond-i64.ulg",
+        ),
+        (
+            LogFormat::Dataflash,
+            "bin",
+            "dataflash",
+            "stamps-apart-beyond-i64.bin",
+        ),
+    ] {
+        if let Some(e) = read_log(format, ext, &fixture(dir, name)) {
+            user_error(Some(e));
+        }
+    }
 }
