@@ -156,3 +156,14 @@ fn stamps_further_apart_than_i64_do_not_overflow() {
         }
     }
 }
+
+/// A model string whose repeat count, 1.2·10^18, the parser turned into a vector of that many
+/// components ("capacity overflow" panic). A model now has at most 1000 components.
+#[test]
+fn model_string_with_a_repeat_count_of_1e18_is_refused() {
+    let bytes = fixture("model", "repeat-count-1e18.txt");
+    let s = std::str::from_utf8(&bytes).unwrap();
+    assert!(s.starts_with("01244444444444444414"), "{s:?}");
+    let e = s.parse::<imunoise::processes::Model>().unwrap_err();
+    assert!(e.to_string().contains("at most 1000 components"), "{e}");
+}
