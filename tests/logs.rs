@@ -1260,10 +1260,16 @@ mod fuzz {
         put("text", "imu.csv", &csv);
         let mut timed = String::from("time,gx,gy\n");
         let mut ws = String::new();
-        for i in 0..40 {
+        let rows = cols[0]
+            .iter()
+            .zip(&cols[1])
+            .zip(&cols[3])
+            .zip(&cols[4])
+            .zip(&cols[5]);
+        for (i, ((((g0, g1), a0), a1), a2)) in rows.enumerate() {
             let t = 1.7e9 + 0.01 * i as f64 + if i == 20 { 0.05 } else { 0.0 };
-            timed += &format!("{t:.3},{},{:e}\n", cols[0][i], cols[1][i]);
-            ws += &format!("{} {}\t{}\n", cols[3][i], cols[4][i], cols[5][i]);
+            timed += &format!("{t:.3},{g0},{g1:e}\n");
+            ws += &format!("{a0} {a1}\t{a2}\n");
         }
         put("text", "time.csv", timed.as_bytes());
         put("text", "ws.txt", ws.as_bytes());
