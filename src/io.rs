@@ -442,6 +442,10 @@ fn load(path: &Path, file: &str) -> Result<Bytes> {
     Ok(Bytes::Mapped(map))
 }
 
+/// The largest factor by which deflate can expand its input (RFC 1951: a 258-byte match in
+/// about 2 bits, i.e. 1032:1).
+const MAX_DEFLATE_RATIO: usize = 1032;
+
 /// Decompresses `map` when it starts with the gzip magic bytes (whatever the file's name);
 /// errors on empty input.
 fn gunzip<'a>(map: &'a [u8], file: &str) -> Result<std::borrow::Cow<'a, [u8]>> {
@@ -452,13 +456,16 @@ fn gunzip<'a>(map: &'a [u8], file: &str) -> Result<std::borrow::Cow<'a, [u8]>> {
         });
     }
     if map.len() >= 2 && map[0] == 0x1f && map[1] == 0x8b {
-        // The gzip trailer holds the uncompressed size mod 2^32: a capacity hint only.
+        // The gzip trailer holds the uncompressed size mod 2^32: a capacity hint only, and
+        // one that any file can forge (4 GiB in 30 bytes). Deflate expands at most 1032:1,
+        // so the hint is capped by that bound on what the input can decompress to.
         let hint = if map.len() >= 4 {
             let t = &map[map.len() - 4..];
             u32::from_le_bytes([t[0], t[1], t[2], t[3]]) as usize
         } else {
             0
         };
+        let hint = hint.min(map.len().saturating_mul(MAX_DEFLATE_RATIO));
         let mut out = Vec::with_capacity(hint.max(map.len()));
         flate2::read::MultiGzDecoder::new(map)
             .read_to_end(&mut out)

@@ -1189,6 +1189,133 @@ mod fuzz {
         }
     }
 
+    /// The seed corpora of the coverage-guided fuzz targets (fuzz/, `cargo xtask fuzz
+    /// --coverage`), written into `$IMUNOISE_FUZZ_SEEDS/<target>/` from this file's fixtures:
+    /// the fixture of each log format (and the chunked, indexed MCAP and bag, the DataFlash
+    /// batch sampler log), small text, raw, gzip files and model strings. Every log seed is
+    /// read back first (each IMU topic gives samples), so a seed is a valid file. Run by the xtask (ignored otherwise).
+    #[test]
+    #[ignore = "writes the fuzz seeds; run by cargo xtask fuzz --coverage"]
+    fn write_fuzz_seeds() {
+        use std::io::Write;
+        let Ok(root) = std::env::var("IMUNOISE_FUZZ_SEEDS") else {
+            eprintln!("IMUNOISE_FUZZ_SEEDS is not set: no seeds written");
+            return;
+        };
+        let root = PathBuf::from(root);
+        let put = |target: &str, name: &str, bytes: &[u8]| {
+            let d = root.join(target);
+            std::fs::create_dir_all(&d).unwrap();
+            std::fs::write(d.join(name), bytes).unwrap();
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let isb = dir.path().join("isb.bin");
+        write_isb(&isb, 3, 2, 400.0, &[]);
+        // the bag of `fixtures()` holds CDR messages under a ROS 2 type name (a bad bag for the
+        // properties); the seed is a valid ROS 1 bag of the same samples, and that one besides
+        let ros1 = dir.path().join("ros1.bag");
+        let mut t = imu("/imu0", 200, 100.0);
+        t.schema = "sensor_msgs/Imu";
+        write_bag(&ros1, &[t]);
+        put("bag", "ros2-typed.bag", &fixtures()[1]);
+        let mut logs: Vec<(LogFormat, &str, Vec<u8>)> = FORMATS
+            .iter()
+            .zip(fixtures())
+            .map(|(&(f, ext), b)| (f, ext, b.clone()))
+            .collect();
+        logs[1].2 = std::fs::read(&ros1).unwrap();
+        logs.push((LogFormat::Mcap, "mcap", indexed_logs().0.clone()));
+        logs.push((LogFormat::Bag, "bag", indexed_logs().1.clone()));
+        logs.push((LogFormat::Dataflash, "bin", std::fs::read(&isb).unwrap()));
+        for (k, (format, ext, bytes)) in logs.iter().enumerate() {
+            let path = dir.path().join(format!("check{k}.{ext}"));
+            std::fs::write(&path, bytes).unwrap();
+            let r = open(&path, *format).unwrap();
+            let imu: Vec<_> = r
+                .topics()
+                .unwrap()
+                .into_iter()
+                .filter(|t| t.is_imu)
+                .collect();
+            assert!(!imu.is_empty(), "{format:?} seed {k} has no IMU topic");
+            for t in imu {
+                let n = r.read_imu(&t.name).unwrap().stamps_ns.len();
+                assert!(n >= 2, "{format:?} seed {k}, {}: {n} samples", t.name);
+            }
+            let target = match format {
+                LogFormat::Mcap => "mcap",
+                LogFormat::Bag => "bag",
+                LogFormat::Db3 => "db3",
+                LogFormat::Ulog => "ulog",
+                LogFormat::Dataflash => "dataflash",
+            };
+            put(target, &format!("seed{k}.{ext}"), bytes);
+        }
+        // text: the simulated IMU as CSV with a header, with a time column, as TSV and
+        // whitespace-separated without a header
+        let cols = simulated(40, 100.0);
+        let csv = dir.path().join("s.csv");
+        write_csv(&csv, &cols);
+        let csv = std::fs::read(&csv).unwrap();
+        put("text", "imu.csv", &csv);
+        let mut timed = String::from("time,gx,gy\n");
+        let mut ws = String::new();
+        let rows = cols[0]
+            .iter()
+            .zip(&cols[1])
+            .zip(&cols[3])
+            .zip(&cols[4])
+            .zip(&cols[5]);
+        for (i, ((((g0, g1), a0), a1), a2)) in rows.enumerate() {
+            let t = 1.7e9 + 0.01 * i as f64 + if i == 20 { 0.05 } else { 0.0 };
+            timed += &format!("{t:.3},{g0},{g1:e}\n");
+            ws += &format!("{a0} {a1}\t{a2}\n");
+        }
+        put("text", "time.csv", timed.as_bytes());
+        put("text", "ws.txt", ws.as_bytes());
+        put(
+            "text",
+            "tsv.tsv",
+            b"# comment\ngx\tgy\n1\t2\n3\t-4.5e-3\nnan\t1\n",
+        );
+        // raw: the first byte picks the type and channels (fuzz/fuzz_targets/binary.rs)
+        let f64s: Vec<u8> = cols[0].iter().flat_map(|v| v.to_le_bytes()).collect();
+        let i16s: Vec<u8> = (0..120i16)
+            .flat_map(|v| (v * 97 - 4000).to_le_bytes())
+            .collect();
+        put("binary", "f64x1", &[&[0u8][..], &f64s].concat());
+        put("binary", "f64x2", &[&[4u8][..], &f64s].concat());
+        put("binary", "i16x3", &[&[2u8 | (2 << 2)][..], &i16s].concat());
+        put("binary", "f32x1", &[&[1u8][..], &i16s].concat());
+        // gzip: the CSV and the f64 samples compressed, and two members in one file
+        let gz = |bytes: &[u8]| {
+            let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+            e.write_all(bytes).unwrap();
+            e.finish().unwrap()
+        };
+        put("gzip", "imu.csv.gz", &gz(&csv));
+        put("gzip", "f64.gz", &gz(&f64s));
+        put(
+            "gzip",
+            "two.gz",
+            &[gz(b"gx\n1\n2\n"), gz(b"3\n4\n")].concat(),
+        );
+        for (k, m) in [
+            "WN",
+            "WN + RW + AR1",
+            "WN(sigma2=1e-6)+RW(gamma2=1e-12)",
+            "QN(q2=2e-7) + WN + 2*AR1 + DR(omega=1e-9)",
+            "AR1(phi=0.999962, sigma2=2e-8) + BI + RW",
+            "AR2 + AR3(phi1=0.5, phi2=-0.2, phi3=0.1, sigma2=1e-4)",
+            "WN + BI(B=1e-4, 0.01..100)",
+        ]
+        .iter()
+        .enumerate()
+        {
+            put("model", &format!("m{k}"), m.as_bytes());
+        }
+    }
+
     proptest! {
         #![proptest_config(config())]
 

@@ -761,7 +761,8 @@ impl std::fmt::Display for TopicSummary {
     }
 }
 
-/// 1 / median Δt of the sorted distinct stamps (Hz); `None` with fewer than 2.
+/// 1 / median Δt of the sorted distinct stamps (Hz); `None` with fewer than 2. A Δt beyond
+/// i64 (stamps more than 292 years apart) counts as i64::MAX ns.
 ///
 /// ```
 /// assert_eq!(imunoise::logs::rate_from_stamps(&[0, 5_000_000, 10_000_000]), Some(200.0));
@@ -770,7 +771,7 @@ pub fn rate_from_stamps(stamps_ns: &[i64]) -> Option<f64> {
     let mut s = stamps_ns.to_vec();
     s.sort_unstable();
     s.dedup();
-    let mut d: Vec<i64> = s.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut d: Vec<i64> = s.windows(2).map(|w| w[1].saturating_sub(w[0])).collect();
     if d.is_empty() {
         return None;
     }

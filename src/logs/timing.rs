@@ -149,7 +149,7 @@ impl Timing {
 }
 
 /// The median of the L = len − 1 differences of `stamps` (ns; the mean of the two middle ones
-/// for even L). A recording's Δt mostly takes one value: the median of every 64th difference
+/// for even L; a difference beyond i64, between stamps ±292 years apart, counts as i64::MAX). A recording's Δt mostly takes one value: the median of every 64th difference
 /// is checked by counting the differences below and equal to it (one pass, no buffer), and
 /// only when it is not the median are all differences selected (`select_nth_unstable`).
 fn median_dt_ns(stamps: &[i64]) -> f64 {
@@ -157,19 +157,26 @@ fn median_dt_ns(stamps: &[i64]) -> f64 {
     let mid = len / 2;
     // the ranks the median takes: mid, and mid − 1 too for even L
     let lo_rank = if len % 2 == 1 { mid } else { mid - 1 };
-    let mut sub: Vec<i64> = stamps.windows(2).step_by(64).map(|w| w[1] - w[0]).collect();
+    let mut sub: Vec<i64> = stamps
+        .windows(2)
+        .step_by(64)
+        .map(|w| w[1].saturating_sub(w[0]))
+        .collect();
     let k = sub.len() / 2;
     let c = *sub.select_nth_unstable(k).1;
     let (mut below, mut equal) = (0usize, 0usize);
     for w in stamps.windows(2) {
-        let d = w[1] - w[0];
+        let d = w[1].saturating_sub(w[0]);
         below += usize::from(d < c);
         equal += usize::from(d == c);
     }
     if below <= lo_rank && mid < below + equal {
         return c as f64;
     }
-    let mut dts: Vec<i64> = stamps.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut dts: Vec<i64> = stamps
+        .windows(2)
+        .map(|w| w[1].saturating_sub(w[0]))
+        .collect();
     if len % 2 == 1 {
         *dts.select_nth_unstable(mid).1 as f64
     } else {
@@ -270,7 +277,7 @@ pub fn prepare(
     let mut longest_gap = 0i64;
     let (mut best, mut seg_start) = ((0usize, 0usize), 0usize);
     for i in 1..stamps.len() {
-        let dt = stamps[i] - stamps[i - 1];
+        let dt = stamps[i].saturating_sub(stamps[i - 1]);
         if dt as f64 > GAP_FACTOR * nominal_ns {
             gaps += 1;
             missing += ((dt as f64 / nominal_ns).round() as usize)

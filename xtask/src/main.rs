@@ -11,6 +11,7 @@ mod avar_e2e;
 mod avar_speed;
 mod fuzz;
 mod gmwm_report;
+mod libfuzzer;
 mod robust_report;
 mod sim_scaling;
 mod spectral_report;
@@ -23,6 +24,7 @@ fn main() -> ExitCode {
         // tasks: one arm each (keep this list sorted)
         "avar-coverage" => avar_coverage::run(rest),
         "avar-speed" => avar_speed::run(rest),
+        "fuzz" if rest.iter().any(|a| a == "--coverage") => libfuzzer::run(rest),
         "fuzz" => fuzz::run(rest),
         "gmwm-mc" => gmwm_report::run(rest),
         "robust-mc" => robust_report::run(rest),
@@ -60,7 +62,7 @@ const TASKS: &[(&str, &str)] = &[
     ),
     (
         "fuzz",
-        "property suites (tests/props.rs) with fresh seeds for --minutes N; cases per property",
+        "property suites (tests/props.rs) with fresh seeds for --minutes N; cases per property; with --coverage: cargo-fuzz (libFuzzer) on each reader, --minutes N each [--target NAME]",
     ),
     (
         "gmwm-mc",

@@ -701,6 +701,12 @@ impl<'a> Parser<'a> {
         } else {
             Component::Slot(kind)
         };
+        if count > MAX_COMPONENTS - out.len().min(MAX_COMPONENTS) {
+            return Err(self.err(
+                start,
+                format!("a model has at most {MAX_COMPONENTS} components"),
+            ));
+        }
         out.extend(std::iter::repeat_n(component, count));
         Ok(())
     }
@@ -893,6 +899,19 @@ impl Model {
     }
 }
 
+/// The most components a model string may give (repeat counts included): far beyond any
+/// identifiable model, and a bound on what a string like `"99999999999*AR1"` makes the parser
+/// allocate.
+///
+/// ```
+/// use processes::{Model, model::MAX_COMPONENTS};
+/// assert_eq!("1000*AR1".parse::<Model>()?.len(), MAX_COMPONENTS);
+/// assert!("1001*AR1".parse::<Model>().is_err());
+/// assert!("999*AR1 + 2*GM".parse::<Model>().is_err());
+/// # Ok::<(), processes::ProcessError>(())
+/// ```
+pub const MAX_COMPONENTS: usize = 1000;
+
 impl FromStr for Model {
     type Err = ProcessError;
     fn from_str(s: &str) -> Result<Self> {
@@ -987,6 +1006,9 @@ mod tests {
             ("WN RW", "expected '+'"),
             ("0*AR1", "at least 1"),
             ("2 AR1", "expected '*'"),
+            // found by the model fuzz target: a count of 10^18 asked for a vector beyond memory
+            ("1244444444444444441*AR1", "at most 1000 components"),
+            ("600*AR1 + 401*GM", "at most 1000 components"),
             ("AR1(phi=0.5)", "missing sigma2"),
             ("AR1(phi=0.5, phi=0.4)", "given twice"),
             ("AR1(rho=0.5, sigma2=1)", "no parameter \"rho\""),

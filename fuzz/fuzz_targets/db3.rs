@@ -1,0 +1,6 @@
+//! The Db3 reader (`imunoise topics`/`analyze` on a `.db3` file) on arbitrary bytes.
+#![no_main]
+use imunoise::logs::LogFormat;
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| imunoise_fuzz::read_log(LogFormat::Db3, "db3", data));
