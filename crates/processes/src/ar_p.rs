@@ -54,6 +54,20 @@ pub(crate) fn step_down(phi: &[f64]) -> Option<Vec<f64>> {
     Some(kappa)
 }
 
+/// Refuses AR coefficients φ (non-empty, finite) that are not stationary, for the process
+/// `code` (an AR(p), or the AR part of an ARMA): some partial autocorrelation |κ_k| ≥ 1.
+pub(crate) fn check_stationary(code: &'static str, phi: &[f64]) -> Result<()> {
+    if step_down(phi).is_none() {
+        return Err(ProcessError::InvalidParameter {
+            process: code,
+            name: "phi",
+            value: phi.last().copied().unwrap_or(f64::NAN),
+            requirement: "not stationary: a root of 1 − φ1 z − … − φp z^p lies on or inside the unit circle (some partial autocorrelation |κ_k| ≥ 1)",
+        });
+    }
+    Ok(())
+}
+
 /// AR coefficients φ from partial autocorrelations κ (Durbin-Levinson step-up).
 ///
 /// ```
@@ -105,14 +119,7 @@ impl ArP {
                 requirement: "must be finite",
             });
         }
-        if step_down(phi).is_none() {
-            return Err(ProcessError::InvalidParameter {
-                process: code,
-                name: "phi",
-                value: phi[p - 1],
-                requirement: "not stationary: a root of 1 − φ1 z − … − φp z^p lies on or inside the unit circle (some partial autocorrelation |κ_k| ≥ 1)",
-            });
-        }
+        check_stationary(code, phi)?;
         let mut a = [0.0; AR_MAX_ORDER];
         a[..p].copy_from_slice(phi);
         Ok(ArP {

@@ -25,7 +25,7 @@
 //! ([`ar_unit_acvf`], Durbin-Levinson), X = φ(B)⁻¹ Y has
 //! γ_X(h) = Σ_{|k| ≤ q} γ_Y(k) g(h − k): a finite sum of exact terms.
 
-use crate::ar_p::{AR_MAX_ORDER, phi_from_pacf, step_down};
+use crate::ar_p::{AR_MAX_ORDER, check_stationary, phi_from_pacf, step_down};
 use crate::error::{ProcessError, Result};
 
 /// Largest MA order of an [`Arma`].
@@ -251,13 +251,8 @@ impl Arma {
                 requirement: "must be finite",
             });
         }
-        if step_down(phi).is_none() {
-            return Err(ProcessError::InvalidParameter {
-                process: code,
-                name: "phi",
-                value: phi[p - 1],
-                requirement: "AR part not stationary: a root of 1 − φ1 z − … − φp z^p lies on or inside the unit circle (some partial autocorrelation |κ_k| ≥ 1)",
-            });
+        if p > 0 {
+            check_stationary(code, phi)?;
         }
         let mut a = [0.0; AR_MAX_ORDER];
         a[..p].copy_from_slice(phi);
