@@ -7,20 +7,15 @@
 //! Paths come from `Arma::simulate` (exact, stationary start), which
 //! `Model::simulate_stream` calls for MA2/ARMA components.
 
-use avar::{AvarConfig, allan_variance};
+mod common;
+
+use common::mean_sd;
 use gmwm_prep::AvCurve;
 use gmwm_prep::gmwm::{GmwmOptions, fit};
 use gmwm_prep::theory::model_avar;
 use processes::{Arma, Model};
 
 const RATE: f64 = 100.0;
-
-fn mean_sd(x: &[f64]) -> (f64, f64) {
-    let n = x.len() as f64;
-    let m = x.iter().sum::<f64>() / n;
-    let v = x.iter().map(|a| (a - m) * (a - m)).sum::<f64>() / (n - 1.0);
-    (m, v.sqrt())
-}
 
 #[test]
 fn mean_simulated_av_matches_the_theory() {
@@ -35,19 +30,9 @@ fn mean_simulated_av_matches_the_theory() {
     .enumerate()
     {
         let model = Model::from(processes::Process::from(a));
-        let mut per_scale: Vec<Vec<f64>> = Vec::new();
-        let mut ms: Vec<u64> = Vec::new();
-        for r in 0..R {
-            let x = a.simulate(N, 5000 * (k as u64 + 1) + r).unwrap();
-            let av = allan_variance(&x, RATE, &AvarConfig::default()).unwrap();
-            if ms.is_empty() {
-                ms = av.points.iter().map(|p| p.m).collect();
-                per_scale = vec![Vec::new(); ms.len()];
-            }
-            for (j, p) in av.points.iter().enumerate() {
-                per_scale[j].push(p.avar);
-            }
-        }
+        let (ms, per_scale) = common::simulated_avs(R, RATE, |r| {
+            a.simulate(N, 5000 * (k as u64 + 1) + r).unwrap()
+        });
         let theory = model_avar(&model, &ms, RATE).unwrap();
         for (j, &m) in ms.iter().enumerate() {
             let (mean, sd) = mean_sd(&per_scale[j]);

@@ -7,7 +7,10 @@
 //!
 //! Fixed seeds throughout.
 
+mod common;
+
 use avar::{AvarConfig, allan_variance};
+use common::mean_sd;
 use gmwm_prep::AvCurve;
 use gmwm_prep::gmwm::{GmwmOptions, fit};
 use gmwm_prep::theory::model_avar;
@@ -15,31 +18,18 @@ use processes::{BiBand, Model, ProcessKind};
 
 const RATE: f64 = 100.0;
 
-fn mean_sd(x: &[f64]) -> (f64, f64) {
-    let n = x.len() as f64;
-    let m = x.iter().sum::<f64>() / n;
-    let v = x.iter().map(|a| (a - m) * (a - m)).sum::<f64>() / (n - 1.0);
-    (m, v.sqrt())
-}
-
 #[test]
 fn mean_simulated_av_matches_the_closed_form() {
     const N: usize = 1 << 14;
     const R: u64 = 200;
     let model: Model = "BI(B=1e-3, m_lo=1, m_hi=16384)".parse().unwrap();
-    let mut per_scale: Vec<Vec<f64>> = Vec::new();
-    let mut ms: Vec<u64> = Vec::new();
-    for r in 0..R {
-        let x = model.simulate_stream(N, RATE, 2028, r).unwrap();
-        let av = allan_variance(x.values(), RATE, &AvarConfig::default()).unwrap();
-        if ms.is_empty() {
-            ms = av.points.iter().map(|p| p.m).collect();
-            per_scale = vec![Vec::new(); ms.len()];
-        }
-        for (j, p) in av.points.iter().enumerate() {
-            per_scale[j].push(p.avar);
-        }
-    }
+    let (ms, per_scale) = common::simulated_avs(R, RATE, |r| {
+        model
+            .simulate_stream(N, RATE, 2028, r)
+            .unwrap()
+            .values()
+            .to_vec()
+    });
     let theory = model_avar(&model, &ms, RATE).unwrap();
     for (j, &m) in ms.iter().enumerate() {
         let (mean, sd) = mean_sd(&per_scale[j]);
@@ -106,19 +96,13 @@ fn mean_simulated_av_of_a_sinusoid_matches_the_closed_form() {
     const N: usize = 1 << 12;
     const R: u64 = 200;
     let model: Model = "SIN(alpha2=1, beta=0.3) + WN(sigma2=0.5)".parse().unwrap();
-    let mut per_scale: Vec<Vec<f64>> = Vec::new();
-    let mut ms: Vec<u64> = Vec::new();
-    for r in 0..R {
-        let x = model.simulate_stream(N, RATE, 2029, r).unwrap();
-        let av = allan_variance(x.values(), RATE, &AvarConfig::default()).unwrap();
-        if ms.is_empty() {
-            ms = av.points.iter().map(|p| p.m).collect();
-            per_scale = vec![Vec::new(); ms.len()];
-        }
-        for (j, p) in av.points.iter().enumerate() {
-            per_scale[j].push(p.avar);
-        }
-    }
+    let (ms, per_scale) = common::simulated_avs(R, RATE, |r| {
+        model
+            .simulate_stream(N, RATE, 2029, r)
+            .unwrap()
+            .values()
+            .to_vec()
+    });
     let theory = model_avar(&model, &ms, RATE).unwrap();
     for (j, &m) in ms.iter().enumerate() {
         let (mean, sd) = mean_sd(&per_scale[j]);
