@@ -25,18 +25,9 @@ fn mean_simulated_av_matches_the_theory() {
     let a = ArP::new(&[1.6, -0.8], 1.0).unwrap();
     let model = Model::from(processes::Process::from(a));
     let (ms, per_scale) = common::simulated_avs(R, RATE, |r| a.simulate(N, 9000 + r).unwrap());
+    // 3 SE: the mean of R independent AVs is close to normal at every scale
     let theory = model_avar(&model, &ms, RATE).unwrap();
-    for (j, &m) in ms.iter().enumerate() {
-        let (mean, sd) = mean_sd(&per_scale[j]);
-        let se = sd / (R as f64).sqrt();
-        let z = (mean - theory[j]) / se;
-        eprintln!(
-            "m={m:6}: mean {mean:.4e} theory {:.4e} z {z:+.2}",
-            theory[j]
-        );
-        // 3 SE: the mean of R = 200 independent AVs is close to normal at every scale
-        assert!(z.abs() <= 3.0, "m={m}: z = {z}");
-    }
+    common::mean_within_3_se("", &ms, &per_scale, &theory);
 }
 
 fn truth() -> (Model, [f64; 4]) {

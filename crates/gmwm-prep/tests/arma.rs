@@ -9,7 +9,6 @@
 
 mod common;
 
-use common::mean_sd;
 use gmwm_prep::AvCurve;
 use gmwm_prep::gmwm::{GmwmOptions, fit};
 use gmwm_prep::theory::model_avar;
@@ -33,19 +32,9 @@ fn mean_simulated_av_matches_the_theory() {
         let (ms, per_scale) = common::simulated_avs(R, RATE, |r| {
             a.simulate(N, 5000 * (k as u64 + 1) + r).unwrap()
         });
+        // 3 SE: the mean of R independent AVs is close to normal at every scale
         let theory = model_avar(&model, &ms, RATE).unwrap();
-        for (j, &m) in ms.iter().enumerate() {
-            let (mean, sd) = mean_sd(&per_scale[j]);
-            let se = sd / (R as f64).sqrt();
-            let z = (mean - theory[j]) / se;
-            eprintln!(
-                "{}: m={m:6}: mean {mean:.4e} theory {:.4e} z {z:+.2}",
-                a.code(),
-                theory[j]
-            );
-            // 3 SE: the mean of R = 200 independent AVs is close to normal at every scale
-            assert!(z.abs() <= 3.0, "{a:?} m={m}: z = {z}");
-        }
+        common::mean_within_3_se(&format!("{a:?}"), &ms, &per_scale, &theory);
     }
 }
 

@@ -6,7 +6,6 @@
 
 mod common;
 
-use common::mean_sd;
 use gmwm_prep::AvCurve;
 use gmwm_prep::gmwm::{GmwmOptions, fit};
 use gmwm_prep::theory::model_avar;
@@ -31,17 +30,9 @@ fn mean_simulated_av_matches_the_theory() {
                 .values()
                 .to_vec()
         });
+        // 3 SE: the mean of R independent AVs is close to normal at every scale
         let theory = model_avar(&model, &ms, RATE).unwrap();
-        for (j, &m) in ms.iter().enumerate() {
-            let (mean, sd) = mean_sd(&per_scale[j]);
-            let z = (mean - theory[j]) / (sd / (R as f64).sqrt());
-            eprintln!(
-                "{spec} m={m:6}: mean {mean:.4e} theory {:.4e} z {z:+.2}",
-                theory[j]
-            );
-            // 3 SE: the mean of R = 200 independent AVs is close to normal at every scale
-            assert!(z.abs() <= 3.0, "{spec} m={m}: z = {z}");
-        }
+        common::mean_within_3_se(spec, &ms, &per_scale, &theory);
     }
 }
 

@@ -10,7 +10,6 @@
 mod common;
 
 use avar::{AvarConfig, allan_variance};
-use common::mean_sd;
 use gmwm_prep::AvCurve;
 use gmwm_prep::gmwm::{GmwmOptions, fit};
 use gmwm_prep::theory::model_avar;
@@ -30,18 +29,9 @@ fn mean_simulated_av_matches_the_closed_form() {
             .values()
             .to_vec()
     });
+    // 3 SE: the mean of R independent AVs is close to normal at every scale
     let theory = model_avar(&model, &ms, RATE).unwrap();
-    for (j, &m) in ms.iter().enumerate() {
-        let (mean, sd) = mean_sd(&per_scale[j]);
-        let se = sd / (R as f64).sqrt();
-        let z = (mean - theory[j]) / se;
-        eprintln!(
-            "m={m:6}: mean {mean:.4e} theory {:.4e} z {z:+.2}",
-            theory[j]
-        );
-        // 3 SE: the mean of R = 200 independent AVs is close to normal at every scale
-        assert!(z.abs() <= 3.0, "m={m}: z = {z}");
-    }
+    common::mean_within_3_se("", &ms, &per_scale, &theory);
 }
 
 #[test]
@@ -71,23 +61,8 @@ fn gmwm_recovers_bi_wn_rw() {
         assert_eq!(f.kinds[2], ProcessKind::BiasInstability(band));
         est.push([f.theta[0], f.theta[1], f.theta[2]]);
     }
-    for (i, (name, t)) in [("sigma2", s2), ("gamma2", g2), ("B", b)]
-        .iter()
-        .enumerate()
-    {
-        let col: Vec<f64> = est.iter().map(|e| e[i]).collect();
-        let (m, sd) = mean_sd(&col);
-        let se = sd / (R as f64).sqrt();
-        eprintln!(
-            "{name}: truth {t:e}, mean {m:e}, sd {sd:e}, (mean − truth)/SE {:+.2}",
-            (m - t) / se
-        );
-        // unbiased within 2 Monte Carlo standard errors
-        assert!(
-            (m - t).abs() <= 2.0 * se,
-            "{name}: mean {m} vs {t} (SE {se})"
-        );
-    }
+    // unbiased within 2 Monte Carlo standard errors
+    common::unbiased_within_2_se(&[("sigma2", s2), ("gamma2", g2), ("B", b)], &est);
 }
 
 #[test]
@@ -103,17 +78,9 @@ fn mean_simulated_av_of_a_sinusoid_matches_the_closed_form() {
             .values()
             .to_vec()
     });
+    // 3 SE: the mean of R independent AVs is close to normal at every scale
     let theory = model_avar(&model, &ms, RATE).unwrap();
-    for (j, &m) in ms.iter().enumerate() {
-        let (mean, sd) = mean_sd(&per_scale[j]);
-        let z = (mean - theory[j]) / (sd / (R as f64).sqrt());
-        eprintln!(
-            "m={m:5}: mean {mean:.4e} theory {:.4e} z {z:+.2}",
-            theory[j]
-        );
-        // 3 SE, as for BI
-        assert!(z.abs() <= 3.0, "m={m}: z = {z}");
-    }
+    common::mean_within_3_se("", &ms, &per_scale, &theory);
 }
 
 #[test]
@@ -137,23 +104,8 @@ fn gmwm_recovers_sin_wn() {
         .unwrap();
         est.push([f.theta[0], f.theta[1], f.theta[2]]);
     }
-    for (i, (name, t)) in [("alpha2", a2), ("beta", beta), ("sigma2", s2)]
-        .iter()
-        .enumerate()
-    {
-        let col: Vec<f64> = est.iter().map(|e| e[i]).collect();
-        let (m, sd) = mean_sd(&col);
-        let se = sd / (R as f64).sqrt();
-        eprintln!(
-            "{name}: truth {t:e}, mean {m:e}, sd {sd:e}, (mean − truth)/SE {:+.2}",
-            (m - t) / se
-        );
-        // unbiased within 2 Monte Carlo standard errors
-        assert!(
-            (m - t).abs() <= 2.0 * se,
-            "{name}: mean {m} vs {t} (SE {se})"
-        );
-    }
+    // unbiased within 2 Monte Carlo standard errors
+    common::unbiased_within_2_se(&[("alpha2", a2), ("beta", beta), ("sigma2", s2)], &est);
 }
 
 #[test]

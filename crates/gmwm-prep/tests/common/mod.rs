@@ -1,4 +1,5 @@
-//! Helpers shared by this crate's Monte Carlo tests.
+//! Helpers shared by this crate's Monte Carlo tests (each test binary uses a part of them).
+#![allow(dead_code)]
 
 use avar::{AvarConfig, allan_variance};
 
@@ -31,4 +32,37 @@ pub fn simulated_avs(
         }
     }
     (ms, per_scale)
+}
+
+/// Asserts that the mean of the simulated AVs (`per_scale[j]`, R values at cluster size
+/// `ms[j]`) lies within 3 standard errors (sd/√R) of `theory[j]` at every scale: the mean of
+/// R ≥ 100 independent AVs is close to normal.
+pub fn mean_within_3_se(label: &str, ms: &[u64], per_scale: &[Vec<f64>], theory: &[f64]) {
+    for (j, &m) in ms.iter().enumerate() {
+        let (mean, sd) = mean_sd(&per_scale[j]);
+        let z = (mean - theory[j]) / (sd / (per_scale[j].len() as f64).sqrt());
+        eprintln!(
+            "{label} m={m:6}: mean {mean:.4e} theory {:.4e} z {z:+.2}",
+            theory[j]
+        );
+        assert!(z.abs() <= 3.0, "{label} m={m}: z = {z}");
+    }
+}
+
+/// Asserts that each parameter's mean over the R fits (`est[r][i]`) lies within 2 Monte Carlo
+/// standard errors (sd/√R) of its truth (`truths[i]`, named).
+pub fn unbiased_within_2_se<const K: usize>(truths: &[(&str, f64); K], est: &[[f64; K]]) {
+    for (i, (name, t)) in truths.iter().enumerate() {
+        let col: Vec<f64> = est.iter().map(|e| e[i]).collect();
+        let (m, sd) = mean_sd(&col);
+        let se = sd / (est.len() as f64).sqrt();
+        eprintln!(
+            "{name}: truth {t:e}, mean {m:e}, sd {sd:e}, (mean − truth)/SE {:+.2}",
+            (m - t) / se
+        );
+        assert!(
+            (m - t).abs() <= 2.0 * se,
+            "{name}: mean {m} vs {t} (SE {se})"
+        );
+    }
 }
