@@ -167,3 +167,37 @@ fn model_string_with_a_repeat_count_of_1e18_is_refused() {
     let e = s.parse::<imunoise::processes::Model>().unwrap_err();
     assert!(e.to_string().contains("at most 1000 components"), "{e}");
 }
+
+/// An MCAP file (a mutated seed, 50,766 bytes) whose footer points its summary section into
+/// the data section, at a run of records that holds uncompressed chunks and, further on, a
+/// record claiming 7·10^13 bytes. The `mcap` crate (0.26.0) read that "summary" as it was and
+/// subtracted an inner record's length from its chunk's remainder ("attempt to subtract with
+/// overflow", `sans_io/linear_reader.rs:745`, through `Summary::read`). The reader now walks
+/// the summary section before the crate sees it: a summary holding a chunk, or a record that
+/// runs past the footer, is not used and the messages are streamed instead; the file reads to a
+/// value or a user error.
+#[test]
+fn mcap_summary_pointing_into_the_data_section_is_not_handed_to_the_crate() {
+    let bytes = fixture("mcap", "open-linear-reader-overflow.mcap");
+    assert_eq!(bytes.len(), 50_766);
+    // the footer (29 bytes before the closing magic): opcode 0x02, then its summary start
+    let footer = bytes.len() - 8 - 29;
+    assert_eq!(bytes[footer], 0x02);
+    let start = u64::from_le_bytes(bytes[footer + 9..footer + 17].try_into().unwrap()) as usize;
+    assert_eq!(start, 15_388);
+    // walking the records from there meets a chunk (opcode 0x06) before the footer
+    let mut at = start;
+    let mut chunks = 0;
+    while at < footer {
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        if len > footer - at - 9 {
+            break;
+        }
+        chunks += usize::from(bytes[at] == 0x06);
+        at += 9 + len;
+    }
+    assert_eq!(chunks, 3);
+    if let Some(e) = read_log(LogFormat::Mcap, "mcap", &bytes) {
+        user_error(Some(e));
+    }
+}

@@ -215,6 +215,40 @@ fn u64_at(b: &[u8], at: usize) -> Option<u64> {
         .map(|s| u64::from_le_bytes(s.try_into().unwrap_or([0; 8])))
 }
 
+/// The file's summary section, read by the `mcap` crate only once its records have been
+/// walked here: `None` when the file has none or when it is not sound (then the messages are
+/// streamed). The footer's `summary_start` comes from the file, so it may point anywhere,
+/// into the data section too; the crate's reader trusts the lengths of an uncompressed chunk's
+/// inner records and subtracts them from the chunk's (found by `cargo xtask fuzz`: an overflow
+/// panic in `mcap` 0.26.0 `sans_io/linear_reader.rs`, input
+/// `tests/fixtures/fuzz/mcap/open-linear-reader-overflow.mcap`). A summary section holds no
+/// chunks (MCAP specification, "Summary Section"), so a chunk record there, a record that runs
+/// past the footer, or a start outside the file, makes the summary unusable.
+fn summary(map: &[u8]) -> Option<mcap::Summary> {
+    const FOOTER: usize = 1 + 8 + 20; // opcode, length, summary start, offset start, CRC
+    let footer_at = map.len().checked_sub(FOOTER + 8)?;
+    if footer_at < 8 || map[footer_at] != 0x02 || !map.ends_with(b"\x89MCAP0\r\n") {
+        return None;
+    }
+    let start = u64_at(map, footer_at + 9)?;
+    if start == 0 {
+        return None; // no summary section
+    }
+    let start = usize::try_from(start)
+        .ok()
+        .filter(|&s| s >= 8 && s <= footer_at)?;
+    let section = &map[start..footer_at];
+    let mut at = 0usize;
+    while at < section.len() {
+        let len = usize::try_from(u64_at(section, at + 1)?).ok()?;
+        if section[at] == 0x06 || len > section.len().saturating_sub(at + 9) {
+            return None;
+        }
+        at += 9 + len;
+    }
+    mcap::Summary::read(map).ok().flatten()
+}
+
 /// The records (opcode, body start, body length) of `b`, up to a data end record: every
 /// length must fit in what remains.
 fn walk_records(b: &[u8]) -> std::result::Result<Vec<(u8, usize, usize)>, String> {
@@ -543,7 +577,7 @@ impl McapReader {
     /// [`read_joined`](Self::read_joined)). `None` when the file has no chunk index (then it
     /// is streamed).
     fn read_chunks_parallel(&self, topic: &str) -> Result<Option<ImuSeries>> {
-        let Ok(Some(summary)) = mcap::Summary::read(&self.map) else {
+        let Some(summary) = summary(&self.map) else {
             return Ok(None);
         };
         // an index that points anywhere but at a checked chunk is not used (streamed instead)
@@ -737,7 +771,7 @@ impl LogReader for McapReader {
 
     fn topics(&self) -> Result<Vec<TopicInfo>> {
         // The summary (when the recording was closed properly) has the counts.
-        if let Ok(Some(summary)) = mcap::Summary::read(&self.map)
+        if let Some(summary) = summary(&self.map)
             && let Some(stats) = &summary.stats
             && !summary.channels.is_empty()
         {
@@ -756,9 +790,7 @@ impl LogReader for McapReader {
             out.check_finite(&format!("{} ({topic})", self.file))?;
             return Ok(out);
         }
-        let hint = mcap::Summary::read(&self.map)
-            .ok()
-            .flatten()
+        let hint = summary(&self.map)
             .and_then(|s| {
                 let stats = s.stats.as_ref()?;
                 Some(
@@ -867,7 +899,8 @@ mod tests {
         r: &McapReader,
         topic: &str,
     ) -> (Vec<mcap::records::ChunkIndex>, BTreeMap<u16, Decoder>) {
-        let summary = mcap::Summary::read(&r.map).unwrap().unwrap();
+        // the guarded read: a file the `mcap` crate wrote passes its walk
+        let summary = summary(&r.map).expect("a sound summary section");
         let decoders = summary
             .channels
             .iter()
