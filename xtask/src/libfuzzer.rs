@@ -1,4 +1,4 @@
-//! `cargo xtask fuzz --coverage --minutes N [--target NAME[,NAME…]] [--no-line-coverage]`:
+//! `cargo xtask fuzz --coverage --minutes N [--target NAME[,NAME…]] [--jobs K] [--no-line-coverage]`:
 //! coverage-guided fuzzing of the readers with cargo-fuzz (libFuzzer) on the nightly toolchain.
 //!
 //! 1. cargo-fuzz comes from `scripts/fuzz-setup.sh` (into `target/tools`, with the nightly
@@ -6,8 +6,8 @@
 //! 2. The seed corpora are written from the fixtures of `tests/logs.rs` (its ignored test
 //!    `write_fuzz_seeds`) into `target/fuzz/seeds/<target>/`.
 //! 3. The targets of `fuzz/` are built once (`cargo +nightly fuzz build --debug-assertions`,
-//!    AddressSanitizer), then run one at a time, N minutes each, one process
-//!    (`-timeout=1 -rss_limit_mb=1024 -malloc_limit_mb=1024`): a panic, an abort, an input that
+//!    AddressSanitizer), then run K at a time (`--jobs`, default 1), N minutes each, one
+//!    process per target (`-timeout=1 -rss_limit_mb=1024 -malloc_limit_mb=1024`): a panic, an abort, an input that
 //!    takes more than 1 s or an allocation over 1 GiB is a finding, kept in
 //!    `target/fuzz/artifacts/<target>/`. The corpus grows in `target/fuzz/corpus/<target>/`
 //!    from run to run; each run's libFuzzer output is in `target/fuzz-logs/<target>.log`.
@@ -64,6 +64,10 @@ struct Row {
 /// Runs the task.
 pub fn run(rest: &[String]) -> Result<(), String> {
     let minutes: f64 = args::parsed(rest, "--minutes", 1.0)?;
+    let jobs: usize = args::parsed(rest, "--jobs", 1usize)?;
+    if jobs == 0 {
+        return Err("--jobs must be at least 1".to_string());
+    }
     let only = args::value(rest, "--target");
     let line_coverage = !rest.iter().any(|a| a == "--no-line-coverage");
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -127,9 +131,29 @@ pub fn run(rest: &[String]) -> Result<(), String> {
     let bin_dir = build_dir.join(host()?).join("release");
     let logs = root.join("target/fuzz-logs");
     std::fs::create_dir_all(&logs).map_err(|e| e.to_string())?;
+    // `jobs` targets at a time, each one libFuzzer process (a target's figures do not depend
+    // on the others, only its executions per second do)
     let mut rows = Vec::new();
-    for &(name, _) in &targets {
-        rows.push(run_target(&bin_dir.join(name), name, minutes, &fz, &logs)?);
+    for group in targets.chunks(jobs) {
+        let done: Vec<Result<Row, String>> = std::thread::scope(|s| {
+            let handles: Vec<_> = group
+                .iter()
+                .map(|&(name, _)| {
+                    let (bin, fz, logs) = (bin_dir.join(name), &fz, &logs);
+                    s.spawn(move || run_target(&bin, name, minutes, fz, logs))
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| {
+                    h.join()
+                        .unwrap_or_else(|_| Err("a fuzz runner panicked".into()))
+                })
+                .collect()
+        });
+        for r in done {
+            rows.push(r?);
+        }
     }
     // 4. line coverage
     let mut note = String::new();
@@ -150,7 +174,7 @@ pub fn run(rest: &[String]) -> Result<(), String> {
             }
         }
     }
-    let report = table(&rows, &note);
+    let report = table(&rows, &note, jobs);
     print!("{report}");
     std::fs::write(root.join("target/fuzz-report.md"), &report).map_err(|e| e.to_string())?;
     let found: usize = rows.iter().map(|r| r.crashes + r.timeouts + r.ooms).sum();
@@ -388,9 +412,9 @@ fn line_cov(
     ))
 }
 
-fn table(rows: &[Row], note: &str) -> String {
-    let mut s = String::from(
-        "# cargo xtask fuzz --coverage (cargo-fuzz, libFuzzer, -timeout=1 -rss_limit_mb=1024 -malloc_limit_mb=1024, one process)\n\n\
+fn table(rows: &[Row], note: &str, jobs: usize) -> String {
+    let mut s = format!(
+        "# cargo xtask fuzz --coverage (cargo-fuzz, libFuzzer, -timeout=1 -rss_limit_mb=1024 -malloc_limit_mb=1024, one process per target, {jobs} at a time)\n\n\
          | target | minutes | runs | corpus (files) | cov | ft | line coverage | crashes | timeouts | OOMs |\n\
          |---|---|---|---|---|---|---|---|---|---|\n",
     );

@@ -62,7 +62,7 @@ const TASKS: &[(&str, &str)] = &[
     ),
     (
         "fuzz",
-        "property suites (tests/props.rs) with fresh seeds for --minutes N; cases per property; with --coverage: cargo-fuzz (libFuzzer) on each reader, --minutes N each [--target NAME]",
+        "property suites (tests/props.rs) with fresh seeds for --minutes N; cases per property; with --coverage: cargo-fuzz (libFuzzer) on each reader, --minutes N each [--target NAME] [--jobs K targets at a time]",
     ),
     (
         "gmwm-mc",
