@@ -421,3 +421,117 @@ fn an_interrupt_ends_an_open_stream_with_the_final_snapshot() {
     assert_eq!(last["final"], true);
     assert_eq!(last["n"], 20_000);
 }
+
+/// Raw binary rows (`--binary f32 --channels 6`, as `imunoise avar` reads them) through a pipe
+/// in pieces cut inside rows, two channels picked by `--columns 2,5`: the final snapshot equals
+/// `imunoise avar` on a CSV of the same values (each f32 printed exactly as its f64 value). A
+/// row holding NaN is reported with its row number and channel; `stop` keeps the rows before
+/// it, `skip` leaves it out. A partial last row is reported too, never dropped silently.
+#[test]
+fn binary_rows_through_a_pipe_equal_avar_and_bad_rows_are_located() {
+    let dir = tempfile::tempdir().unwrap();
+    let (n, k, bad) = (30_000usize, 6usize, 12_345usize);
+    let mut s = 0x9E37_79B9_7F4A_7C15u64;
+    let mut u = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) as f32
+    };
+    let rows: Vec<Vec<f32>> = (0..n)
+        .map(|i| {
+            (0..k)
+                .map(|c| u() + (i % 97) as f32 * 1e-3 * c as f32)
+                .collect()
+        })
+        .collect();
+    let bytes = |rows: &[Vec<f32>]| -> Vec<u8> {
+        rows.iter()
+            .flat_map(|r| r.iter().flat_map(|v| v.to_le_bytes()))
+            .collect()
+    };
+    let csv_of = |rows: &[Vec<f32>], name: &str| {
+        let mut t = String::from("ch2,ch5\n");
+        for r in rows {
+            t += &format!("{},{}\n", r[1] as f64, r[4] as f64);
+        }
+        let p = dir.path().join(name);
+        std::fs::write(&p, t).unwrap();
+        p
+    };
+    let run = |input: &[u8], policy: &str| {
+        let mut child = bin()
+            .args(["live", "-", "--rate", "100", "--every", "100", "--json"])
+            .args(["--binary", "f32", "--channels", "6", "--columns", "2,5"])
+            .args(["--on-error", policy])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        {
+            let mut stdin = child.stdin.take().unwrap();
+            for piece in input.chunks(7_777) {
+                if stdin.write_all(piece).is_err() {
+                    break; // stopped at the bad row
+                }
+            }
+        }
+        child.wait_with_output().unwrap()
+    };
+
+    // clean: 30,000 rows of 24 bytes, 3 snapshots of 10^4 rows and the final one
+    let out = run(&bytes(&rows), "stop");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(stdout.lines().count(), 4, "{stdout}");
+    assert_final_equals_avar(&stdout, &csv_of(&rows, "all.csv"), n);
+
+    // NaN in row 12346 (1-based), channel 5: byte offset 12345·24 + 4·4
+    let mut with_nan = rows.clone();
+    with_nan[bad][4] = f32::NAN;
+    let want = format!(
+        "<stdin>:12346:5: a value that is not finite in row 12346 channel 5 (byte offset {})",
+        bad * 24 + 16
+    );
+    let stop = run(&bytes(&with_nan), "stop");
+    assert_eq!(stop.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&stop.stderr);
+    assert!(err.contains(&want), "{err}");
+    let stdout = String::from_utf8(stop.stdout).unwrap();
+    assert_final_equals_avar(&stdout, &csv_of(&rows[..bad], "before.csv"), bad);
+
+    let skip = run(&bytes(&with_nan), "skip");
+    assert!(skip.status.success());
+    assert!(String::from_utf8_lossy(&skip.stderr).contains(&want));
+    let without: Vec<Vec<f32>> = rows
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| i != bad)
+        .map(|(_, r)| r.clone())
+        .collect();
+    let stdout = String::from_utf8(skip.stdout).unwrap();
+    assert_final_equals_avar(&stdout, &csv_of(&without, "without.csv"), n - 1);
+
+    // 10 bytes of a 30,001st row: reported, the 30,000 whole rows kept
+    let mut cut = bytes(&rows);
+    cut.extend_from_slice(&[0u8; 10]);
+    let out = run(&cut, "stop");
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("the input ends inside row 30001: 10 of its 6 × 4 bytes"),
+        "{err}"
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert_final_equals_avar(&stdout, &csv_of(&rows, "all2.csv"), n);
+    // with skip: reported all the same, and the run ends well
+    let out = run(&cut, "skip");
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("ends inside row 30001"), "{err}");
+}

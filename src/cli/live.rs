@@ -10,9 +10,10 @@ use std::time::{Duration, Instant};
 
 /// Examples shown by `imunoise live --help`.
 pub const EXAMPLES: &str = "Examples:
-  ros2 topic echo /imu/data_raw sensor_msgs/msg/Imu --csv | imunoise live - --rate 200 --columns 25-27 --unit rad/s
+  ros2 topic echo /imu/data_raw sensor_msgs/msg/Imu --csv | imunoise live - --rate 200 --columns 17-19 --unit rad/s
   imunoise live /dev/ttyUSB0 --rate 100 --every 30
   imunoise live imu.csv --follow --rate 400 --json > progress.jsonl
+  my_logger | imunoise live - --binary f32 --channels 6 --rate 1000 --columns 1-3 --unit deg/s
 
 Every --every seconds of input time one line per channel (or one JSON line with --json):
 the Allan deviation at a few tau with its CI, and N (read off at tau = 1 s), K (at tau = 3 s)
@@ -29,8 +30,8 @@ JSON line shape: {\"t_s\",\"n\",\"final\",\"channels\":[{\"name\",\"unit\",\"rat
 /// Arguments of `imunoise live`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct LiveArgs {
-    /// Text input (CSV, TSV or whitespace-separated, with or without a header line): a file,
-    /// a FIFO or serial device, or `-` for standard input.
+    /// Text input (CSV, TSV or whitespace-separated, with or without a header line), or raw
+    /// binary rows with --binary: a file, a FIFO or serial device, or `-` for standard input.
     #[arg(default_value = "-")]
     pub file: PathBuf,
     /// Sampling rate in Hz (> 0).
@@ -39,6 +40,13 @@ pub struct LiveArgs {
     /// Columns to analyse: header names or 1-based indices and ranges, e.g. `gyro_x,acc_z` or `1-3`.
     #[arg(long, value_name = "LIST")]
     pub columns: Option<String>,
+    /// Raw little-endian binary rows of this type (f64, f32, i16, i32) instead of text, as
+    /// `imunoise avar --binary` reads them; the channels are named ch1, ch2, …
+    #[arg(long, value_name = "TYPE")]
+    pub binary: Option<crate::io::BinaryType>,
+    /// Values per row of binary input (default 1).
+    #[arg(long, value_name = "K")]
+    pub channels: Option<usize>,
     /// Units: one for all channels or a comma list (deg/s, rad/s, g, m/s^2, none).
     /// Default: inferred from name suffixes (_dps, _rads, _g, _mps2), else none.
     #[arg(long, value_name = "UNIT")]
@@ -157,6 +165,15 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         on_error: args.on_error,
         until: args.until.clone(),
         keep_rows: args.out.is_some(),
+        binary: match (args.binary, args.channels) {
+            (Some(kind), k) => Some((kind, k.unwrap_or(1))),
+            (None, Some(_)) => {
+                return Err(Error::Usage(
+                    "--channels is for binary input: give --binary TYPE too".to_string(),
+                ));
+            }
+            (None, None) => None,
+        },
     };
     if let Some(dir) = &args.out {
         // a bad --out fails before the work, not after it
@@ -208,6 +225,11 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         }
     }
     let fin = live.finish();
+    if let Some(e) = live.partial_row()
+        && live.stopped().is_none()
+    {
+        eprintln!("malformed line: {e}");
+    }
     match fin {
         Ok(s) => print_snapshot(&mut out, &s, args.json)?,
         Err(e) if live.stopped().is_none() => return Err(e),

@@ -10,6 +10,9 @@
 //! with CIs, and N, K, B read off it with their CIs ([`gmwm_prep::noise_terms`] without a
 //! model: the IEEE 952 read-off, N at τ = 1 s and K at τ = 3 s, else an upper bound).
 //!
+//! With [`LiveSettings::binary`] the stream is raw little-endian rows instead (as `imunoise avar
+//! --binary` reads them), fed in pieces cut anywhere; rows count as lines below.
+//!
 //! A malformed line is an [`Event::BadLine`] with its line number in the whole stream; with
 //! [`OnError::Skip`] the line is left out and reading goes on, with [`OnError::Stop`] the
 //! stream stops there ([`Live::stopped`]); what was accumulated before it is kept either way.
@@ -36,7 +39,7 @@
 //! ```
 
 use crate::error::{Error, Result};
-use crate::io::{ColumnSpec, parse_columns, parse_text};
+use crate::io::{BinaryType, ColumnSpec, parse_binary, parse_columns, parse_text, resolve_columns};
 use crate::pipeline::estimate::{PointJson, to_json};
 use avar::{AllanVariance, AvarConfig, CiMethod, OnlineChannels, Scales};
 use gmwm_prep::AvCurve;
@@ -81,6 +84,10 @@ pub struct LiveSettings {
     /// Keep every row (8 bytes per sample and channel) for [`Live::into_table`], e.g. to
     /// write the `analyze` report at the end.
     pub keep_rows: bool,
+    /// Raw little-endian binary rows of this many values of this type (`--binary TYPE
+    /// --channels K`, as `imunoise avar` reads them) instead of text; the channels are named
+    /// ch1, ch2, … as there, and `columns` selects among them.
+    pub binary: Option<(BinaryType, usize)>,
 }
 
 /// A stopping rule: the 95 % (1 − alpha) interval of N, K or B read off the curve has a
@@ -166,6 +173,7 @@ impl Default for LiveSettings {
             on_error: OnError::Stop,
             until: Vec::new(),
             keep_rows: false,
+            binary: None,
         }
     }
 }
@@ -245,6 +253,10 @@ pub struct Live {
     reached: bool,
     /// Every row so far, per channel (with `keep_rows`).
     rows: Vec<Vec<f64>>,
+    /// Binary input: the channels `columns` selects (0-based), in their order.
+    pick: Vec<usize>,
+    /// Binary input: the partial row the stream ended inside, as [`Live::finish`] found it.
+    partial_row: Option<Error>,
 }
 
 impl Live {
@@ -276,6 +288,11 @@ impl Live {
         // validates the configuration (alpha, grid) once
         avar::Online::new(r, max_m, &config(&settings))?;
         let select = settings.columns.as_deref().map(parse_columns).transpose()?;
+        if let Some((_, k)) = settings.binary
+            && k == 0
+        {
+            return Err(Error::Usage("--channels must be at least 1".to_string()));
+        }
         let every_n = ((settings.every_s * r).round() as u64).max(1);
         Ok(Live {
             select,
@@ -290,6 +307,8 @@ impl Live {
             stopped: None,
             reached: false,
             rows: Vec::new(),
+            pick: Vec::new(),
+            partial_row: None,
             settings,
         })
     }
@@ -310,6 +329,34 @@ impl Live {
         self.stopped.as_ref()
     }
 
+    /// Binary input: the partial last row [`Live::finish`] met (the stream ended inside a
+    /// row), as an error locating it; with [`OnError::Stop`] it is also [`Live::stopped`].
+    ///
+    /// ```
+    /// use imunoise::io::BinaryType;
+    /// use imunoise::pipeline::live::{Live, LiveSettings};
+    /// let s = LiveSettings {
+    ///     rate_hz: 10.0,
+    ///     binary: Some((BinaryType::I16, 2)),
+    ///     ..LiveSettings::default()
+    /// };
+    /// let mut live = Live::new(s, "<stdin>")?;
+    /// // 100 rows of two i16 counts (4 bytes each), then 3 bytes of a 101st row
+    /// let mut bytes: Vec<u8> = (0..100i16).flat_map(|i| [i % 7, -(i % 5)])
+    ///     .flat_map(|v| v.to_le_bytes()).collect();
+    /// bytes.extend_from_slice(&[1, 2, 3]);
+    /// let (a, b) = bytes.split_at(201); // cut inside row 51
+    /// live.feed(a)?;
+    /// live.feed(b)?;
+    /// let last = live.finish()?;
+    /// assert_eq!(last.n, 100);
+    /// assert!(live.partial_row().unwrap().to_string().contains("inside row 101"));
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
+    pub fn partial_row(&self) -> Option<&Error> {
+        self.partial_row.as_ref()
+    }
+
     /// True once the `until` targets are reached: later input is ignored.
     pub fn reached(&self) -> bool {
         self.reached
@@ -324,6 +371,14 @@ impl Live {
             return Ok(events);
         }
         self.pending.extend_from_slice(bytes);
+        if let Some((kind, k)) = self.settings.binary {
+            // whole rows only; the bytes of a partial row wait for the next piece
+            let whole = self.pending.len() / (kind.size() * k) * (kind.size() * k);
+            let rest = self.pending.split_off(whole);
+            let complete = std::mem::replace(&mut self.pending, rest);
+            self.frames_in(&complete, kind, k, &mut events)?;
+            return Ok(events);
+        }
         let Some(last_nl) = self.pending.iter().rposition(|&b| b == b'\n') else {
             return Ok(events);
         };
@@ -336,6 +391,31 @@ impl Live {
     /// The end of the stream: parses an unterminated last line and returns the final snapshot.
     /// Errors: no data row at all, too few rows for one scale.
     pub fn finish(&mut self) -> Result<Snapshot> {
+        if let Some((kind, k)) = self.settings.binary {
+            if self.stopped.is_none() && !self.reached && !self.pending.is_empty() {
+                // a partial last row: reported as a malformed row (nothing dropped silently)
+                let e = Error::Located {
+                    file: self.file.clone(),
+                    line: self.lines + 1,
+                    column: 0,
+                    message: format!(
+                        "the input ends inside row {}: {} of its {} × {} bytes \
+                         (wrong --binary type or --channels?)",
+                        self.lines + 1,
+                        self.pending.len(),
+                        k,
+                        kind.size()
+                    ),
+                };
+                self.pending.clear();
+                let mut events = Vec::new();
+                self.bad_line(e, &mut events);
+                if let Some(Event::BadLine(e)) = events.pop() {
+                    self.partial_row = Some(e);
+                }
+            }
+            return self.snapshot(true);
+        }
         if self.stopped.is_none() && !self.reached && !self.pending.is_empty() {
             let mut last = std::mem::take(&mut self.pending);
             last.push(b'\n');
@@ -410,6 +490,82 @@ impl Live {
         }
         if at < text.len() {
             self.rows_in(&text[at..], events)?;
+        }
+        Ok(())
+    }
+
+    /// Whole binary rows of `k` values of `kind` (`lines` counts rows here). A row holding a
+    /// value that is not finite is a malformed row, reported with its number in the stream.
+    fn frames_in(
+        &mut self,
+        mut bytes: &[u8],
+        kind: BinaryType,
+        k: usize,
+        events: &mut Vec<Event>,
+    ) -> Result<()> {
+        if self.layout.is_none() {
+            let names: Vec<String> = (1..=k).map(|c| format!("ch{c}")).collect();
+            self.pick = match &self.select {
+                Some(spec) => resolve_columns(spec, &names)?,
+                None => (0..k).collect(),
+            };
+            let names: Vec<String> = self.pick.iter().map(|&i| names[i].clone()).collect();
+            let units = crate::units::channel_units(&names, self.settings.unit.as_deref())?;
+            let online = OnlineChannels::new(
+                names.len(),
+                self.settings.rate_hz,
+                self.max_m,
+                &config(&self.settings),
+            )?;
+            self.layout = Some(Layout {
+                header: Vec::new(),
+                names,
+                units,
+                online,
+            });
+        }
+        let row = kind.size() * k;
+        while !bytes.is_empty() {
+            let (good, bad) = match parse_binary(bytes, &self.file, kind, k) {
+                Ok(_) => (bytes.len() / row, None),
+                Err(Error::Located { line, column, .. }) => (line - 1, Some(column)),
+                Err(e) => return Err(e),
+            };
+            if good > 0 {
+                let t = parse_binary(&bytes[..good * row], &self.file, kind, k)?;
+                let mut cols: Vec<Option<Vec<f64>>> =
+                    t.columns.into_iter().map(|c| Some(c.into_vec())).collect();
+                let picked: Vec<Vec<f64>> = self
+                    .pick
+                    .iter()
+                    .map(|&i| cols[i].take().unwrap_or_default())
+                    .collect();
+                self.push_rows(&picked, events)?;
+                self.lines += good;
+                if self.reached {
+                    return Ok(());
+                }
+            }
+            let Some(column) = bad else {
+                return Ok(());
+            };
+            let at = self.lines as u64 * row as u64 + ((column - 1) * kind.size()) as u64;
+            let e = Error::Located {
+                file: self.file.clone(),
+                line: self.lines + 1,
+                column,
+                message: format!(
+                    "a value that is not finite in row {} channel {column} (byte offset {at}): \
+                     values must be finite",
+                    self.lines + 1
+                ),
+            };
+            self.lines += 1;
+            self.bad_line(e, events);
+            if self.stopped.is_some() {
+                return Ok(());
+            }
+            bytes = &bytes[(good + 1) * row..];
         }
         Ok(())
     }
