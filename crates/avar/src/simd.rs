@@ -17,6 +17,21 @@
 //! The paths give bit-identical results wherever the kernels' docs promise it (the MOAV kernels,
 //! the streamed stability kernel): the cap changes the speed, not the values.
 //!
+//! What `scalar` means: the kernels' portable Rust code compiled for the build's target and
+//! nothing more, whatever the CPU has. In the default x86-64 build that is the baseline
+//! instruction set (SSE2, which the compiler may use for pairs of f64): no AVX, no FMA, so
+//! `IMUNOISE_SIMD=scalar` runs what an x86-64 CPU without AVX2 runs and rules out every
+//! CPU-specific path; no code compiled with `#[target_feature]` runs at this level. The fused
+//! multiply-add of the MOAV sums (acc ← fma(d, d, acc), one rounding, as the vector paths do it
+//! with the FMA instruction) is then computed exactly from plain additions and multiplications
+//! rather than by a call to the library `fma` (same bits; on a CPU without FMA the library
+//! computes it in software, several times slower). A build with FMA in its target (aarch64,
+//! whose base instruction set has it, or `-C target-cpu=native` on a CPU with FMA) uses the
+//! instruction in the portable code; the values are the same. A portable variant compiled with
+//! FMA and chosen at run time on CPUs that have it was tried and not adopted: the compiler
+//! vectorises it with 256-bit AVX, so `scalar` would run AVX and FMA code, a level above the
+//! cap in all but name, and its speed would not be that of the CPUs that run this level.
+//!
 //! ```
 //! use avar::simd::{SimdLevel, capped, detected, level};
 //! // the level in use never exceeds what the CPU has, and the cap only lowers it
@@ -44,7 +59,8 @@ pub const ENV_VAR: &str = "IMUNOISE_SIMD";
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug)]
 #[repr(u8)]
 pub enum SimdLevel {
-    /// The portable code, no explicit vector instructions.
+    /// The portable code, no explicit vector instructions and no target features beyond the
+    /// build's (on x86-64 by default: SSE2, no FMA).
     Scalar = 1,
     /// AVX2 and FMA (x86-64).
     Avx2 = 2,

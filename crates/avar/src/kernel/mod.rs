@@ -6,11 +6,14 @@
 //! with Neumaier's compensated summation. Neither the thread count nor the SIMD width changes
 //! the order of any floating-point operation (no FMA contraction is used, except where written
 //! out: the streamed kernel's acc ← fma(d, d, acc), a correctly rounded fused operation in
-//! every path), so results are bit-identical on every run of the same binary on the same data.
+//! every path: the FMA instruction in the vector paths, and in the portable code compiled
+//! without FMA its exact emulation [`compensated::sq_add`]), so results are bit-identical on
+//! every run of the same binary on the same data.
 //!
 //! The files, each a concept, from the bottom up (each uses only those above it in this list):
 //!
-//! * [`compensated`]: Neumaier's running sum, the exact two-sum, the fixed reduction of lanes.
+//! * [`compensated`]: Neumaier's running sum, the exact two-sum, the fixed reduction of lanes,
+//!   the exact acc + d² of one rounding without FMA.
 //! * [`cumsum`]: the centred cumulative sum, whole or as checkpoints every 64 samples from which
 //!   any window of it is rebuilt bit for bit; the finiteness check and the pivot.
 //! * [`buffered`]: the buffered MOAV kernel, on a whole cumulative sum in memory (and the

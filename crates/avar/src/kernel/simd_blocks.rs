@@ -12,14 +12,18 @@
 
 // the vector paths' helpers (chunk-walk state, lane copies) are used only on x86-64; other
 // architectures build the portable path and leave them unused
-#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_variables))]
+#![cfg_attr(
+    not(target_arch = "x86_64"),
+    allow(dead_code, unused_variables, unused_imports)
+)]
 
 use super::buffered::SCALE_BATCH;
 use super::compensated::reduce_lanes;
 use super::cumsum::Checkpoints;
 use super::segments::{NSEG, SEG_FAR, SEG_NEAR, SegState, chunk_portable, d_start};
 #[cfg(target_arch = "x86_64")]
-use super::vector::{F64x, Line};
+use super::vector::F64x;
+use super::vector::Line;
 use crate::simd::SimdLevel;
 
 /// Columns of a chunk that [`chunk_all_with`] runs for every scale of a batch before moving on

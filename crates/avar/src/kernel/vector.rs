@@ -5,7 +5,10 @@
 //! x_{k−λ} of all 16 segments at one column are two aligned 64-byte lines.
 
 // x86-64 only (the vector paths)
-#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_variables))]
+#![cfg_attr(
+    not(target_arch = "x86_64"),
+    allow(dead_code, unused_variables, unused_imports)
+)]
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
