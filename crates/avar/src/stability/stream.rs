@@ -1448,6 +1448,30 @@ mod tests {
         }
     }
 
+    /// The block sums (a block's contribution to c and P) of every SIMD level up to the
+    /// process's level are the portable ones bit for bit, at every misalignment of the block
+    /// (samples with full 53-bit mantissas, so that the weighted products round: a fused
+    /// multiply-add in place of the product and the sum would change the bits).
+    #[test]
+    fn block_sums_are_identical_at_every_level() {
+        let y = series(64 * G + 8, 0.0);
+        for pivot in [0.0, 0.25] {
+            for o in 0..8 {
+                for b in y[o..o + 64 * G].chunks_exact(G) {
+                    let want = block_sums(b, pivot);
+                    for level in crate::simd::levels() {
+                        let got = block_sums_fast(b, pivot, level);
+                        assert_eq!(
+                            (got.0.to_bits(), got.1.to_bits()),
+                            (want.0.to_bits(), want.1.to_bits()),
+                            "{level} offset {o} pivot {pivot}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     /// Bit-identical for 1, 2 and 3 threads (the chunk grid and the order of the sums do not
     /// depend on the thread count).
     #[test]
