@@ -49,8 +49,6 @@ macro_rules! transpose8x8 {
         ]
     }};
 }
-#[cfg(target_arch = "x86_64")]
-pub(crate) use transpose8x8;
 
 /// The 4 × 4 transpose of four AVX2 vectors (rows → columns): lane r of column c is lane c of
 /// row r. Needs `std::arch::x86_64::*` in scope and AVX enabled at the use site.
@@ -87,7 +85,7 @@ pub(crate) struct Line([f64; 8]);
 /// `__m512d`, AVX2 and FMA for `__m256d`); the pointer functions also need their addresses to
 /// be valid for W f64 (aligned to the vector's size for `load` and `store`).
 #[cfg(target_arch = "x86_64")]
-pub(super) trait F64x: Copy {
+pub(crate) trait F64x: Copy {
     /// f64 lanes per vector.
     const W: usize;
     /// W vectors (the rows, or columns, of one transpose).
@@ -102,8 +100,11 @@ pub(super) trait F64x: Copy {
     unsafe fn storeu(p: *mut f64, v: Self);
     unsafe fn add(a: Self, b: Self) -> Self;
     unsafe fn sub(a: Self, b: Self) -> Self;
+    unsafe fn mul(a: Self, b: Self) -> Self;
     /// a·b + c with one rounding.
     unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self;
+    /// Every lane v.
+    unsafe fn splat(v: f64) -> Self;
     /// Rows → columns: lane r of column c is lane c of row r.
     unsafe fn transpose(rows: Self::Rows) -> Self::Rows;
     /// [`build_lanes_with`] compiled for the vector's instruction set.
@@ -114,7 +115,8 @@ pub(super) trait F64x: Copy {
 #[cfg(target_arch = "x86_64")]
 macro_rules! f64x_impl {
     ($v:ident, $w:literal, $feat:literal, $zero:ident, $load:ident, $loadu:ident, $store:ident,
-     $storeu:ident, $add:ident, $sub:ident, $fmadd:ident, $transpose:ident) => {
+     $storeu:ident, $add:ident, $sub:ident, $mul:ident, $fmadd:ident, $splat:ident,
+     $transpose:ident) => {
         impl F64x for $v {
             const W: usize = $w;
             type Rows = [$v; $w];
@@ -152,8 +154,16 @@ macro_rules! f64x_impl {
                 unsafe { $sub(a, b) }
             }
             #[inline(always)]
+            unsafe fn mul(a: Self, b: Self) -> Self {
+                unsafe { $mul(a, b) }
+            }
+            #[inline(always)]
             unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
                 unsafe { $fmadd(a, b, c) }
+            }
+            #[inline(always)]
+            unsafe fn splat(v: f64) -> Self {
+                unsafe { $splat(v) }
             }
             #[inline(always)]
             unsafe fn transpose(rows: Self::Rows) -> Self::Rows {
@@ -185,7 +195,9 @@ f64x_impl!(
     _mm512_storeu_pd,
     _mm512_add_pd,
     _mm512_sub_pd,
+    _mm512_mul_pd,
     _mm512_fmadd_pd,
+    _mm512_set1_pd,
     transpose8x8
 );
 
@@ -201,7 +213,9 @@ f64x_impl!(
     _mm256_storeu_pd,
     _mm256_add_pd,
     _mm256_sub_pd,
+    _mm256_mul_pd,
     _mm256_fmadd_pd,
+    _mm256_set1_pd,
     transpose4x4
 );
 
@@ -255,19 +269,38 @@ unsafe fn build_lanes_with<V: F64x, const SEG: usize>(
     }
 }
 
-/// The lane-layout copy ([`build_lanes_with`]) with AVX-512 (for the stability family's
-/// streamed kernel).
+/// The lane-layout copy ([`build_lanes_with`]) at `level` (AVX-512, AVX2, or element by element
+/// at the scalar level; the same copy at every level), for the stability family's streamed
+/// kernel.
 ///
 /// # Safety
-/// The CPU must support AVX-512F.
+/// `level` must be a vector level the CPU supports (at most [`crate::simd::level`]).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(crate) unsafe fn build_lanes_avx512<const SEG: usize>(
+pub(crate) unsafe fn build_lanes_at<const SEG: usize>(
+    level: crate::simd::SimdLevel,
     x: &[f64],
     a: usize,
     halo: usize,
     dst: &mut [Line],
 ) {
     // SAFETY: caller contract.
-    unsafe { <__m512d as F64x>::build_lanes::<SEG>(x, a, halo, dst) }
+    unsafe {
+        match level {
+            crate::simd::SimdLevel::Avx512 => {
+                <__m512d as F64x>::build_lanes::<SEG>(x, a, halo, dst)
+            }
+            crate::simd::SimdLevel::Avx2 => <__m256d as F64x>::build_lanes::<SEG>(x, a, halo, dst),
+            crate::simd::SimdLevel::Scalar => {
+                // the same copy, element by element
+                for c in 0..halo + SEG {
+                    for (h, line) in dst[2 * c..2 * c + 2].iter_mut().enumerate() {
+                        for (r, v) in line.0.iter_mut().enumerate() {
+                            *v = x[a + (8 * h + r) * SEG - halo + c];
+                        }
+                    }
+                }
+            }
+        }
+    }
 }

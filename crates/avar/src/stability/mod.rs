@@ -24,7 +24,7 @@
 //! a pyramid of block sums reads the series once. OHDEV, MDEV and TDEV of rate data without a
 //! chi-square interval are streamed from the samples (`stream.rs`: third-difference recurrences
 //! restarted from compensated checkpoints, one read of the series for the near scales and one
-//! for the far ones, vectorised with AVX-512, scalar elsewhere), and so is TOTDEV of rate
+//! for the far ones, vectorised with AVX-512 or AVX2, scalar elsewhere), and so is TOTDEV of rate
 //! series of at least 2^22 samples ([`totdev`]); phase (angle) input and chi-square intervals,
 //! which need the phase itself, build the series-sized cumulative sum as before. The scale
 //! grid comes from

@@ -18,7 +18,8 @@
 //! every [`G`] samples as compensated pairs, [`Frames`]; directly from the samples for m < G)
 //! and carries the recurrence over its length only, so rounding cannot drift beyond one segment.
 //! With AVX-512 the 16 segments of a chunk are the lanes of two vectors (the e rows are
-//! transposed in registers, the loads aligned to cache lines).
+//! transposed in registers, the loads aligned to cache lines), with AVX2 of four (the rows read
+//! unaligned); the kernels are written once over the vector type ([`Stream`]).
 //!
 //! Near scales (m ≤ [`NEAR_MAX_M`]) walk the chunks in order, in parallel jobs, all scales per
 //! chunk while its samples are in cache (the lagged rows were read shortly before); each job
@@ -34,7 +35,7 @@
 //! and whatever other scales are requested. The vector and portable paths perform the same
 //! operations in the same order (acc ← fma(v, v, acc)).
 //!
-//! Without AVX-512 every segment runs the scalar loop of [`seg_run`] (the same values, slower).
+//! At the scalar level every segment runs the loop of [`seg_run`] (the same values, slower).
 //! Phase (angle) input keeps the buffered path of the modules (the phase samples are not rate
 //! samples). With a chi-square interval the values still come from here; only the noise
 //! identification reads the cumulative sum.
@@ -50,8 +51,10 @@ use crate::kernel::compensated::{LANES, Neumaier, reduce_lanes, two_sum};
 use crate::kernel::cumsum::{first_non_finite, pivot_of};
 use crate::kernel::vector::Line;
 #[cfg(target_arch = "x86_64")]
-use crate::kernel::vector::build_lanes_avx512;
+use crate::kernel::vector::{F64x, build_lanes_at};
 use crate::simd::SimdLevel;
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::{__m256d, __m512d};
 
 /// Spacing (samples) of the checkpoints of c and P.
 const G: usize = 64;
@@ -146,43 +149,51 @@ fn block_sums(b: &[f64], pivot: f64) -> (f64, f64) {
     (lane_tree(s1), lane_tree(s2))
 }
 
-/// [`block_sums`] with AVX-512 when `level` is AVX-512 (the same lanes, operations and tree,
+/// [`block_sums`] with AVX-512 or AVX2 at those levels (the same lanes, operations and tree,
 /// so the same values). `level` must not exceed [`crate::simd::level`].
 #[inline(always)]
 fn block_sums_fast(b: &[f64], pivot: f64, level: SimdLevel) -> (f64, f64) {
     #[cfg(target_arch = "x86_64")]
-    if level == SimdLevel::Avx512 {
+    match level {
         // SAFETY: `level` ≤ `simd::level()` (caller contract): the CPU has AVX-512F.
-        return unsafe { block_sums_avx512(b, pivot) };
+        SimdLevel::Avx512 => return unsafe { <__m512d as Stream>::block_sums(b, pivot) },
+        // SAFETY: as above: the CPU has AVX2 and FMA.
+        SimdLevel::Avx2 => return unsafe { <__m256d as Stream>::block_sums(b, pivot) },
+        SimdLevel::Scalar => {}
     }
     let _ = level;
     block_sums(b, pivot)
 }
 
-/// [`block_sums`] in two AVX-512 accumulators (lane l of each is the portable lane l).
+/// [`block_sums`] in 8/W vectors of V per accumulator (lane r of vector h is the portable lane
+/// W·h + r), then the same tree.
 ///
 /// # Safety
-/// The CPU must support AVX-512F.
+/// The CPU must support V's instruction set.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn block_sums_avx512(b: &[f64], pivot: f64) -> (f64, f64) {
-    use std::arch::x86_64::*;
-    assert_eq!(b.len(), G);
-    // SAFETY: AVX-512F is available (caller contract); the loads read b[8j..8j + 8] and
-    // WEIGHTS[8j..8j + 8] for j < G/8 (length asserted).
+#[inline(always)]
+unsafe fn block_sums_with<V: F64x>(b: &[f64], pivot: f64) -> (f64, f64) {
+    let (w, n) = (V::W, 8 / V::W);
+    assert!(b.len() == G && n <= 2 && n * w == 8);
+    // SAFETY: V's instruction set is available (caller contract); the loads read b[8j..8j + 8]
+    // and WEIGHTS[8j..8j + 8] for j < G/8 (length asserted).
     unsafe {
-        let pv = _mm512_set1_pd(pivot);
-        let mut s1 = _mm512_setzero_pd();
-        let mut s2 = _mm512_setzero_pd();
+        let pv = V::splat(pivot);
+        let mut s1 = [V::splat(0.0); 2];
+        let mut s2 = s1;
         for j in 0..G / 8 {
-            let v = _mm512_sub_pd(_mm512_loadu_pd(b.as_ptr().add(8 * j)), pv);
-            s1 = _mm512_add_pd(s1, v);
-            let wt = _mm512_loadu_pd(WEIGHTS.as_ptr().add(8 * j));
-            s2 = _mm512_add_pd(s2, _mm512_mul_pd(v, wt));
+            for h in 0..n {
+                let v = V::sub(V::loadu(b.as_ptr().add(8 * j + w * h)), pv);
+                s1[h] = V::add(s1[h], v);
+                let wt = V::loadu(WEIGHTS.as_ptr().add(8 * j + w * h));
+                s2[h] = V::add(s2[h], V::mul(v, wt));
+            }
         }
         let (mut a1, mut a2) = ([0.0f64; 8], [0.0f64; 8]);
-        _mm512_storeu_pd(a1.as_mut_ptr(), s1);
-        _mm512_storeu_pd(a2.as_mut_ptr(), s2);
+        for h in 0..n {
+            V::storeu(a1.as_mut_ptr().add(w * h), s1[h]);
+            V::storeu(a2.as_mut_ptr().add(w * h), s2[h]);
+        }
         (lane_tree(a1), lane_tree(a2))
     }
 }
@@ -298,12 +309,31 @@ impl Frames {
         keep: impl FnMut(usize, (f64, f64)),
     ) {
         #[cfg(target_arch = "x86_64")]
-        if level == SimdLevel::Avx512 {
-            crate::simd::note(level);
-            // SAFETY: `level` ≤ `simd::level()` (caller contract): the CPU has AVX-512F.
-            return unsafe { self.extend_avx512(y, g_end, keep) };
+        match level {
+            SimdLevel::Avx512 => {
+                crate::simd::note(level);
+                // SAFETY: `level` ≤ `simd::level()` (caller contract): the CPU has AVX-512F.
+                return unsafe { self.extend_avx512(y, g_end, keep) };
+            }
+            SimdLevel::Avx2 => {
+                crate::simd::note(level);
+                // SAFETY: as above: the CPU has AVX2 and FMA.
+                return unsafe { self.extend_avx2(y, g_end, keep) };
+            }
+            SimdLevel::Scalar => {}
         }
         self.extend_impl(y, g_end, SimdLevel::Scalar, keep)
+    }
+
+    /// [`Frames::extend`] compiled for AVX2 and FMA (the same values: lane-wise operations
+    /// only).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn extend_avx2(&mut self, y: &[f64], g_end: usize, keep: impl FnMut(usize, (f64, f64))) {
+        self.extend_impl(y, g_end, SimdLevel::Avx2, keep)
     }
 
     /// [`Frames::extend`] compiled for AVX-512 (the same values: lane-wise operations only).
@@ -548,22 +578,6 @@ fn third_on_lanes(
     }
 }
 
-/// [`starts_on_checkpoints`] compiled for AVX-512.
-///
-/// # Safety
-/// The CPU must support AVX-512F.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn starts_on_checkpoints_avx512<const SEG: usize>(
-    fr: &Frames,
-    kind: Diff,
-    m: usize,
-    a: usize,
-    st: &mut SegState,
-) {
-    starts_on_checkpoints::<SEG>(fr, kind, m, a, st)
-}
-
 /// The recurrences of the NSEG segments of one chunk for one scale.
 #[derive(Clone, Copy, Default)]
 struct SegState {
@@ -572,62 +586,174 @@ struct SegState {
     acc: [f64; NSEG],
 }
 
-/// The vectors (h, w, acc), two of each, of a [`SegState`] (16 segments). Needs
-/// `std::arch::x86_64::*` in scope and AVX-512F enabled at the use site, as the macros below.
+/// The vector kernels of the streamed walk, each written once over the vector type
+/// ([`block_with`], [`lanes_with`], [`block_sums_with`], and [`starts_on_checkpoints`] and
+/// [`Frames::extend`] compiled with its instruction set), for AVX-512 (`__m512d`) and AVX2
+/// (`__m256d`).
+///
+/// # Safety
+/// Every function needs the CPU to support the vector's instruction set.
 #[cfg(target_arch = "x86_64")]
-macro_rules! load_state {
-    ($st:expr) => {{
-        let st: &SegState = &*$st;
-        let (ph, pw, pa) = (st.h.as_ptr(), st.w.as_ptr(), st.acc.as_ptr());
-        (
-            [_mm512_loadu_pd(ph), _mm512_loadu_pd(ph.add(8))],
-            [_mm512_loadu_pd(pw), _mm512_loadu_pd(pw.add(8))],
-            [_mm512_loadu_pd(pa), _mm512_loadu_pd(pa.add(8))],
-        )
-    }};
+trait Stream: F64x {
+    /// [`block_with`].
+    unsafe fn block<const MOD: bool, const SEG: usize>(
+        rows: &Rows<'_>,
+        s: usize,
+        j0: usize,
+        j1: usize,
+        st: &mut SegState,
+    );
+    /// [`lanes_with`].
+    unsafe fn lanes<const MOD: bool>(
+        buf: [&[Line]; 4],
+        src: [usize; 4],
+        j0: usize,
+        j1: usize,
+        st: &mut SegState,
+    );
+    /// [`block_sums_with`].
+    unsafe fn block_sums(b: &[f64], pivot: f64) -> (f64, f64);
+    /// [`starts_on_checkpoints`].
+    unsafe fn starts<const SEG: usize>(
+        fr: &Frames,
+        kind: Diff,
+        m: usize,
+        a: usize,
+        st: &mut SegState,
+    );
+}
+
+/// The entry points of [`Stream`] for one vector type, compiled with the target features
+/// `$feat`.
+#[cfg(target_arch = "x86_64")]
+macro_rules! stream_entry_points {
+    ($feat:literal) => {
+        #[target_feature(enable = $feat)]
+        unsafe fn block<const MOD: bool, const SEG: usize>(
+            rows: &Rows<'_>,
+            s: usize,
+            j0: usize,
+            j1: usize,
+            st: &mut SegState,
+        ) {
+            // SAFETY: the instruction set is available (caller contract).
+            unsafe { block_with::<Self, MOD, SEG>(rows, s, j0, j1, st) }
+        }
+        #[target_feature(enable = $feat)]
+        unsafe fn lanes<const MOD: bool>(
+            buf: [&[Line]; 4],
+            src: [usize; 4],
+            j0: usize,
+            j1: usize,
+            st: &mut SegState,
+        ) {
+            // SAFETY: as above.
+            unsafe { lanes_with::<Self, MOD>(buf, src, j0, j1, st) }
+        }
+        #[target_feature(enable = $feat)]
+        unsafe fn block_sums(b: &[f64], pivot: f64) -> (f64, f64) {
+            // SAFETY: as above.
+            unsafe { block_sums_with::<Self>(b, pivot) }
+        }
+        #[target_feature(enable = $feat)]
+        unsafe fn starts<const SEG: usize>(
+            fr: &Frames,
+            kind: Diff,
+            m: usize,
+            a: usize,
+            st: &mut SegState,
+        ) {
+            starts_on_checkpoints::<SEG>(fr, kind, m, a, st)
+        }
+    };
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Stream for __m512d {
+    stream_entry_points!("avx512f");
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Stream for __m256d {
+    stream_entry_points!("avx2,fma");
+}
+
+/// The vectors (h, w, acc) of a [`SegState`], NSEG/W of each.
+///
+/// # Safety
+/// The CPU must support V's instruction set.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn load_state<V: F64x>(st: &SegState) -> (V::Seg, V::Seg, V::Seg) {
+    let w = V::W;
+    // SAFETY: V's instruction set is available (caller contract); each array holds NSEG =
+    // W·(NSEG/W) values.
+    unsafe {
+        let (mut h, mut wv, mut acc) = (V::zero_seg(), V::zero_seg(), V::zero_seg());
+        for g in 0..NSEG / w {
+            h.as_mut()[g] = V::loadu(st.h.as_ptr().add(w * g));
+            wv.as_mut()[g] = V::loadu(st.w.as_ptr().add(w * g));
+            acc.as_mut()[g] = V::loadu(st.acc.as_ptr().add(w * g));
+        }
+        (h, wv, acc)
+    }
 }
 
 /// Stores the vectors (h, w, acc) back into a [`SegState`].
+///
+/// # Safety
+/// The CPU must support V's instruction set.
 #[cfg(target_arch = "x86_64")]
-macro_rules! store_state {
-    ($st:expr, $h:expr, $w:expr, $acc:expr) => {
-        for g in 0..2 {
-            _mm512_storeu_pd($st.h.as_mut_ptr().add(8 * g), $h[g]);
-            _mm512_storeu_pd($st.w.as_mut_ptr().add(8 * g), $w[g]);
-            _mm512_storeu_pd($st.acc.as_mut_ptr().add(8 * g), $acc[g]);
+#[inline(always)]
+unsafe fn store_state<V: F64x>(st: &mut SegState, h: &V::Seg, wv: &V::Seg, acc: &V::Seg) {
+    let w = V::W;
+    // SAFETY: as in [`load_state`].
+    unsafe {
+        for g in 0..NSEG / w {
+            V::storeu(st.h.as_mut_ptr().add(w * g), h.as_ref()[g]);
+            V::storeu(st.w.as_mut_ptr().add(w * g), wv.as_ref()[g]);
+            V::storeu(st.acc.as_mut_ptr().add(w * g), acc.as_ref()[g]);
         }
-    };
+    }
 }
 
 /// e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) from the four lagged vectors.
+///
+/// # Safety
+/// The CPU must support V's instruction set.
 #[cfg(target_arch = "x86_64")]
-macro_rules! e_of {
-    ($y0:expr, $y1:expr, $y2:expr, $y3:expr, $three:expr) => {
-        _mm512_fmadd_pd(_mm512_sub_pd($y2, $y1), $three, _mm512_sub_pd($y0, $y3))
-    };
+#[inline(always)]
+unsafe fn e_of<V: F64x>(y0: V, y1: V, y2: V, y3: V, three: V) -> V {
+    // SAFETY: caller contract.
+    unsafe { V::fmadd(V::sub(y2, y1), three, V::sub(y0, y3)) }
 }
 
-/// One step of the recurrences of group g with the increment e, as in [`seg_run`]:
+/// One step of the recurrences of one vector of lanes with the increment e, as in [`seg_run`]:
 /// acc ← fma(v, v, acc) (v = w for MVAR, h for OHVAR); w += h (MVAR); h += e.
+///
+/// # Safety
+/// The CPU must support V's instruction set.
 #[cfg(target_arch = "x86_64")]
-macro_rules! step_state {
-    ($mod:expr, $h:ident, $w:ident, $acc:ident, $g:expr, $e:expr) => {
-        if $mod {
-            $acc[$g] = _mm512_fmadd_pd($w[$g], $w[$g], $acc[$g]);
-            $w[$g] = _mm512_add_pd($w[$g], $h[$g]);
+#[inline(always)]
+unsafe fn step_state<V: F64x, const MOD: bool>(h: &mut V, w: &mut V, acc: &mut V, e: V) {
+    // SAFETY: caller contract.
+    unsafe {
+        if MOD {
+            *acc = V::fmadd(*w, *w, *acc);
+            *w = V::add(*w, *h);
         } else {
-            $acc[$g] = _mm512_fmadd_pd($h[$g], $h[$g], $acc[$g]);
+            *acc = V::fmadd(*h, *h, *acc);
         }
-        $h[$g] = _mm512_add_pd($h[$g], $e);
-    };
+        *h = V::add(*h, e);
+    }
 }
 
 /// Where a scale's recurrences over a full chunk read their samples.
 enum Src<'a> {
-    /// Rows of samples, transposed in registers ([`block_avx512`]).
+    /// Rows of samples, transposed in registers ([`block_with`]).
     Rows(Rows<'a>),
     /// Lane-layout copies: per lag, the buffer and the line index of chunk column 0
-    /// ([`lanes_avx512`]).
+    /// ([`lanes_with`]).
     Lanes([&'a [Line]; 4], [usize; 4]),
 }
 
@@ -640,133 +766,162 @@ const XH: usize = 512;
 type Rows<'a> = [(&'a [f64], usize); 4];
 
 /// Advances the 16 segments of a full chunk (its rows in `rows`) over the columns read in the
-/// windows [jb − s, jb − s + 8) for jb = j0, j0 + 8, … < j1 (multiples of 8), plus the window at
-/// jb = SEG when j1 = SEG, skipping the columns outside [0, SEG): with `s` the misalignment of
-/// row 0 in elements (the same in every slice), the loads are 64-byte aligned. Per group of
-/// eight segments and window, the rows e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) are
-/// formed, transposed in registers, and each lane steps its recurrence column by column in
-/// increasing k: the operations of [`seg_run`] in the same order, so the values are
-/// bit-identical to the portable path whatever s and wherever the rows are read from.
+/// windows [jb − s, jb − s + W) for jb = j0, j0 + W, … < j1 (multiples of W), plus the window at
+/// jb = SEG when j1 = SEG and s > 0, skipping the columns outside [0, SEG): with `s` the
+/// misalignment of row 0 in elements (the same in every slice; AVX-512) the loads are 64-byte
+/// aligned, with s = 0 (AVX2) the rows are read unaligned from column 0. Per vector of W
+/// segments and window, the rows e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) are formed,
+/// transposed in registers, and each lane steps its recurrence column by column in increasing
+/// k: the operations of [`seg_run`] in the same order, so the values are bit-identical to the
+/// portable path whatever s, W and wherever the rows are read from.
 ///
 /// # Safety
-/// The CPU must support AVX-512F.
+/// The CPU must support V's instruction set.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn block_avx512<const MOD: bool, const SEG: usize>(
+#[inline(always)]
+unsafe fn block_with<V: F64x, const MOD: bool, const SEG: usize>(
     rows: &Rows<'_>,
     s: usize,
     j0: usize,
     j1: usize,
     st: &mut SegState,
 ) {
-    use crate::kernel::vector::transpose8x8;
-    use std::arch::x86_64::*;
+    let w = V::W;
     assert!(
         rows.iter()
             .all(|(r, off)| *off >= 8 && off + NSEG * SEG + 8 <= r.len())
-            && s < 8
-            && j0.is_multiple_of(8)
-            && j1.is_multiple_of(8)
+            && s < w
+            && j0.is_multiple_of(w)
+            && j1.is_multiple_of(w)
             && j1 <= SEG
     );
-    // SAFETY: AVX-512F is available (caller contract); every load reads 8 elements from
-    // off + l·SEG + jb − s with l < NSEG, jb ≤ SEG, s < 8: inside [off − 8, off + NSEG·SEG + 8)
-    // of its slice (asserted); the state arrays hold NSEG = 16 values.
+    // SAFETY: V's instruction set is available (caller contract); every load reads W elements
+    // from off + l·SEG + jb − s with l < NSEG, jb ≤ SEG, s < W ≤ 8: inside
+    // [off − 8, off + NSEG·SEG + 8) of its slice (asserted); the state arrays hold NSEG values.
     unsafe {
         let p = rows.map(|(r, off)| r.as_ptr().add(off));
-        let three = _mm512_set1_pd(3.0);
-        let (mut h, mut w, mut acc) = load_state!(st);
-        // one step of the recurrences of group g with the column c
-        macro_rules! step {
-            ($g:expr, $c:expr) => {
-                step_state!(MOD, h, w, acc, $g, $c)
-            };
-        }
-        // the eight columns jb − s + c of rows 8g … 8g + 7, transposed (lane r of column c: e at
-        // row 8g + r, column jb − s + c)
+        let three = V::splat(3.0);
+        let (mut h, mut wv, mut acc) = load_state::<V>(st);
+        let (h, wv, acc) = (h.as_mut(), wv.as_mut(), acc.as_mut());
+        // the W columns jb − s + c of rows W·g … W·g + W − 1, transposed (lane r of column c:
+        // e at row W·g + r, column jb − s + c)
         macro_rules! columns {
             ($jb:expr, $g:expr) => {{
-                let mut e = [_mm512_setzero_pd(); 8];
-                for (r, er) in e.iter_mut().enumerate() {
-                    let q = (8 * $g + r) * SEG + $jb;
-                    let y0 = _mm512_loadu_pd(p[0].add(q).sub(s));
-                    let y1 = _mm512_loadu_pd(p[1].add(q).sub(s));
-                    let y2 = _mm512_loadu_pd(p[2].add(q).sub(s));
-                    let y3 = _mm512_loadu_pd(p[3].add(q).sub(s));
-                    *er = e_of!(y0, y1, y2, y3, three);
+                let mut e = V::zero_rows();
+                for (r, er) in e.as_mut().iter_mut().enumerate() {
+                    let q = (w * $g + r) * SEG + $jb;
+                    let y0 = V::loadu(p[0].add(q).sub(s));
+                    let y1 = V::loadu(p[1].add(q).sub(s));
+                    let y2 = V::loadu(p[2].add(q).sub(s));
+                    let y3 = V::loadu(p[3].add(q).sub(s));
+                    *er = e_of(y0, y1, y2, y3, three);
                 }
-                transpose8x8!(e)
+                V::transpose(e)
             }};
         }
         let mut jb = j0;
         if jb == 0 && jb < j1 {
-            for g in 0..2 {
-                for &c in &columns!(0, g)[s..] {
-                    step!(g, c);
+            for g in 0..NSEG / w {
+                for &c in &columns!(0, g).as_ref()[s..] {
+                    step_state::<V, MOD>(&mut h[g], &mut wv[g], &mut acc[g], c);
                 }
             }
-            jb += 8;
+            jb += w;
         }
         while jb < j1 {
             // the whole window: the columns stay in registers
-            for g in 0..2 {
-                for c in columns!(jb, g) {
-                    step!(g, c);
+            for g in 0..NSEG / w {
+                for &c in columns!(jb, g).as_ref() {
+                    step_state::<V, MOD>(&mut h[g], &mut wv[g], &mut acc[g], c);
                 }
             }
-            jb += 8;
+            jb += w;
         }
         if j1 == SEG && s > 0 {
-            for g in 0..2 {
-                for &c in &columns!(SEG, g)[..s] {
-                    step!(g, c);
+            for g in 0..NSEG / w {
+                for &c in &columns!(SEG, g).as_ref()[..s] {
+                    step_state::<V, MOD>(&mut h[g], &mut wv[g], &mut acc[g], c);
                 }
             }
         }
-        store_state!(st, h, w, acc);
+        let (mut hs, mut ws, mut accs) = (V::zero_seg(), V::zero_seg(), V::zero_seg());
+        hs.as_mut().copy_from_slice(h);
+        ws.as_mut().copy_from_slice(wv);
+        accs.as_mut().copy_from_slice(acc);
+        store_state::<V>(st, &hs, &ws, &accs);
     }
 }
 
-/// [`block_avx512`] from lane-layout copies ([`build_lanes_avx512`]): the samples of lag j of
-/// chunk column c are the line pair at `src[j] + 2c` (lane r of line 2c + g: row 8g + r), so
-/// that e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) is formed from aligned loads without
+/// [`block_with`] from lane-layout copies ([`build_lanes_at`]): the samples of lag j of chunk
+/// column c are the line pair at `src[j] + 2c` (lane r of line 2c + h: row 8h + r), so that
+/// e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) is formed from aligned loads without
 /// transposes. Over the columns [j0, j1): the operations of [`seg_run`] in the same order, so
 /// the values are bit-identical to the portable path.
 ///
 /// # Safety
-/// The CPU must support AVX-512F.
+/// The CPU must support V's instruction set.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn lanes_avx512<const MOD: bool>(
+#[inline(always)]
+unsafe fn lanes_with<V: F64x, const MOD: bool>(
     buf: [&[Line]; 4],
     src: [usize; 4],
     j0: usize,
     j1: usize,
     st: &mut SegState,
 ) {
-    use std::arch::x86_64::*;
+    let w = V::W;
     assert!(j0 <= j1 && (0..4).all(|j| src[j] + 2 * j1 <= buf[j].len()));
-    // SAFETY: AVX-512F is available (caller contract); the loads read the aligned lines
-    // buf[j][src[j] + 2c + g] for c < j1, g < 2, inside the buffers (asserted).
+    // SAFETY: V's instruction set is available (caller contract); the loads read the aligned
+    // W-lane parts of the lines buf[j][src[j] + 2c + W·g/8] for c < j1, g < NSEG/W, inside the
+    // buffers (asserted).
     unsafe {
         let p: [*const f64; 4] = std::array::from_fn(|j| buf[j].as_ptr().add(src[j]).cast());
-        let three = _mm512_set1_pd(3.0);
-        let (mut h, mut w, mut acc) = load_state!(st);
-        for c in j0..j1 {
-            for g in 0..2 {
-                let o = 16 * c + 8 * g;
-                let y0 = _mm512_load_pd(p[0].add(o));
-                let y1 = _mm512_load_pd(p[1].add(o));
-                let y2 = _mm512_load_pd(p[2].add(o));
-                let y3 = _mm512_load_pd(p[3].add(o));
-                step_state!(MOD, h, w, acc, g, e_of!(y0, y1, y2, y3, three));
+        let three = V::splat(3.0);
+        let (mut h, mut wv, mut acc) = load_state::<V>(st);
+        {
+            let (h, wv, acc) = (h.as_mut(), wv.as_mut(), acc.as_mut());
+            for c in j0..j1 {
+                for g in 0..NSEG / w {
+                    let o = 16 * c + w * g;
+                    let y0 = V::load(p[0].add(o));
+                    let y1 = V::load(p[1].add(o));
+                    let y2 = V::load(p[2].add(o));
+                    let y3 = V::load(p[3].add(o));
+                    let e = e_of(y0, y1, y2, y3, three);
+                    step_state::<V, MOD>(&mut h[g], &mut wv[g], &mut acc[g], e);
+                }
             }
         }
-        store_state!(st, h, w, acc);
+        store_state::<V>(st, &h, &wv, &acc);
     }
 }
 
-/// The far walk's lane-layout copies ([`build_lanes_avx512`]) of the chunks its residue class
+/// Runs the recurrences of one full chunk's scale over the columns [j0, j0 + BLK) with the
+/// kernels of V, from where `src` says.
+///
+/// # Safety
+/// The CPU must support V's instruction set; the chunk must be full for the scale.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn run_block<V: Stream, const SEG: usize>(
+    kind: Diff,
+    src: &Src<'_>,
+    s: usize,
+    j0: usize,
+    st: &mut SegState,
+) {
+    // SAFETY: caller contract.
+    unsafe {
+        match (kind, src) {
+            (Diff::Hadamard, Src::Rows(r)) => V::block::<false, SEG>(r, s, j0, j0 + BLK, st),
+            (Diff::Modified, Src::Rows(r)) => V::block::<true, SEG>(r, s, j0, j0 + BLK, st),
+            (Diff::Hadamard, Src::Lanes(b, o)) => V::lanes::<false>(*b, *o, j0, j0 + BLK, st),
+            (Diff::Modified, Src::Lanes(b, o)) => V::lanes::<true>(*b, *o, j0, j0 + BLK, st),
+        }
+    }
+}
+
+/// The far walk's lane-layout copies ([`build_lanes_at`]) of the chunks its residue class
 /// visited last, in contiguous slots: a far scale that is a whole number q of class steps reads
 /// its lagged samples from the copies of the chunks q, 2q and 3q steps back, as aligned lane
 /// vectors, instead of from the series (where rows 2^k·8 bytes apart map to the same cache
@@ -779,17 +934,21 @@ struct Ring {
     /// Class step (samples) and the index in its class of the current chunk.
     step: usize,
     tc: usize,
+    /// The vector level that makes the copies (at most [`crate::simd::level`]).
+    level: SimdLevel,
 }
 
 impl Ring {
-    /// A ring of `slots` slots for the walk of class step `step` (0 slots: no ring).
-    fn new(slots: usize, step: usize) -> Ring {
+    /// A ring of `slots` slots for the walk of class step `step` (0 slots: no ring), its copies
+    /// made at `level` (at most [`crate::simd::level`]).
+    fn new(slots: usize, step: usize, level: SimdLevel) -> Ring {
         Ring {
             buf: vec![Line::default(); slots * 2 * SEG_FAR],
             slots,
             held: vec![usize::MAX; slots],
             step,
             tc: 0,
+            level,
         }
     }
 
@@ -802,10 +961,13 @@ impl Ring {
         let slot = tc % self.slots;
         let dst = &mut self.buf[2 * SEG_FAR * slot..2 * SEG_FAR * (slot + 1)];
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: a ring has slots only with AVX-512F (see the far walk); the chunk is full.
+        // SAFETY: `level` ≤ `simd::level()` (see [`Ring::new`]); the chunk is full.
         unsafe {
-            build_lanes_avx512::<SEG_FAR>(y, a, 0, dst)
+            build_lanes_at::<SEG_FAR>(self.level, y, a, 0, dst)
         };
+        // (other architectures run the scalar level only: their rings have no slots)
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = dst;
         self.held[slot] = tc;
     }
 
@@ -819,9 +981,9 @@ impl Ring {
 }
 
 /// The partial sums of chunk `i` (segment length SEG) for every scale of `batch`, into `out`.
-/// Full chunks run the vector kernel when `level` is AVX-512, all scales per column block,
-/// reading the lagged rows from the `ring` where it holds them; the others (and every chunk
-/// below AVX-512) run [`seg_sum`] per segment. The same value either way. `level` must not
+/// Full chunks run the vector kernel of `level` (AVX-512 or AVX2), all scales per column block,
+/// reading the lagged rows from the `ring` where it holds them; the others (and every chunk at
+/// the scalar level) run [`seg_sum`] per segment. The same value either way. `level` must not
 /// exceed [`crate::simd::level`].
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
@@ -839,17 +1001,30 @@ fn chunk_partials<const SEG: usize>(
     let t = y.len();
     let a = i * NSEG * SEG;
     let k_end = kind.k_end(t);
-    let simd = level == SimdLevel::Avx512;
+    let simd = level >= SimdLevel::Avx2;
     let full = |m: usize| simd && a >= 3 * m + 8 && a + NSEG * SEG + 8 <= t;
-    // misalignment (elements) of y[a] and of every row start (SEG is a multiple of 8)
-    let mis = (y.as_ptr().wrapping_add(a) as usize % 64) / 8;
+    // misalignment (elements) of y[a] and of every row start (SEG is a multiple of 8): the
+    // AVX-512 windows start there (aligned loads); the AVX2 rows are read unaligned from a
+    let mis = if level == SimdLevel::Avx512 {
+        (y.as_ptr().wrapping_add(a) as usize % 64) / 8
+    } else {
+        0
+    };
     states.clear();
     for &m in batch.iter().filter(|&&m| full(m)) {
         let mut st = SegState::default();
         #[cfg(target_arch = "x86_64")]
         if m.is_multiple_of(G) {
-            // SAFETY: `full` holds only at level AVX-512 (≤ `simd::level()`): AVX-512F present.
-            unsafe { starts_on_checkpoints_avx512::<SEG>(fr, kind, m, a, &mut st) };
+            // SAFETY: `full` holds only at a vector level (≤ `simd::level()`): its instructions
+            // are present.
+            unsafe {
+                match level {
+                    SimdLevel::Avx512 => {
+                        <__m512d as Stream>::starts::<SEG>(fr, kind, m, a, &mut st)
+                    }
+                    _ => <__m256d as Stream>::starts::<SEG>(fr, kind, m, a, &mut st),
+                }
+            };
             states.push(st);
             continue;
         }
@@ -867,8 +1042,8 @@ fn chunk_partials<const SEG: usize>(
         let halo = a >= XH && batch.iter().any(|&m| full(m) && 3 * m <= XH);
         if halo {
             xt.resize(2 * (XH + SEG), Line::default());
-            // SAFETY: as above (AVX-512F present); a ≥ XH, the chunk is full.
-            unsafe { build_lanes_avx512::<SEG>(y, a, XH, xt) };
+            // SAFETY: as above (the level's instructions present); a ≥ XH, the chunk is full.
+            unsafe { build_lanes_at::<SEG>(level, y, a, XH, xt) };
         }
         let xt: &[Line] = xt;
         let from_ring = |m: usize| {
@@ -891,21 +1066,11 @@ fn chunk_partials<const SEG: usize>(
             .collect();
         for j0 in (0..SEG).step_by(BLK) {
             for (src, st) in srcs.iter().zip(states.iter_mut()) {
-                // SAFETY: as above (AVX-512F present); the chunk is full for m.
+                // SAFETY: as above (the level's instructions present); the chunk is full for m.
                 unsafe {
-                    match (kind, src) {
-                        (Diff::Hadamard, Src::Rows(r)) => {
-                            block_avx512::<false, SEG>(r, mis, j0, j0 + BLK, st)
-                        }
-                        (Diff::Modified, Src::Rows(r)) => {
-                            block_avx512::<true, SEG>(r, mis, j0, j0 + BLK, st)
-                        }
-                        (Diff::Hadamard, Src::Lanes(b, o)) => {
-                            lanes_avx512::<false>(*b, *o, j0, j0 + BLK, st)
-                        }
-                        (Diff::Modified, Src::Lanes(b, o)) => {
-                            lanes_avx512::<true>(*b, *o, j0, j0 + BLK, st)
-                        }
+                    match level {
+                        SimdLevel::Avx512 => run_block::<__m512d, SEG>(kind, src, mis, j0, st),
+                        _ => run_block::<__m256d, SEG>(kind, src, mis, j0, st),
                     }
                 }
             }
@@ -1050,7 +1215,7 @@ fn third_diff_sums_with(
     // never above the process's level (the vector paths' safety rests on it)
     let level = level.min(crate::simd::level());
     crate::simd::note(SimdLevel::Scalar);
-    let simd = level == SimdLevel::Avx512;
+    let simd = level >= SimdLevel::Avx2;
     let t = y.len();
     let k_end = kind.k_end(t);
     let pivot = pivot_of(y);
@@ -1090,7 +1255,7 @@ fn third_diff_sums_with(
         let by_class: Vec<Vec<f64>> = (0..n_cls)
             .into_par_iter()
             .map_init(
-                || (Default::default(), Ring::new(slots, step)),
+                || (Default::default(), Ring::new(slots, step, level)),
                 |(scratch, ring), r| {
                     let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
                     let walk = (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w));
@@ -1274,6 +1439,30 @@ mod tests {
             let b = third_diff_sums(&shifted, &MS, kind).unwrap();
             for ((u, v), m) in a.iter().zip(&b).zip(MS) {
                 assert!(rel(*v, *u) < 1e-9, "{kind:?} m {m}: {u} vs {v}");
+            }
+        }
+    }
+
+    /// The block sums (a block's contribution to c and P) of every SIMD level up to the
+    /// process's level are the portable ones bit for bit, at every misalignment of the block
+    /// (samples with full 53-bit mantissas, so that the weighted products round: a fused
+    /// multiply-add in place of the product and the sum would change the bits).
+    #[test]
+    fn block_sums_are_identical_at_every_level() {
+        let y = series(64 * G + 8, 0.0);
+        for pivot in [0.0, 0.25] {
+            for o in 0..8 {
+                for b in y[o..o + 64 * G].chunks_exact(G) {
+                    let want = block_sums(b, pivot);
+                    for level in crate::simd::levels() {
+                        let got = block_sums_fast(b, pivot, level);
+                        assert_eq!(
+                            (got.0.to_bits(), got.1.to_bits()),
+                            (want.0.to_bits(), want.1.to_bits()),
+                            "{level} offset {o} pivot {pivot}"
+                        );
+                    }
+                }
             }
         }
     }
