@@ -294,3 +294,31 @@ fn until_k_10_percent_on_50_separated_streams() {
     );
     assert!(s.within_30 >= 0.8, "{}", s.within_30);
 }
+
+/// The short version CI runs: 3 streams of the separated model stopped at `--until K=20%`
+/// (about 1.5·10^3 s of input each), a snapshot every 100 s.
+#[test]
+fn until_k_20_percent_on_3_streams() {
+    let (m, gamma2) = separated();
+    let oracle = oracle_time(&m, 0.2);
+    for seed in 201..=203 {
+        let r = run(&m, gamma2, seed, 0.2, 100.0, 2_000_000, oracle);
+        // the first snapshot at or below 20 %: one step of 100 s in a record of ≥ 500 s
+        // (these stop after 900–1400 s) moves h ∝ 1/√T by ≤ 10 %: h ∈ [18 %, 20 %] ⊂ [16 %, 20 %]
+        assert!(
+            (0.16..=0.2).contains(&r.h_final),
+            "seed {seed}: {}",
+            r.h_final
+        );
+        // K̂ within 3 standard errors of K (SE ≈ h/1.96 relative; P(|z| > 3) = 0.3 %)
+        assert!(
+            r.k_err <= 3.0 * r.h_final / 1.96,
+            "seed {seed}: {}",
+            r.k_err
+        );
+        // the estimate at a quarter of the stop lies inside its own interval, and is a
+        // positive time
+        let (_, left, lo, hi) = r.at_quarter;
+        assert!(left > 0.0 && lo <= left && left <= hi, "{:?}", r.at_quarter);
+    }
+}
