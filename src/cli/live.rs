@@ -13,11 +13,15 @@ pub const EXAMPLES: &str = "Examples:
   ros2 topic echo /imu/data_raw sensor_msgs/msg/Imu --csv | imunoise live - --rate 200 --columns 25-27 --unit rad/s
   imunoise live /dev/ttyUSB0 --rate 100 --every 30
   imunoise live imu.csv --follow --rate 400 --json > progress.jsonl
+  imunoise live - --rate 100 --model \"WN + RW + AR1\" --until K=10%
 
-Every --every seconds of input time one line per channel (or one JSON line with --json):
-the Allan deviation at a few tau with its CI, and N (read off at tau = 1 s), K (at tau = 3 s)
-and B (the flat minimum) with their CIs, or an upper bound while the curve shows no such
-region. At the end of the input (or at Ctrl-C) the final snapshot (marked final) is printed; it equals
+Every --every seconds of input time a snapshot: on a terminal a view redrawn in place (at
+most every --refresh s), else one JSON line (--json forces it, --lines gives one text line
+per channel): the Allan deviation at a few tau with its CI, and N, K and B with their CIs,
+from the fitted --model, or read off the curve without one (N at tau = 1 s, K at tau = 3 s,
+B the flat minimum, or an upper bound while the curve shows no such region). With --until,
+the precision reached and the time left (from the fitted model, with a 95 % interval).
+At the end of the input (or at Ctrl-C) the final snapshot (marked final) is printed; it equals
 `imunoise avar` on the same rows at the scales up to --tau-max. A malformed line is reported
 with its line number; --on-error skip leaves it out and goes on, stop (default) prints the
 final snapshot of the rows before it and exits with code 2.

@@ -169,6 +169,18 @@ impl Predictor<'_> {
         }
         let model = f.model.with_params(theta).ok()?;
         let nu = theory::model_avar(&model, &m, f.rate_hz).ok()?;
+        // each component's AV (the diagnosis of an unidentifiable fit reads them)
+        let components = model
+            .processes()
+            .ok()?
+            .iter()
+            .map(|p| {
+                m.iter()
+                    .map(|&mj| theory::process_avar(p, mj, f.rate_hz))
+                    .collect::<std::result::Result<Vec<f64>, _>>()
+            })
+            .collect::<std::result::Result<Vec<_>, _>>()
+            .ok()?;
         let v = model_covariance(&model, &m, f.rate_hz, n).ok()?;
         let w: Vec<f64> = v.diag().iter().map(|d| 1.0 / d.sqrt()).collect();
         if !w.iter().all(|x| x.is_finite()) {
@@ -185,7 +197,7 @@ impl Predictor<'_> {
             m,
             observed: nu.clone(),
             fitted: nu,
-            components: Vec::new(),
+            components,
             whitening: CovMatrix::diagonal(&w),
             n: Some(n),
             robust: f.robust,
