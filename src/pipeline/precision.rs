@@ -293,7 +293,7 @@ impl Predictor<'_> {
         let mut per_se = vec![0.0; p];
         let mut unbounded = false;
         for (k, d) in per_se.iter_mut().enumerate() {
-            if !(self.inference.se[k] > 0.0) {
+            if self.inference.se[k].is_nan() || self.inference.se[k] <= 0.0 {
                 continue;
             }
             let (a, b) = self.inference.ci[k];
