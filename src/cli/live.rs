@@ -339,7 +339,8 @@ pub struct Screen {
 }
 
 impl Screen {
-    /// A view of the stream `name`, redrawn at most once per `every` of wall-clock time.
+    /// A view of the stream `name`, redrawn at most once per `every` of wall-clock time
+    /// (example at [`Screen::draw`]).
     pub fn new(name: &str, every: Duration) -> Screen {
         Screen {
             name: name.to_string(),
@@ -350,6 +351,34 @@ impl Screen {
     }
 
     /// Redraws with `s` when the interval has passed (or `s` is final or reached the target).
+    ///
+    /// ```
+    /// use imunoise::cli::live::{Screen, render_frame};
+    /// use imunoise::pipeline::live::{Live, LiveSettings};
+    /// use std::time::Duration;
+    /// let s = LiveSettings { rate_hz: 10.0, every_s: 1e9, ..LiveSettings::default() };
+    /// let mut live = Live::new(s, "x")?;
+    /// live.feed(b"gx\n1\n2\n0\n3\n1\n2\n")?;
+    /// let snap = live.snapshot(false)?;
+    /// let frame = render_frame("x", &snap);
+    /// let mut screen = Screen::new("x", Duration::ZERO);
+    /// let mut out = Vec::new();
+    /// screen.draw(&mut out, &snap)?;
+    /// assert_eq!(out, frame.as_bytes()); // the first frame as it is
+    /// out.clear();
+    /// screen.draw(&mut out, &snap)?;
+    /// // then: up over the previous frame's lines, clear below, the new frame
+    /// let up = format!("\x1b[{}F\x1b[J", frame.lines().count());
+    /// assert_eq!(String::from_utf8(out).unwrap(), up + &frame);
+    /// // a long interval: nothing until it has passed (a non-final snapshot)
+    /// let mut slow = Screen::new("x", Duration::from_secs(3600));
+    /// let mut out = Vec::new();
+    /// slow.draw(&mut out, &snap)?;
+    /// let len = out.len();
+    /// slow.draw(&mut out, &snap)?;
+    /// assert_eq!(out.len(), len);
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
     pub fn draw(&mut self, out: &mut impl Write, s: &Snapshot) -> Result<()> {
         let due = s.is_final || s.reached || self.last.is_none_or(|t| t.elapsed() >= self.every);
         if !due {
