@@ -297,12 +297,15 @@ fn until_k_10_percent_on_50_streams() {
 fn until_k_10_percent_on_50_separated_streams() {
     let (m, gamma2) = separated();
     let s = monte_carlo(&m, gamma2, 101..=150, 0.10, 300.0, 12_000_000);
+    // measured 2026-11-27: within ±30 % in 45/50 (0.90; binomial SE 0.042), the interval
+    // covering in 48/50, h_final in [9.61 %, 10.00 %] (one step of 300 s in ≥ 3000 s: ≤ 5 %)
     assert!(
         s.h_range.0 >= 0.08 && s.h_range.1 <= 0.10,
         "{:?}",
         s.h_range
     );
     assert!(s.within_30 >= 0.8, "{}", s.within_30);
+    assert!(s.interval_covers >= 0.9, "{}", s.interval_covers);
 }
 
 /// The short version CI runs: 3 streams of the separated model stopped at `--until K=20%`
