@@ -467,7 +467,11 @@ pub fn render_frame(name: &str, s: &Snapshot) -> String {
             f += &format!("  {} {} ({how})\n", t.symbol, t.display());
         }
         if let Some(m) = &c.model {
-            f += &format!("  model {m}\n");
+            // 4 significant digits for people (the JSON keeps every digit)
+            match m.parse::<processes::Model>() {
+                Ok(model) => f += &format!("  model {model:.4}\n"),
+                Err(_) => f += &format!("  model {m}\n"),
+            }
         }
         for p in s.progress.iter().filter(|p| p.channel == c.name) {
             f += &format!("  {}: ", p.symbol);
