@@ -422,6 +422,117 @@ fn an_interrupt_ends_an_open_stream_with_the_final_snapshot() {
     assert_eq!(last["n"], 20_000);
 }
 
+/// Standard output not a terminal and no --json: JSON lines all the same (for other programs);
+/// --lines: one text line per channel and snapshot.
+#[test]
+fn a_pipe_gets_json_lines_and_lines_gets_text() {
+    let text = csv(20_000, None);
+    let run = |extra: &[&str]| {
+        let mut child = bin()
+            .args(["live", "-", "--rate", "100", "--every", "100"])
+            .args(extra)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        child
+            .stdin
+            .take()
+            .unwrap()
+            .write_all(text.as_bytes())
+            .unwrap();
+        let out = child.wait_with_output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    };
+    // 2 snapshots (at 100 s and 200 s) and the final one
+    let json = run(&[]);
+    assert_eq!(json.lines().count(), 3, "{json}");
+    for l in json.lines() {
+        let v: serde_json::Value = serde_json::from_str(l).unwrap();
+        assert_eq!(v["channels"].as_array().unwrap().len(), 2);
+    }
+    // 2 channels per snapshot, the last two marked final; no escape codes
+    let lines = run(&["--lines"]);
+    assert_eq!(lines.lines().count(), 6, "{lines}");
+    assert!(
+        lines
+            .lines()
+            .skip(4)
+            .all(|l| l.starts_with("final t=200.0s"))
+    );
+    assert!(!lines.contains('\x1b'));
+}
+
+/// --model: each snapshot carries the fitted model, N, K, B come from it with CIs, and the
+/// --until progress has a time left from the model with an interval around it.
+#[test]
+fn model_snapshots_and_a_model_time_left() {
+    use imunoise::pipeline::live::{Event, Live, LiveSettings};
+    let model: imunoise::processes::Model = "WN(sigma2=1e-4) + RW(gamma2=1e-8)".parse().unwrap();
+    let x = model
+        .simulate_stream(200_000, 100.0, 5, 0)
+        .unwrap()
+        .into_values();
+    let settings = LiveSettings {
+        rate_hz: 100.0,
+        every_s: 500.0,
+        model: Some("WN + RW".into()),
+        until: vec!["K=5%".parse().unwrap(), "RW.gamma2=10%".parse().unwrap()],
+        ..LiveSettings::default()
+    };
+    let mut live = Live::new(settings, "sim").unwrap();
+    live.feed(b"gyro_x_dps\n").unwrap();
+    let snaps: Vec<_> = live
+        .feed_values(&[&x])
+        .unwrap()
+        .into_iter()
+        .filter_map(|e| match e {
+            Event::Snapshot(s) => Some(s),
+            Event::BadLine(_) => None,
+        })
+        .collect();
+    assert_eq!(snaps.len(), 4);
+    let last = snaps.last().unwrap();
+    let c = &last.channels[0];
+    assert!(c.model.as_deref().unwrap().starts_with("WN(sigma2="));
+    let k = c.k_term.as_ref().unwrap();
+    assert_eq!(
+        k.source,
+        imunoise::gmwm_prep::noise_terms::TermSource::Model
+    );
+    let (p_k, p_g) = (&last.progress[0], &last.progress[1]);
+    assert_eq!((p_k.basis, p_g.basis), ("model", "model"));
+    // K = √(γ²/Δt): its CI is the square root of γ²'s, both e^{∓r} on the log scale, so
+    // K's relative half-width is sinh(r/2) where γ²'s is sinh(r) (closed form; rounding only)
+    let (hk, hg) = (p_k.rel_halfwidth.unwrap(), p_g.rel_halfwidth.unwrap());
+    assert!(
+        ((hg.asinh() / 2.0).sinh() / hk - 1.0).abs() < 1e-9,
+        "{hk} {hg}"
+    );
+    // K at 5 % is r = 2·asinh(0.05) = 0.09998, γ² at 10 % r = asinh(0.1) = 0.09983: the same
+    // record to 0.3 % (n ∝ r⁻²), each solved to 0.2 % in h (0.4 % in n)
+    let (tk, tg) = (p_k.time_left_s.unwrap(), p_g.time_left_s.unwrap());
+    assert!(p_k.time_left_lo_s.unwrap() <= tk && tk <= p_k.time_left_hi_s.unwrap());
+    assert!((tk / tg - 1.0).abs() < 0.02, "{tk} {tg}");
+    // a parameter target needs a model, and a component the model has
+    let bad = LiveSettings {
+        until: vec!["AR1.phi=10%".parse().unwrap()],
+        ..LiveSettings::default()
+    };
+    assert!(Live::new(bad.clone(), "x").is_err());
+    let with_model = LiveSettings {
+        model: Some("WN + RW".into()),
+        ..bad
+    };
+    assert!(Live::new(with_model, "x").is_err());
+}
+
 /// Raw binary rows (`--binary f32 --channels 6`, as `imunoise avar` reads them) through a pipe
 /// in pieces cut inside rows, two channels picked by `--columns 2,5`: the final snapshot equals
 /// `imunoise avar` on a CSV of the same values (each f32 printed exactly as its f64 value). A

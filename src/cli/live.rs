@@ -14,17 +14,23 @@ pub const EXAMPLES: &str = "Examples:
   imunoise live /dev/ttyUSB0 --rate 100 --every 30
   imunoise live imu.csv --follow --rate 400 --json > progress.jsonl
   my_logger | imunoise live - --binary f32 --channels 6 --rate 1000 --columns 1-3 --unit deg/s
+  imunoise live - --rate 100 --model \"WN + RW + AR1\" --until K=10%
 
-Every --every seconds of input time one line per channel (or one JSON line with --json):
-the Allan deviation at a few tau with its CI, and N (read off at tau = 1 s), K (at tau = 3 s)
-and B (the flat minimum) with their CIs, or an upper bound while the curve shows no such
-region. At the end of the input (or at Ctrl-C) the final snapshot (marked final) is printed; it equals
+Every --every seconds of input time a snapshot: on a terminal a view redrawn in place (at
+most every --refresh s), else one JSON line (--json forces it, --lines gives one text line
+per channel): the Allan deviation at a few tau with its CI, and N, K and B with their CIs,
+from the fitted --model, or read off the curve without one (N at tau = 1 s, K at tau = 3 s,
+B the flat minimum, or an upper bound while the curve shows no such region). With --until,
+the precision reached and the time left (from the fitted model, with a 95 % interval).
+At the end of the input (or at Ctrl-C) the final snapshot (marked final) is printed; it equals
 `imunoise avar` on the same rows at the scales up to --tau-max. A malformed line is reported
 with its line number; --on-error skip leaves it out and goes on, stop (default) prints the
 final snapshot of the rows before it and exits with code 2.
 
 JSON line shape: {\"t_s\",\"n\",\"final\",\"channels\":[{\"name\",\"unit\",\"rate_hz\",\"n\",
-\"points\":[as imunoise avar --format json],\"n_term\",\"k_term\",\"b_term\"}]}, each term
+\"points\":[as imunoise avar --format json],\"n_term\",\"k_term\",\"b_term\",\"model\"}],
+\"reached\",\"progress\":[{\"channel\",\"symbol\",\"target\",\"rel_halfwidth\",\"reached\",
+\"time_left_s\",\"time_left_lo_s\",\"time_left_hi_s\",\"basis\"}]}, each term
 {\"symbol\",\"value\",\"unit\",\"ci_lo\",\"ci_hi\",\"source\",\"basis\",…} or null.";
 
 /// Arguments of `imunoise live`.
@@ -79,20 +85,70 @@ pub struct LiveArgs {
     /// With --follow: the end of the input is this many seconds without new data.
     #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
     pub idle: f64,
-    /// Stop when the 95 % (1 − alpha) interval of N, K or B, read off the curve, has at most
-    /// this relative half-width on every channel, e.g. `K=10%` (repeatable: all must hold).
-    /// Checked at each snapshot; each snapshot also prints the precision reached and a rough
-    /// estimate of the input time still needed.
+    /// Stop when the 95 % (1 − alpha) interval of N, K or B (from --model, else read off the
+    /// curve), or of a model parameter such as RW.gamma2 or AR1.phi, has at most this relative
+    /// half-width on every channel, e.g. `K=10%` (repeatable: all must hold). Checked at each
+    /// snapshot; each snapshot also prints the precision reached and the input time still
+    /// needed: with --model predicted by the fitted model, with a 95 % interval; without it a
+    /// rough 1/√T rule.
     #[arg(long, value_name = "TERM=PRECISION")]
     pub until: Vec<Target>,
+    /// A noise model template fitted (GMWM) at each snapshot, e.g. `WN + RW + AR1`: N, K, B
+    /// then come from the fitted model with delta-method CIs, as in `imunoise analyze`, and
+    /// the --until time left is predicted from it. Without it N, K, B are read off the curve.
+    #[arg(long, value_name = "TEMPLATE")]
+    pub model: Option<String>,
     /// At the end (of the input, or at the --until target, or at a malformed line with
     /// --on-error stop) also write the report folder of `imunoise analyze` on all the rows
     /// read. Memory: every row is then kept (8 bytes per sample and channel).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// One JSON object per snapshot and line (for other programs).
-    #[arg(long)]
+    /// One JSON object per snapshot and line (for other programs). This is the default when
+    /// standard output is not a terminal; on a terminal the default is a view refreshed in
+    /// place.
+    #[arg(long, conflicts_with = "lines")]
     pub json: bool,
+    /// One text line per channel and snapshot (for people, e.g. in a log file), on a terminal
+    /// or not.
+    #[arg(long)]
+    pub lines: bool,
+    /// On a terminal: the least wall-clock time between two refreshes of the view (s); the
+    /// snapshots in between are computed (for --until) but not drawn. The last one is
+    /// always drawn.
+    #[arg(long, value_name = "SECONDS", default_value_t = 2.0)]
+    pub refresh: f64,
+}
+
+/// How snapshots are shown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum View {
+    /// One JSON object per line.
+    Json,
+    /// One text line per channel and snapshot.
+    Lines,
+    /// A block redrawn in place on a terminal.
+    Screen,
+}
+
+impl View {
+    /// The view for the flags and whether standard output is a terminal: `--json` and
+    /// `--lines` as asked, else the screen on a terminal and JSON lines otherwise.
+    ///
+    /// ```
+    /// use imunoise::cli::live::View;
+    /// assert_eq!(View::choose(false, false, true), View::Screen);
+    /// assert_eq!(View::choose(false, false, false), View::Json);
+    /// assert_eq!(View::choose(false, true, false), View::Lines);
+    /// assert_eq!(View::choose(true, false, true), View::Json);
+    /// ```
+    pub fn choose(json: bool, lines: bool, terminal: bool) -> View {
+        match (json, lines, terminal) {
+            (true, _, _) => View::Json,
+            (_, true, _) => View::Lines,
+            (_, _, true) => View::Screen,
+            _ => View::Json,
+        }
+    }
 }
 
 /// `--ci` values of `imunoise live`.
@@ -164,6 +220,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         every_s: args.every,
         on_error: args.on_error,
         until: args.until.clone(),
+        model: args.model.clone(),
         keep_rows: args.out.is_some(),
         binary: match (args.binary, args.channels) {
             (Some(kind), k) => Some((kind, k.unwrap_or(1))),
@@ -191,8 +248,19 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
     } else {
         Box::new(std::fs::File::open(&args.file).map_err(|e| Error::io(&name, e))?)
     };
+    if !(args.refresh.is_finite() && args.refresh >= 0.0) {
+        return Err(Error::Usage(format!(
+            "--refresh must be >= 0 seconds, got {}",
+            args.refresh
+        )));
+    }
     let stdout = std::io::stdout();
+    let view = {
+        use std::io::IsTerminal;
+        View::choose(args.json, args.lines, stdout.is_terminal())
+    };
     let mut out = stdout.lock();
+    let mut screen = Screen::new(&name, Duration::from_secs_f64(args.refresh));
     let mut buf = vec![0u8; 1 << 16];
     let mut last_data = Instant::now();
     catch_interrupts();
@@ -215,7 +283,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         last_data = Instant::now();
         for event in live.feed(&buf[..n])? {
             match event {
-                Event::Snapshot(s) => print_snapshot(&mut out, &s, args.json)?,
+                Event::Snapshot(s) => show(&mut out, &s, view, &mut screen)?,
                 // reported even with --quiet, as errors are
                 Event::BadLine(e) => eprintln!("malformed line: {e}"),
             }
@@ -231,7 +299,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         eprintln!("malformed line: {e}");
     }
     match fin {
-        Ok(s) => print_snapshot(&mut out, &s, args.json)?,
+        Ok(s) => show(&mut out, &s, view, &mut screen)?,
         Err(e) if live.stopped().is_none() => return Err(e),
         Err(e) => ui.note(format!("no snapshot: {e}")),
     }
@@ -270,6 +338,198 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         });
     }
     Ok(())
+}
+
+/// Shows one snapshot in `view` (the screen at most once per refresh interval, except the
+/// final snapshot and the one reaching the target).
+fn show(out: &mut impl Write, s: &Snapshot, view: View, screen: &mut Screen) -> Result<()> {
+    match view {
+        View::Json => print_snapshot(out, s, true),
+        View::Lines => print_snapshot(out, s, false),
+        View::Screen => screen.draw(out, s),
+    }
+}
+
+/// The view redrawn in place on a terminal: the previous block is overwritten (cursor up
+/// over its lines, clear to the end of the screen), so what was printed before it stays.
+pub struct Screen {
+    name: String,
+    every: Duration,
+    last: Option<Instant>,
+    /// Lines of the block on screen.
+    drawn: usize,
+}
+
+impl Screen {
+    /// A view of the stream `name`, redrawn at most once per `every` of wall-clock time
+    /// (example at [`Screen::draw`]).
+    pub fn new(name: &str, every: Duration) -> Screen {
+        Screen {
+            name: name.to_string(),
+            every,
+            last: None,
+            drawn: 0,
+        }
+    }
+
+    /// Redraws with `s` when the interval has passed (or `s` is final or reached the target).
+    ///
+    /// ```
+    /// use imunoise::cli::live::{Screen, render_frame};
+    /// use imunoise::pipeline::live::{Live, LiveSettings};
+    /// use std::time::Duration;
+    /// let s = LiveSettings { rate_hz: 10.0, every_s: 1e9, ..LiveSettings::default() };
+    /// let mut live = Live::new(s, "x")?;
+    /// live.feed(b"gx\n1\n2\n0\n3\n1\n2\n")?;
+    /// let snap = live.snapshot(false)?;
+    /// let frame = render_frame("x", &snap);
+    /// let mut screen = Screen::new("x", Duration::ZERO);
+    /// let mut out = Vec::new();
+    /// screen.draw(&mut out, &snap)?;
+    /// assert_eq!(out, frame.as_bytes()); // the first frame as it is
+    /// out.clear();
+    /// screen.draw(&mut out, &snap)?;
+    /// // then: up over the previous frame's lines, clear below, the new frame
+    /// let up = format!("\x1b[{}F\x1b[J", frame.lines().count());
+    /// assert_eq!(String::from_utf8(out).unwrap(), up + &frame);
+    /// // a long interval: nothing until it has passed (a non-final snapshot)
+    /// let mut slow = Screen::new("x", Duration::from_secs(3600));
+    /// let mut out = Vec::new();
+    /// slow.draw(&mut out, &snap)?;
+    /// let len = out.len();
+    /// slow.draw(&mut out, &snap)?;
+    /// assert_eq!(out.len(), len);
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
+    pub fn draw(&mut self, out: &mut impl Write, s: &Snapshot) -> Result<()> {
+        let due = s.is_final || s.reached || self.last.is_none_or(|t| t.elapsed() >= self.every);
+        if !due {
+            return Ok(());
+        }
+        let frame = render_frame(&self.name, s);
+        let mut text = String::new();
+        if self.drawn > 0 {
+            // to the first column of the block's first line, then clear below
+            text += &format!("\x1b[{}F\x1b[J", self.drawn);
+        }
+        text += &frame;
+        self.drawn = frame.lines().count();
+        self.last = Some(Instant::now());
+        out.write_all(text.as_bytes())
+            .and_then(|_| out.flush())
+            .map_err(|e| Error::write("<stdout>", e))
+    }
+}
+
+/// The text of the view of one snapshot (plain text, one line per row, no escape codes):
+/// a title, then per channel its Allan deviation at a few τ, N, K and B with their CIs, the
+/// fitted model, and each target's precision and time left.
+///
+/// ```
+/// use imunoise::cli::live::render_frame;
+/// use imunoise::pipeline::live::{Event, Live, LiveSettings};
+/// let s = LiveSettings { rate_hz: 10.0, every_s: 1e9, until: vec!["K=10%".parse().unwrap()],
+///     ..LiveSettings::default() };
+/// let mut live = Live::new(s, "<stdin>")?;
+/// let mut text = String::from("gyro_x_dps\n");
+/// for i in 0..2000 { text += &format!("{}\n", ((i * 37 % 11) as f64 - 5.0) / 10.0); }
+/// live.feed(text.as_bytes())?;
+/// let frame = render_frame("<stdin>", &live.finish()?);
+/// assert!(frame.starts_with("imunoise live <stdin>: t = 200.0 s, 2000 samples (final)"));
+/// assert!(frame.contains("\ngyro_x_dps ["));
+/// assert!(frame.contains("  N "));
+/// assert!(frame.contains("  K: "));
+/// assert!(!frame.contains('\x1b'));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
+pub fn render_frame(name: &str, s: &Snapshot) -> String {
+    let g = |x: f64| processes::number::sig(x, 4);
+    let g3 = |x: f64| processes::number::sig(x, 3);
+    let mut f = format!(
+        "imunoise live {name}: t = {:.1} s, {} samples{}\n",
+        s.t_s,
+        s.n,
+        if s.is_final { " (final)" } else { "" }
+    );
+    for c in &s.channels {
+        let unit = if c.unit.is_empty() {
+            String::new()
+        } else {
+            format!(" [{}]", c.unit)
+        };
+        f += &format!("{}{unit}\n", c.name);
+        let ad = adev_near(&c.points, &[0.01, 0.1, 1.0, 10.0, 100.0, 1000.0]);
+        if !ad.is_empty() {
+            f += "  τ (s) ";
+            for (tau, ..) in &ad {
+                f += &format!(" {:>10}", g(*tau));
+            }
+            f += "\n  AD    ";
+            for (_, a, ..) in &ad {
+                f += &format!(" {:>10}", g(*a));
+            }
+            f += "\n  ±95 % ";
+            for (_, a, lo, hi) in &ad {
+                let w = match (lo, hi) {
+                    (Some(lo), Some(hi)) if *a > 0.0 => {
+                        format!("{}%", g3(100.0 * (hi - lo) / (2.0 * a)))
+                    }
+                    _ => "-".into(),
+                };
+                f += &format!(" {w:>10}");
+            }
+            f += "\n";
+        }
+        for t in [&c.n_term, &c.k_term, &c.b_term].into_iter().flatten() {
+            let how = match t.source {
+                gmwm_prep::noise_terms::TermSource::Model => "model",
+                gmwm_prep::noise_terms::TermSource::ReadOff => "read-off",
+                gmwm_prep::noise_terms::TermSource::UpperBound => "bound",
+            };
+            f += &format!("  {} {} ({how})\n", t.symbol, t.display());
+        }
+        if let Some(m) = &c.model {
+            // 4 significant digits for people (the JSON keeps every digit)
+            match m.parse::<processes::Model>() {
+                Ok(model) => f += &format!("  model {model:.4}\n"),
+                Err(_) => f += &format!("  model {m}\n"),
+            }
+        }
+        for p in s.progress.iter().filter(|p| p.channel == c.name) {
+            f += &format!("  {}: ", p.symbol);
+            f += &match (p.rel_halfwidth, p.time_left_s) {
+                (Some(h), _) if p.reached => {
+                    format!(
+                        "±{}% reached (target {}%)",
+                        g3(100.0 * h),
+                        g3(100.0 * p.target)
+                    )
+                }
+                (Some(h), Some(left)) => format!(
+                    "±{}%, target {}%, about {} s more{}{}",
+                    g3(100.0 * h),
+                    g3(100.0 * p.target),
+                    g3(left),
+                    match (p.time_left_lo_s, p.time_left_hi_s) {
+                        (Some(lo), Some(hi)) => format!(" (95 % [{}, {}] s)", g3(lo), g3(hi)),
+                        _ => String::new(),
+                    },
+                    if p.basis == "sqrt_t" {
+                        " (rough: 1/√T)"
+                    } else {
+                        ""
+                    }
+                ),
+                (Some(h), None) => format!("±{}%, target {}%", g3(100.0 * h), g3(100.0 * p.target)),
+                _ => format!("not measurable yet (target {}%)", g3(100.0 * p.target)),
+            };
+            f += "\n";
+        }
+    }
+    if s.reached {
+        f += &format!("target reached at t = {:.1} s\n", s.t_s);
+    }
+    f
 }
 
 /// Writes one snapshot: a JSON line, or one text line per channel.
@@ -314,11 +574,15 @@ fn print_snapshot(out: &mut impl Write, s: &Snapshot, json: bool) -> Result<()> 
                         )
                     }
                     (Some(h), Some(left)) => format!(
-                        " {}: ±{}% (target {}%, about {} s more)",
+                        " {}: ±{}% (target {}%, about {} s more{})",
                         p.symbol,
                         g(100.0 * h),
                         g(100.0 * p.target),
-                        g(left)
+                        g(left),
+                        match (p.time_left_lo_s, p.time_left_hi_s) {
+                            (Some(lo), Some(hi)) => format!(", 95 % [{}, {}] s", g(lo), g(hi)),
+                            _ => String::new(),
+                        }
                     ),
                     _ => format!(
                         " {}: no {} region yet (target {}%)",

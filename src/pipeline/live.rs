@@ -7,8 +7,16 @@
 //! [`avar::OnlineChannels`] (memory O(largest cluster size), not O(samples)), and every
 //! `every_s` seconds of input time a [`Snapshot`] is due: per channel the Allan variance of all
 //! the samples so far (equal to `imunoise avar` on them, at the scales up to `tau_max_s`)
-//! with CIs, and N, K, B read off it with their CIs ([`gmwm_prep::noise_terms`] without a
-//! model: the IEEE 952 read-off, N at τ = 1 s and K at τ = 3 s, else an upper bound).
+//! with CIs, and N, K, B with their CIs. Without a model they are read off the curve
+//! ([`gmwm_prep::noise_terms`] without a model: the IEEE 952 read-off, N at τ = 1 s and K at
+//! τ = 3 s, else an upper bound); with `model` (a template such as `WN + RW + AR1`) each
+//! snapshot fits it to the curve so far (GMWM, the model covariance of the AV, the delta
+//! method) and N, K, B come from the fitted model as in `imunoise analyze`.
+//!
+//! With `until` targets each snapshot says how far each channel is from each one and how much
+//! longer to record: from the fitted model, the half-width predicted at longer records and the
+//! length where it reaches the target, with an interval ([`crate::pipeline::precision`]);
+//! without a model (or for a term the model does not have) a rough 1/√T rule.
 //!
 //! With [`LiveSettings::binary`] the stream is raw little-endian rows instead (as `imunoise avar
 //! --binary` reads them), fed in pieces cut anywhere; rows count as lines below.
@@ -41,10 +49,13 @@
 use crate::error::{Error, Result};
 use crate::io::{BinaryType, ColumnSpec, parse_binary, parse_columns, parse_text, resolve_columns};
 use crate::pipeline::estimate::{PointJson, to_json};
+use crate::pipeline::precision::{Predictor, Quantity, model_halfwidth};
 use avar::{AllanVariance, AvarConfig, CiMethod, OnlineChannels, Scales};
 use gmwm_prep::AvCurve;
-use gmwm_prep::noise_terms::{NoiseTerm, noise_terms_of};
-use processes::Unit;
+use gmwm_prep::gmwm::{GmwmFit, GmwmOptions};
+use gmwm_prep::inference::{Inference, delta_method, fit_covariance};
+use gmwm_prep::noise_terms::{NoiseTerm, NoiseTerms, noise_terms, noise_terms_of};
+use processes::{Model, Unit};
 use serde::Serialize;
 
 /// What to do with a malformed line.
@@ -81,6 +92,9 @@ pub struct LiveSettings {
     pub on_error: OnError,
     /// Stop once every channel reaches each of these precisions (checked at each snapshot).
     pub until: Vec<Target>,
+    /// A model template (e.g. `WN + RW + AR1`) fitted at each snapshot: N, K, B and the
+    /// time-left estimates then come from the fitted model. None: the IEEE read-off.
+    pub model: Option<String>,
     /// Keep every row (8 bytes per sample and channel) for [`Live::into_table`], e.g. to
     /// write the `analyze` report at the end.
     pub keep_rows: bool,
@@ -90,21 +104,25 @@ pub struct LiveSettings {
     pub binary: Option<(BinaryType, usize)>,
 }
 
-/// A stopping rule: the 95 % (1 − alpha) interval of N, K or B read off the curve has a
-/// relative half-width (hi − lo) / (2·value) of at most `rel_halfwidth` on every channel.
+/// A stopping rule: the 95 % (1 − alpha) interval of N, K or B (from the fitted model, or
+/// read off the curve without one), or of a model parameter `CODE.name` (e.g. `RW.gamma2`,
+/// `AR1.phi`: the first component of that kind in the model), has a relative half-width
+/// (hi − lo) / (2·value) of at most `rel_halfwidth` on every channel.
 ///
 /// ```
 /// use imunoise::pipeline::live::Target;
 /// let t: Target = "K=10%".parse()?;
 /// assert_eq!((t.symbol.as_str(), t.rel_halfwidth), ("K", 0.1));
 /// assert_eq!("n=0.05".parse::<Target>()?.symbol, "N");
+/// assert_eq!("ar1.Phi=20%".parse::<Target>()?.symbol, "AR1.phi");
 /// assert!("Q=10%".parse::<Target>().is_err());
+/// assert!("AR1.rho=10%".parse::<Target>().is_err());
 /// assert!("K=0%".parse::<Target>().is_err());
 /// # Ok::<(), String>(())
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Target {
-    /// `N`, `K` or `B`.
+    /// `N`, `K`, `B`, or a parameter `CODE.name` (code upper-case, name as the model has it).
     pub symbol: String,
     /// The largest relative half-width accepted (0.1 for 10 %).
     pub rel_halfwidth: f64,
@@ -115,12 +133,29 @@ impl std::str::FromStr for Target {
     fn from_str(s: &str) -> std::result::Result<Target, String> {
         let bad = || {
             format!(
-                "--until {s:?}: expected TERM=PRECISION with TERM N, K or B and PRECISION like 10% or 0.1"
+                "--until {s:?}: expected TERM=PRECISION with TERM N, K, B or a model parameter \
+                 such as RW.gamma2 or AR1.phi, and PRECISION like 10% or 0.1"
             )
         };
         let (term, value) = s.split_once('=').ok_or_else(bad)?;
-        let symbol = term.trim().to_ascii_uppercase();
-        if !matches!(symbol.as_str(), "N" | "K" | "B") {
+        let symbol = match term.trim().split_once('.') {
+            None => term.trim().to_ascii_uppercase(),
+            Some((code, name)) => {
+                let code = code.trim().to_ascii_uppercase();
+                let name = name.trim();
+                let kind = param_kinds()
+                    .into_iter()
+                    .find(|k| k.code() == code)
+                    .ok_or_else(bad)?;
+                let name = kind
+                    .param_names()
+                    .iter()
+                    .find(|n| n.eq_ignore_ascii_case(name))
+                    .ok_or_else(bad)?;
+                format!("{code}.{name}")
+            }
+        };
+        if !(matches!(symbol.as_str(), "N" | "K" | "B") || symbol.contains('.')) {
             return Err(bad());
         }
         let v = value.trim();
@@ -139,24 +174,47 @@ impl std::str::FromStr for Target {
     }
 }
 
+/// The kinds whose parameters a target may name (every kind the model strings know).
+fn param_kinds() -> Vec<processes::ProcessKind> {
+    use processes::ProcessKind as K;
+    vec![
+        K::WhiteNoise,
+        K::QuantizationNoise,
+        K::Drift,
+        K::RandomWalk,
+        K::Ar1,
+        K::GaussMarkov,
+        K::Ma1,
+        K::Sinusoid,
+    ]
+}
+
 /// Where a channel stands against a [`Target`].
 #[derive(Debug, Clone, Serialize)]
 pub struct TargetProgress {
     /// Channel name.
     pub channel: String,
-    /// `N`, `K` or `B`.
+    /// `N`, `K`, `B` or `CODE.name`.
     pub symbol: String,
     /// The precision asked for (relative half-width).
     pub target: f64,
-    /// The current relative half-width of the term's interval (None while the curve shows no
-    /// region of the term's slope: then it is only bounded).
+    /// The current relative half-width of the term's interval (None while it has none: a
+    /// read-off while the curve shows no region of the term's slope is only bounded; a model
+    /// parameter before the first fit).
     pub rel_halfwidth: Option<f64>,
     /// Reached.
     pub reached: bool,
-    /// Estimated input time still needed (s): the half-width shrinks as 1/√EDF and the EDF
-    /// grows in proportion to the record at a fixed scale, so T_needed ≈ T·(h/target)². A rough
-    /// estimate (the region read may move as the record grows); None while not measurable.
+    /// Estimated input time still needed (s); None while not measurable. With a fitted model
+    /// (`basis` "model"): the time where the half-width the model predicts reaches the target
+    /// ([`crate::pipeline::precision`]); else (`basis` "sqrt_t") the half-width taken to
+    /// shrink as 1/√T, T_needed ≈ T·(h/target)² (rough: the region read may move).
     pub time_left_s: Option<f64>,
+    /// Lower bound of the 1 − alpha interval of `time_left_s` (s; model basis only).
+    pub time_left_lo_s: Option<f64>,
+    /// Upper bound (s; may be infinite: a parameter at a CI bound never reaches the target).
+    pub time_left_hi_s: Option<f64>,
+    /// How `time_left_s` was estimated: "model", "sqrt_t", or "" when it was not.
+    pub basis: &'static str,
 }
 
 impl Default for LiveSettings {
@@ -172,6 +230,7 @@ impl Default for LiveSettings {
             every_s: 10.0,
             on_error: OnError::Stop,
             until: Vec::new(),
+            model: None,
             keep_rows: false,
             binary: None,
         }
@@ -197,6 +256,9 @@ pub struct ChannelSnapshot {
     pub k_term: Option<NoiseTerm>,
     /// B (bias instability), from the flat region's minimum.
     pub b_term: Option<NoiseTerm>,
+    /// The model fitted to the curve so far (per-sample values), with `model` set and once
+    /// the curve has more scales than the model parameters; None otherwise.
+    pub model: Option<String>,
 }
 
 /// The state after some input: per channel the AV so far and N, K, B.
@@ -238,6 +300,9 @@ struct Layout {
 /// The online analysis of a text stream (see the [module](self) docs).
 pub struct Live {
     settings: LiveSettings,
+    /// The parsed model template, with its parameter targets' indices in θ.
+    template: Option<Model>,
+    quantities: Vec<Option<Quantity>>,
     select: Option<Vec<ColumnSpec>>,
     file: String,
     max_m: u64,
@@ -284,6 +349,16 @@ impl Live {
                 "live: the Gaussian interval needs the whole series; use --ci chi2 or none".into(),
             ));
         }
+        let template = settings
+            .model
+            .as_deref()
+            .map(|m| Model::parse_at_rate(m, r).map(|m| m.template()))
+            .transpose()?;
+        let quantities = settings
+            .until
+            .iter()
+            .map(|t| quantity_of(&t.symbol, template.as_ref()))
+            .collect::<Result<Vec<_>>>()?;
         let max_m = ((settings.tau_max_s * r).floor() as u64).max(1);
         // validates the configuration (alpha, grid) once
         avar::Online::new(r, max_m, &config(&settings))?;
@@ -295,6 +370,8 @@ impl Live {
         }
         let every_n = ((settings.every_s * r).round() as u64).max(1);
         Ok(Live {
+            template,
+            quantities,
             select,
             file: file.to_string(),
             max_m,
@@ -385,6 +462,51 @@ impl Live {
         let rest = self.pending.split_off(last_nl + 1);
         let complete = std::mem::replace(&mut self.pending, rest);
         self.lines_in(&complete, &mut events)?;
+        Ok(events)
+    }
+
+    /// Feeds samples that are already numbers, one slice per channel (equal lengths), after
+    /// the channels are known from a header line fed with [`Live::feed`]: the same
+    /// accumulation, snapshots and targets as rows of text, without formatting and parsing
+    /// them (e.g. for simulations). Errors: no header yet, a wrong number of channels or
+    /// unequal lengths, a non-finite sample.
+    ///
+    /// ```
+    /// use imunoise::pipeline::live::{Live, LiveSettings};
+    /// let s = LiveSettings { rate_hz: 10.0, every_s: 1e9, ..LiveSettings::default() };
+    /// let (mut a, mut b) = (Live::new(s.clone(), "a")?, Live::new(s, "b")?);
+    /// let x: Vec<f64> = (0..400).map(|i| ((i * 37 % 11) as f64).sin()).collect();
+    /// a.feed(b"gx\n")?;
+    /// a.feed_values(&[&x])?;
+    /// let text: String = x.iter().map(|v| format!("{v:?}\n")).collect();
+    /// b.feed(format!("gx\n{text}").as_bytes())?;
+    /// let (sa, sb) = (a.finish()?, b.finish()?);
+    /// for (p, q) in sa.channels[0].points.iter().zip(&sb.channels[0].points) {
+    ///     assert!((p.avar - q.avar).abs() <= 1e-12 * q.avar); // the same sums
+    /// }
+    /// assert!(Live::new(LiveSettings::default(), "c")?.feed_values(&[&x]).is_err());
+    /// # Ok::<(), imunoise::Error>(())
+    /// ```
+    pub fn feed_values(&mut self, channels: &[&[f64]]) -> Result<Vec<Event>> {
+        let mut events = Vec::new();
+        let Some(layout) = &self.layout else {
+            return Err(Error::Usage(
+                "live: feed a header line before the values".into(),
+            ));
+        };
+        let len = channels.first().map_or(0, |c| c.len());
+        if channels.len() != layout.names.len() || channels.iter().any(|c| c.len() != len) {
+            return Err(Error::Usage(format!(
+                "live: {} channels of equal length expected, got lengths {:?}",
+                layout.names.len(),
+                channels.iter().map(|c| c.len()).collect::<Vec<_>>()
+            )));
+        }
+        if self.stopped.is_some() || self.reached {
+            return Ok(events);
+        }
+        let cols: Vec<Vec<f64>> = channels.iter().map(|c| c.to_vec()).collect();
+        self.push_rows(&cols, &mut events)?;
         Ok(events)
     }
 
@@ -768,33 +890,48 @@ impl Live {
         let avs = layout.online.snapshots()?;
         let curves: Vec<(String, AllanVariance)> = layout.names.iter().cloned().zip(avs).collect();
         let json = to_json(&curves);
-        let channels = json
-            .channels
-            .into_iter()
-            .zip(&curves)
-            .zip(&layout.units)
-            .map(|((c, (_, av)), unit)| {
-                let terms = AvCurve::from_avar(av).ok().and_then(|curve| {
-                    noise_terms_of(&[], &[], av.rate_hz, av.points[0].tau, None, &curve, unit).ok()
-                });
-                ChannelSnapshot {
-                    name: c.name,
-                    unit: unit.to_string(),
-                    rate_hz: c.rate_hz,
-                    n: c.n,
-                    points: c.points,
-                    n_term: terms.as_ref().map(|t| t.n.clone()),
-                    k_term: terms.as_ref().map(|t| t.k.clone()),
-                    b_term: terms.map(|t| t.b),
-                }
-            })
-            .collect();
         let t_s = self.n as f64 / self.settings.rate_hz;
+        let mut channels = Vec::new();
         let mut progress = Vec::new();
-        for c in &channels {
-            for target in &self.settings.until {
-                progress.push(progress_of(c, target, t_s));
+        for ((c, (_, av)), unit) in json.channels.into_iter().zip(&curves).zip(&layout.units) {
+            let curve = AvCurve::from_avar(av).ok();
+            let fitted = match (&self.template, &curve) {
+                (Some(t), Some(curve)) => fit_model(curve, t, self.settings.alpha, unit),
+                _ => None,
+            };
+            let terms = match (&fitted, &curve) {
+                (Some(f), _) => Some(f.terms.clone()),
+                (None, Some(curve)) => {
+                    noise_terms_of(&[], &[], av.rate_hz, av.points[0].tau, None, curve, unit).ok()
+                }
+                _ => None,
+            };
+            let snap = ChannelSnapshot {
+                name: c.name,
+                unit: unit.to_string(),
+                rate_hz: c.rate_hz,
+                n: c.n,
+                points: c.points,
+                n_term: terms.as_ref().map(|t| t.n.clone()),
+                k_term: terms.as_ref().map(|t| t.k.clone()),
+                b_term: terms.map(|t| t.b),
+                model: fitted.as_ref().map(|f| f.fit.model.to_string()),
+            };
+            for (target, q) in self.settings.until.iter().zip(&self.quantities) {
+                let predictor = match (&fitted, &curve) {
+                    (Some(f), Some(curve)) => Some(Predictor {
+                        fit: &f.fit,
+                        inference: &f.inference,
+                        curve,
+                        unit,
+                        scales: &self.settings.scales,
+                        max_m: self.max_m,
+                    }),
+                    _ => None,
+                };
+                progress.push(progress_of(&snap, target, *q, predictor.as_ref(), t_s));
             }
+            channels.push(snap);
         }
         let reached = !progress.is_empty() && progress.iter().all(|p| p.reached);
         Ok(Snapshot {
@@ -808,25 +945,123 @@ impl Live {
     }
 }
 
-/// Channel `c` against `target` at input time `t_s`.
-fn progress_of(c: &ChannelSnapshot, target: &Target, t_s: f64) -> TargetProgress {
-    let term = match target.symbol.as_str() {
-        "N" => &c.n_term,
-        "K" => &c.k_term,
-        _ => &c.b_term,
+/// A model fitted at a snapshot.
+struct Fitted {
+    fit: GmwmFit,
+    inference: Inference,
+    terms: NoiseTerms,
+}
+
+/// The GMWM fit of `template` to `curve` with its delta-method inference (the model
+/// covariance of the AV at θ̂) and N, K, B; None when it fails (too few scales for the
+/// parameters, a singular fit): the snapshot then reads N, K, B off the curve.
+fn fit_model(curve: &AvCurve, template: &Model, alpha: f64, unit: &Unit) -> Option<Fitted> {
+    if curve.len() <= template.n_params() {
+        return None;
+    }
+    let fit = gmwm_prep::gmwm::fit(curve, template, &GmwmOptions::default()).ok()?;
+    let inference = delta_method(&fit, &fit_covariance(&fit).ok()?, alpha).ok()?;
+    let terms = noise_terms(&fit, Some(&inference), curve, unit).ok()?;
+    Some(Fitted {
+        fit,
+        inference,
+        terms,
+    })
+}
+
+/// What a target's symbol measures: N, K, B, or the index in θ of the parameter `CODE.name`
+/// of the first component of that kind in `template` (errors: a parameter without a model,
+/// or of a kind the model lacks).
+fn quantity_of(symbol: &str, template: Option<&Model>) -> Result<Option<Quantity>> {
+    Ok(match symbol {
+        "N" => Some(Quantity::N),
+        "K" => Some(Quantity::K),
+        "B" => Some(Quantity::B),
+        s => {
+            let (code, name) = s.split_once('.').unwrap_or((s, ""));
+            let Some(t) = template else {
+                return Err(Error::Usage(format!(
+                    "--until {s}: a model parameter needs --model"
+                )));
+            };
+            let mut at = 0;
+            let mut found = None;
+            for k in t.kinds() {
+                if found.is_none() && k.code() == code {
+                    found = k
+                        .param_names()
+                        .iter()
+                        .position(|n| *n == name)
+                        .map(|i| at + i);
+                }
+                at += k.n_params();
+            }
+            match found {
+                Some(i) => Some(Quantity::Param(i)),
+                None => {
+                    return Err(Error::Usage(format!(
+                        "--until {s}: the model {t} has no {code} component with a parameter {name}"
+                    )));
+                }
+            }
+        }
+    })
+}
+
+/// Channel `c` against `target` (measuring `q`) at input time `t_s`, with the fitted model's
+/// predictor when there is one.
+fn progress_of(
+    c: &ChannelSnapshot,
+    target: &Target,
+    q: Option<Quantity>,
+    predictor: Option<&Predictor<'_>>,
+    t_s: f64,
+) -> TargetProgress {
+    let term = match q {
+        Some(Quantity::N) => c.n_term.as_ref(),
+        Some(Quantity::K) => c.k_term.as_ref(),
+        Some(Quantity::B) => c.b_term.as_ref(),
+        _ => None,
     };
-    let h = term
-        .as_ref()
-        .and_then(|t| match (t.source, t.ci_lo, t.ci_hi) {
-            (gmwm_prep::noise_terms::TermSource::UpperBound, _, _) => None,
-            (_, Some(lo), Some(hi)) if t.value > 0.0 => Some((hi - lo) / (2.0 * t.value)),
-            _ => None,
-        });
+    // the current half-width: the model's CI when the term comes from the model (or a
+    // parameter's), else the read-off's CI
+    let h = match (q, predictor) {
+        (Some(Quantity::Param(_)), Some(p)) => q.and_then(|q| p.current(q)),
+        (Some(Quantity::Param(_)), None) => None,
+        _ => term.and_then(|t| {
+            model_halfwidth(t).or(match (t.source, t.ci_lo, t.ci_hi) {
+                (gmwm_prep::noise_terms::TermSource::ReadOff, Some(lo), Some(hi))
+                    if t.value > 0.0 =>
+                {
+                    Some((hi - lo) / (2.0 * t.value))
+                }
+                _ => None,
+            })
+        }),
+    };
     let reached = h.is_some_and(|h| h <= target.rel_halfwidth);
-    let time_left_s = h.map(|h| {
-        let r = h / target.rel_halfwidth;
-        (t_s * (r * r - 1.0)).max(0.0)
-    });
+    let by_model = match (q, predictor) {
+        (Some(q), Some(p))
+            if matches!(q, Quantity::Param(_)) || term.and_then(model_halfwidth).is_some() =>
+        {
+            p.needed(q, target.rel_halfwidth)
+        }
+        _ => None,
+    };
+    let rate = c.rate_hz;
+    let (time_left_s, lo, hi, basis) = match (by_model, h) {
+        (Some(need), _) => (
+            Some((need.n / rate - t_s).max(0.0)),
+            Some((need.lo / rate - t_s).max(0.0)),
+            Some((need.hi / rate - t_s).max(0.0)),
+            "model",
+        ),
+        (None, Some(h)) => {
+            let r = h / target.rel_halfwidth;
+            (Some((t_s * (r * r - 1.0)).max(0.0)), None, None, "sqrt_t")
+        }
+        (None, None) => (None, None, None, ""),
+    };
     TargetProgress {
         channel: c.name.clone(),
         symbol: target.symbol.clone(),
@@ -834,6 +1069,9 @@ fn progress_of(c: &ChannelSnapshot, target: &Target, t_s: f64) -> TargetProgress
         rel_halfwidth: h,
         reached,
         time_left_s,
+        time_left_lo_s: lo,
+        time_left_hi_s: hi,
+        basis,
     }
 }
 

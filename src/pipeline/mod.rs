@@ -43,6 +43,7 @@ pub mod curve;
 pub mod estimate;
 pub mod fit;
 pub mod live;
+pub mod precision;
 pub mod read;
 pub mod report;
 pub mod simulate;
