@@ -19,8 +19,14 @@ thread_local! {
     static LARGEST: Cell<usize> = const { Cell::new(0) };
 }
 
+/// The largest single allocation of any thread since the start (the readers decode chunks on
+/// rayon's threads). The other tests of this file allocate far less than the 1 GiB bound it
+/// is checked against.
+static LARGEST_ANY_THREAD: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
 fn note(size: usize) {
     let _ = LARGEST.try_with(|l| l.set(l.get().max(size)));
+    LARGEST_ANY_THREAD.fetch_max(size, std::sync::atomic::Ordering::Relaxed);
 }
 
 // SAFETY: every call is passed on to the system allocator unchanged.
@@ -200,4 +206,34 @@ fn mcap_summary_pointing_into_the_data_section_is_not_handed_to_the_crate() {
     if let Some(e) = read_log(LogFormat::Mcap, "mcap", &bytes) {
         user_error(Some(e));
     }
+}
+
+/// An MCAP file (a corpus input of the 30-minute fuzzing run, 115,590 bytes) with a channel
+/// record inside an uncompressed chunk whose topic string claims 2,474,639,360 bytes in a
+/// 346-byte record. The `mcap` crate parses records with binrw, which reserved the claimed
+/// length before reading it: a 2.47 GB allocation (libFuzzer out-of-memory,
+/// `malloc(2474639360)`, when the corpus was replayed for line coverage; in the fuzzing run
+/// itself the allocation was made on a rayon thread and went unreported). The reader now
+/// checks that a record's length-prefixed fields fit in it before the crate parses it
+/// (`fields_fit`), and parses only the records it uses.
+#[test]
+fn mcap_record_field_claiming_2_gib_is_refused_before_the_crate_reserves_it() {
+    let bytes = fixture("mcap", "channel-field-2gib.mcap");
+    assert_eq!(bytes.len(), 115_590);
+    // the channel record at byte 13,373: opcode 0x04, length 346, then id, schema id and the
+    // topic's u32 length
+    let at = 13_373;
+    assert_eq!(bytes[at], 0x04);
+    assert_eq!(
+        u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()),
+        346
+    );
+    let topic = u32::from_le_bytes(bytes[at + 13..at + 17].try_into().unwrap());
+    assert_eq!(topic, 2_474_639_360);
+    let e = read_log(LogFormat::Mcap, "mcap", &bytes);
+    let largest = LARGEST_ANY_THREAD.load(std::sync::atomic::Ordering::Relaxed);
+    // libFuzzer's -malloc_limit_mb=1024
+    assert!(largest < 1 << 30, "largest allocation {largest} bytes");
+    let msg = user_error(e);
+    assert!(msg.contains("longer than the record"), "{msg}");
 }

@@ -163,6 +163,18 @@ impl<'a> BoundedStream<'a> {
         n: &mut u64,
     ) -> std::result::Result<bool, Stop> {
         use mcap::records::Record;
+        // only schemas, channels, messages and the data end are used: other records are not
+        // parsed (the crate would reserve their fields' claimed lengths), and the fields of
+        // those that are must fit in their record first
+        if !matches!(opcode, 0x03 | 0x04 | 0x05 | 0x0F) {
+            return Ok(true);
+        }
+        if !fields_fit(opcode, data) {
+            return Err(Stop::Corrupt(
+                *n,
+                format!("a record (opcode {opcode:#04x}) has a field longer than the record"),
+            ));
+        }
         match mcap::parse_record(opcode, data).map_err(|e| Stop::Corrupt(*n, e.to_string()))? {
             Record::Schema { header, data } => channels
                 .add_schema(header, std::borrow::Cow::Owned(data.into_owned()))
@@ -215,6 +227,73 @@ fn u64_at(b: &[u8], at: usize) -> Option<u64> {
         .map(|s| u64::from_le_bytes(s.try_into().unwrap_or([0; 8])))
 }
 
+/// Whether the length-prefixed fields of a record body fit in it (MCAP specification,
+/// "Records"). The `mcap` crate parses records with binrw, which reserves a field's claimed
+/// length before reading it: a 115 kB file whose channel record claimed a 2.47 GB topic made
+/// it reserve that much (found by replaying the fuzz corpus,
+/// `tests/fixtures/fuzz/mcap/channel-field-2gib.mcap`). Records of fixed size, and opcodes
+/// the crate does not parse, pass.
+fn fields_fit(opcode: u8, body: &[u8]) -> bool {
+    /// A field: `n` fixed bytes, a string or byte array after a u32 length, a map after a u32
+    /// byte length whose entries are string pairs (or fixed, then only its length is
+    /// checked), or bytes after a u64 length.
+    #[derive(Clone, Copy)]
+    enum F {
+        Fixed(usize),
+        U32,
+        MapOfStrings,
+        MapFixed,
+        U64,
+    }
+    use F::*;
+    let layout: &[F] = match opcode {
+        0x03 => &[Fixed(2), U32, U32, U32],            // schema
+        0x04 => &[Fixed(4), U32, U32, MapOfStrings],   // channel
+        0x07 => &[Fixed(2), MapFixed],                 // message index
+        0x08 => &[Fixed(32), MapFixed, Fixed(8), U32], // chunk index
+        0x09 => &[Fixed(16), U32, U32, U64],           // attachment
+        0x0A => &[Fixed(40), U32, U32],                // attachment index
+        0x0B => &[Fixed(42), MapFixed],                // statistics
+        0x0C => &[U32, MapOfStrings],                  // metadata
+        0x0D => &[Fixed(16), U32],                     // metadata index
+        _ => return true,
+    };
+    let u32_at = |at: usize| -> Option<usize> {
+        Some(u32::from_le_bytes(body.get(at..at.checked_add(4)?)?.try_into().ok()?) as usize)
+    };
+    // the end of a field of `len` bytes after a prefix of `prefix` bytes at `at`, if it fits
+    let within = |at: usize, prefix: usize, len: usize, end: usize| -> Option<usize> {
+        let e = at.checked_add(prefix)?.checked_add(len)?;
+        (e <= end).then_some(e)
+    };
+    let mut at = 0usize;
+    for &f in layout {
+        let next = match f {
+            Fixed(k) => within(at, 0, k, body.len()),
+            U32 => u32_at(at).and_then(|k| within(at, 4, k, body.len())),
+            U64 => u64_at(body, at)
+                .and_then(|k| usize::try_from(k).ok())
+                .and_then(|k| within(at, 8, k, body.len())),
+            MapFixed => u32_at(at).and_then(|k| within(at, 4, k, body.len())),
+            MapOfStrings => u32_at(at)
+                .and_then(|k| within(at, 4, k, body.len()))
+                .and_then(|end| {
+                    let mut p = at + 4;
+                    while p < end {
+                        p = within(p, 4, u32_at(p)?, end)?;
+                        p = within(p, 4, u32_at(p)?, end)?;
+                    }
+                    Some(end)
+                }),
+        };
+        match next {
+            Some(n) => at = n,
+            None => return false,
+        }
+    }
+    true
+}
+
 /// The file's summary section, read by the `mcap` crate only once its records have been
 /// walked here: `None` when the file has none or when it is not sound (then the messages are
 /// streamed). The footer's `summary_start` comes from the file, so it may point anywhere,
@@ -242,6 +321,9 @@ fn summary(map: &[u8]) -> Option<mcap::Summary> {
     while at < section.len() {
         let len = usize::try_from(u64_at(section, at + 1)?).ok()?;
         if section[at] == 0x06 || len > section.len().saturating_sub(at + 9) {
+            return None;
+        }
+        if !fields_fit(section[at], &section[at + 9..at + 9 + len]) {
             return None;
         }
         at += 9 + len;

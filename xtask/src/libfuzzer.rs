@@ -361,12 +361,19 @@ fn line_cov(
         "cargo fuzz coverage",
     )?;
     let triple = host()?;
-    let bin = cov_dir
-        .join(&triple)
-        .join("coverage")
-        .join(&triple)
-        .join("release")
-        .join(name);
+    // cargo-fuzz 0.13 puts the instrumented binary at <dir>/<triple>/release/<name>
+    let bin = [
+        cov_dir.join(&triple).join("release").join(name),
+        cov_dir
+            .join(&triple)
+            .join("coverage")
+            .join(&triple)
+            .join("release")
+            .join(name),
+    ]
+    .into_iter()
+    .find(|p| p.exists())
+    .ok_or_else(|| format!("no instrumented binary for {name} under {}", cov_dir.display()))?;
     let profdata = root
         .join("fuzz/coverage")
         .join(name)
