@@ -373,7 +373,12 @@ fn line_cov(
     ]
     .into_iter()
     .find(|p| p.exists())
-    .ok_or_else(|| format!("no instrumented binary for {name} under {}", cov_dir.display()))?;
+    .ok_or_else(|| {
+        format!(
+            "no instrumented binary for {name} under {}",
+            cov_dir.display()
+        )
+    })?;
     let profdata = root
         .join("fuzz/coverage")
         .join(name)
