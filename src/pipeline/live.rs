@@ -632,19 +632,7 @@ impl Live {
                 None => (0..k).collect(),
             };
             let names: Vec<String> = self.pick.iter().map(|&i| names[i].clone()).collect();
-            let units = crate::units::channel_units(&names, self.settings.unit.as_deref())?;
-            let online = OnlineChannels::new(
-                names.len(),
-                self.settings.rate_hz,
-                self.max_m,
-                &config(&self.settings),
-            )?;
-            self.layout = Some(Layout {
-                header: Vec::new(),
-                names,
-                units,
-                online,
-            });
+            self.layout = Some(self.layout_of(Vec::new(), names)?);
         }
         let row = kind.size() * k;
         while !bytes.is_empty() {
@@ -692,6 +680,23 @@ impl Live {
         Ok(())
     }
 
+    /// The layout of the channels `names` (their units, one online accumulator each).
+    fn layout_of(&self, header: Vec<u8>, names: Vec<String>) -> Result<Layout> {
+        let units = crate::units::channel_units(&names, self.settings.unit.as_deref())?;
+        let online = OnlineChannels::new(
+            names.len(),
+            self.settings.rate_hz,
+            self.max_m,
+            &config(&self.settings),
+        )?;
+        Ok(Layout {
+            header,
+            names,
+            units,
+            online,
+        })
+    }
+
     fn set_layout(&mut self, header: Vec<u8>) -> Result<()> {
         // the names after --columns, from the header and one dummy row
         let probe_row = {
@@ -714,20 +719,7 @@ impl Live {
         probe.push(b'\n');
         probe.extend_from_slice(probe_row.as_bytes());
         let t = parse_text(&probe, &self.file, self.select.as_deref())?;
-        let names = t.names.clone();
-        let units = crate::units::channel_units(&names, self.settings.unit.as_deref())?;
-        let online = OnlineChannels::new(
-            names.len(),
-            self.settings.rate_hz,
-            self.max_m,
-            &config(&self.settings),
-        )?;
-        self.layout = Some(Layout {
-            header,
-            names,
-            units,
-            online,
-        });
+        self.layout = Some(self.layout_of(header, t.names)?);
         Ok(())
     }
 
