@@ -35,7 +35,9 @@
 //! and whatever other scales are requested. The vector and portable paths perform the same
 //! operations in the same order (acc ← fma(v, v, acc)).
 //!
-//! At the scalar level every segment runs the loop of [`seg_run`] (the same values, slower).
+//! At the scalar level every segment runs the loop of [`seg_run`] (the same values, slower);
+//! compiled without FMA, the chunks inside the series run their segments in lockstep with the
+//! fused operations emulated exactly ([`chunk_lockstep`]).
 //! Phase (angle) input keeps the buffered path of the modules (the phase samples are not rate
 //! samples). With a chi-square interval the values still come from here; only the noise
 //! identification reads the cumulative sum.
@@ -47,7 +49,10 @@
 use rayon::prelude::*;
 
 use crate::error::AvarError;
-use crate::kernel::compensated::{LANES, Neumaier, reduce_lanes, two_sum};
+use crate::kernel::compensated::{
+    HW_FMA, LANES, Neumaier, SQ_ADD_ACC_MAX, SQ_ADD_MIN, TRIPLE_ADD_MAX, TRIPLE_ADD_MIN,
+    reduce_lanes, sq_add, triple_add, two_sum,
+};
 use crate::kernel::cumsum::{first_non_finite, pivot_of};
 use crate::kernel::vector::Line;
 #[cfg(target_arch = "x86_64")]
@@ -533,6 +538,60 @@ fn seg_sum(
         Diff::Hadamard => seg_run::<false>(y, m, s, e, hw),
         Diff::Modified => seg_run::<true>(y, m, s, e, hw),
     }
+}
+
+/// The NSEG segment sums of the chunk at `a` for a chunk inside the series (3m ≤ a,
+/// a + NSEG·SEG ≤ T) from the starting values `hw`, for the portable code compiled without FMA:
+/// the segments in lockstep (independent chains, whose latencies overlap), each lane the
+/// operations of [`seg_run`] in the same order, the fused operations computed exactly from
+/// additions and multiplications ([`sq_add`] for acc ← fma(v, v, acc), [`triple_add`] for
+/// fma(q, 3, p)) instead of a call to the library `fma` per use: the same bits. `None` when a
+/// value left the exact range of either (the caller then runs [`seg_sum`] per segment).
+fn chunk_lockstep<const MOD: bool, const SEG: usize>(
+    y: &[f64],
+    m: usize,
+    a: usize,
+    hw: &[(f64, f64); NSEG],
+) -> Option<[f64; NSEG]> {
+    let mut h: [f64; NSEG] = std::array::from_fn(|l| hw[l].0);
+    let mut w: [f64; NSEG] = std::array::from_fn(|l| hw[l].1);
+    let mut acc = [0.0f64; NSEG];
+    // the smallest non-zero magnitude of every operand of the emulations (a zero maps to a
+    // NaN pattern, which never compares below) and the largest of q and p, per lane
+    let mut below = [f64::INFINITY; NSEG];
+    let mut above = [0.0f64; NSEG];
+    let low = |v: f64| f64::from_bits(v.abs().to_bits().wrapping_sub(1));
+    // each lane's rows y_k, y_{k−m}, y_{k−2m}, y_{k−3m} as arrays of SEG (no bounds checks in
+    // the loop)
+    let row = |l: usize, lag: usize| -> &[f64; SEG] {
+        let s = a + l * SEG - lag;
+        y[s..s + SEG].try_into().expect("SEG samples")
+    };
+    let r: [[&[f64; SEG]; NSEG]; 4] =
+        std::array::from_fn(|j| std::array::from_fn(|l| row(l, j * m)));
+    for j in 0..SEG {
+        for l in 0..NSEG {
+            let v = if MOD { w[l] } else { h[l] };
+            let lv = low(v);
+            below[l] = if lv < below[l] { lv } else { below[l] };
+            acc[l] = sq_add(v, acc[l]);
+            if MOD {
+                w[l] += h[l];
+            }
+            let p = r[0][l][j] - r[3][l][j];
+            let q = r[2][l][j] - r[1][l][j];
+            let (lp, lq) = (low(p), low(q));
+            below[l] = if lp < below[l] { lp } else { below[l] };
+            below[l] = if lq < below[l] { lq } else { below[l] };
+            let big = p.abs().max(q.abs());
+            above[l] = if big > above[l] { big } else { above[l] };
+            h[l] += triple_add(q, p);
+        }
+    }
+    let min = f64::from_bits(SQ_ADD_MIN.max(TRIPLE_ADD_MIN).to_bits() - 1);
+    let ok = (0..NSEG)
+        .all(|l| acc[l] <= SQ_ADD_ACC_MAX && below[l] >= min && above[l] <= TRIPLE_ADD_MAX);
+    ok.then_some(acc)
 }
 
 /// The starting values of the NSEG segments of the chunk at `a` (a multiple of G) for m ≥ G a
@@ -1082,6 +1141,23 @@ fn chunk_partials<const SEG: usize>(
     for (o, &m) in out.iter_mut().zip(batch) {
         *o = if full(m) {
             reduce_lanes(&st.next().expect("one state per full scale").acc)
+        } else if !HW_FMA && !simd && a >= 3 * m && a + NSEG * SEG <= t {
+            // the portable code without FMA, a chunk inside the series: its segments in
+            // lockstep with the fused operations emulated exactly (or, out of their range,
+            // per segment with `mul_add`)
+            let hw: [(f64, f64); NSEG] =
+                std::array::from_fn(|l| start(y, fr, kind, m, a + l * SEG));
+            let lanes = match kind {
+                Diff::Hadamard => chunk_lockstep::<false, SEG>(y, m, a, &hw),
+                Diff::Modified => chunk_lockstep::<true, SEG>(y, m, a, &hw),
+            };
+            let acc = lanes.unwrap_or_else(|| {
+                std::array::from_fn(|l| {
+                    let s = a + l * SEG;
+                    seg_sum(y, kind, m, s, s + SEG, hw[l], level)
+                })
+            });
+            reduce_lanes(&acc)
         } else {
             let mut acc = [0.0f64; NSEG];
             for (l, al) in acc.iter_mut().enumerate() {
@@ -1439,6 +1515,64 @@ mod tests {
             let b = third_diff_sums(&shifted, &MS, kind).unwrap();
             for ((u, v), m) in a.iter().zip(&b).zip(MS) {
                 assert!(rel(*v, *u) < 1e-9, "{kind:?} m {m}: {u} vs {v}");
+            }
+        }
+    }
+
+    /// [`chunk_lockstep`] (the portable code's exact emulations) gives each segment the bits of
+    /// [`seg_run`] with `mul_add` (the correctly rounded fma of the C library or the CPU), for
+    /// both kinds and several m: on data near 1, on small integers (many exact zeros), and it
+    /// declines (`None`, so that the caller falls back to `mul_add`) on data scaled by 2^480
+    /// and 2^−480, outside the exact range of the emulations.
+    #[test]
+    fn lockstep_chunks_equal_the_fma_segment_runs() {
+        const SEG: usize = SEG_FAR;
+        let a = 3 * NSEG * SEG;
+        let n = a + NSEG * SEG + 10;
+        let base = series(n, 0.25);
+        let ints = integers(n);
+        for (name, y, in_range) in [
+            ("near 1", base.clone(), true),
+            ("integers", ints, true),
+            (
+                "x 2^480",
+                base.iter().map(|v| v * 2f64.powi(480)).collect(),
+                false,
+            ),
+            (
+                "x 2^-480",
+                base.iter().map(|v| v * 2f64.powi(-480)).collect(),
+                false,
+            ),
+        ] {
+            for m in [1, 7, 64, 300, 2000] {
+                // starting values of the scale of the data (any values: the recurrence is what
+                // is compared)
+                let hw: [(f64, f64); NSEG] =
+                    std::array::from_fn(|l| (3.0 * y[a + l * SEG], 5.0 * y[a + l * SEG + 1]));
+                for kind in [Diff::Hadamard, Diff::Modified] {
+                    let got = match kind {
+                        Diff::Hadamard => chunk_lockstep::<false, SEG>(&y, m, a, &hw),
+                        Diff::Modified => chunk_lockstep::<true, SEG>(&y, m, a, &hw),
+                    };
+                    if !in_range {
+                        assert!(got.is_none(), "{name} {kind:?} m {m}");
+                        continue;
+                    }
+                    let got = got.unwrap_or_else(|| panic!("{name} {kind:?} m {m}: declined"));
+                    for (l, g) in got.iter().enumerate() {
+                        let s = a + l * SEG;
+                        let want = match kind {
+                            Diff::Hadamard => seg_run::<false>(&y, m, s, s + SEG, hw[l]),
+                            Diff::Modified => seg_run::<true>(&y, m, s, s + SEG, hw[l]),
+                        };
+                        assert_eq!(
+                            g.to_bits(),
+                            want.to_bits(),
+                            "{name} {kind:?} m {m} lane {l}"
+                        );
+                    }
+                }
             }
         }
     }
