@@ -547,6 +547,8 @@ fn seg_sum(
 /// additions and multiplications ([`sq_add`] for acc ← fma(v, v, acc), [`triple_add`] for
 /// fma(q, 3, p)) instead of a call to the library `fma` per use: the same bits. `None` when a
 /// value left the exact range of either (the caller then runs [`seg_sum`] per segment).
+// the column index j addresses 64 rows at once: clearer than 64 zipped iterators
+#[allow(clippy::needless_range_loop)]
 fn chunk_lockstep<const MOD: bool, const SEG: usize>(
     y: &[f64],
     m: usize,
