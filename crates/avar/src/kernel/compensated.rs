@@ -222,7 +222,13 @@ mod tests {
             );
             let eq = (next(&mut s) % 600) as i32 - 300;
             let ep = eq + (next(&mut s) % 120) as i32 - 60;
-            let sign = |k: u32| if (i >> k) % 2 == 0 { 1.0 } else { -1.0 };
+            let sign = |k: u32| {
+                if (i >> k).is_multiple_of(2) {
+                    1.0
+                } else {
+                    -1.0
+                }
+            };
             let q = match i % 64 {
                 0 => 0.0,
                 1 => TRIPLE_ADD_MAX * sign(7),
