@@ -300,6 +300,12 @@ fn rate_checked_against_the_stamps() {
     let err = String::from_utf8_lossy(&none.stderr);
     assert!(err.contains("--rate"), "{err}");
 
+    // binary rows have no time column (as for `imunoise avar`)
+    let binary = live("", &["--time-column", "1", "--binary", "f64"]);
+    assert_eq!(binary.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&binary.stderr);
+    assert!(err.contains("--time-column is for text input"), "{err}");
+
     // stamps in ms, headerless, the stamp column by index: the same rate
     let ms: String = rows(3_000)
         .iter()

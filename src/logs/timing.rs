@@ -437,9 +437,9 @@ struct Held {
 /// use imunoise::logs::timing::{GapPolicy, Release, StampStream};
 /// // 2000 rows at 100 Hz; rows 10 and 11 swapped, row 20 twice, 3 samples missing at 1500
 /// let mut stamps: Vec<i64> = (0..2000).map(|i| 10_000_000 * i).collect();
+/// stamps.drain(1500..1503);
 /// stamps.swap(10, 11);
 /// stamps.insert(20, stamps[20]);
-/// stamps.drain(1500..1503);
 /// let mut s = StampStream::new(None, GapPolicy::Longest, "imu.csv");
 /// let mut out = Vec::new();
 /// for (i, &t) in stamps.iter().enumerate() {
@@ -712,7 +712,9 @@ impl StampStream {
 
     /// The counts so far as [`prepare`]'s [`Timing`] (None before the rate is known):
     /// `samples_used` and `segment` are those analysed so far (with `--gaps longest` the
-    /// longest gap-free segment so far), `span_s` the first and last stamp released.
+    /// longest gap-free segment so far), `span_s` the first and last stamp released;
+    /// `messages`, `reordered` and `duplicates` count the rows read, those still held in the
+    /// reorder window (or waiting for the rate) included.
     pub fn timing(&self) -> Option<Timing> {
         let (rate, source, median_dt_s) = self.rate?;
         let (a, b) = self.span.unwrap_or((0, 0));

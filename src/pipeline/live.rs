@@ -144,15 +144,17 @@ pub struct LiveSettings {
 /// let mut live = Live::new(s, "imu.csv")?;
 /// // 50 Hz stamps in ms; the 3rd and 4th rows swapped, the 6th row twice
 /// let mut text = String::from("t,gx\n");
-/// let order = (0..300).map(|i| match i { 2 => 3, 3 => 2, i => i });
-/// for i in order.chain([5]) {
+/// let mut order: Vec<i64> = (0..300).collect();
+/// order.swap(2, 3);
+/// order.insert(6, 5);
+/// for i in order {
 ///     text += &format!("{},{}\n", 20 * i, (i * 7 % 5) as f64);
 /// }
 /// live.feed(text.as_bytes())?;
 /// let last = live.finish()?;
 /// assert_eq!((last.n, last.channels[0].rate_hz), (300, 50.0));
 /// let t = last.timing.unwrap();
-/// assert_eq!((t.messages, t.reordered, t.duplicates, t.gaps), (301, 2, 1, 0));
+/// assert_eq!((t.messages, t.reordered, t.duplicates, t.gaps), (301, 1, 1, 0));
 /// # Ok::<(), imunoise::Error>(())
 /// ```
 #[derive(Debug, Clone)]
@@ -328,9 +330,10 @@ pub struct ChannelSnapshot {
 /// The state after some input: per channel the AV so far and N, K, B.
 #[derive(Debug, Serialize)]
 pub struct Snapshot {
-    /// Input time so far: samples / rate (s).
+    /// Input time so far: samples / rate (s); of the samples analysed (see `n`).
     pub t_s: f64,
-    /// Samples (rows) so far.
+    /// Samples (rows) so far; with time stamps the samples analysed: after removing
+    /// duplicates, and with `--gaps longest` those of the longest gap-free segment so far.
     pub n: usize,
     /// True for the snapshot at the end of the input.
     #[serde(rename = "final")]
@@ -554,7 +557,8 @@ impl Live {
         self.refused
     }
 
-    /// Samples (rows) accumulated so far.
+    /// Samples (rows) fed to the accumulators so far (with `--gaps longest`, of all the
+    /// segments).
     pub fn len(&self) -> u64 {
         self.n
     }
