@@ -234,7 +234,7 @@ fn a_row_older_than_the_window_is_located_and_skipped_or_stops() {
     let mut r = rows(20_000);
     let late = r.remove(5_000);
     r.insert(5_000 + 200, late);
-    assert!(200 > WINDOW);
+    const { assert!(200 > WINDOW) };
     let text = csv(&r);
     // data row 5200 (0-based) is line 5202
     let want = "<stdin>:5202:1: time stamp 1050.000000000 s is older than 1051.";

@@ -725,7 +725,10 @@ impl Live {
         {
             let mut rel = Vec::new();
             t.stream.finish(&mut rel)?;
-            self.apply(rel, &mut events)?;
+            let k = self.layout.as_ref().map_or(0, |l| l.names.len());
+            let mut batch = vec![Vec::new(); k];
+            self.apply(&mut rel, &mut batch, &mut events)?;
+            self.flush(&mut batch, &mut events)?;
         }
         self.snapshot(true)
     }
@@ -1014,49 +1017,51 @@ impl Live {
         let (col, unit) = (t.col, t.unit);
         let time = cols.remove(col);
         let mut rel = Vec::new();
+        let mut batch: Vec<Vec<f64>> = vec![Vec::with_capacity(time.len()); cols.len()];
         for (i, &v) in time.iter().enumerate() {
             let values = cols.iter().map(|c| c[i]).collect();
             let t = self.time.as_mut().expect("time stamps");
             t.stream
                 .push(unit.stamp_ns(v), first_line + i, values, &mut rel)?;
-            self.apply(std::mem::take(&mut rel), events)?;
+            self.apply(&mut rel, &mut batch, events)?;
             if self.stopped.is_some() || self.reached {
-                break;
+                return Ok(());
             }
         }
-        Ok(())
+        self.flush(&mut batch, events)
     }
 
-    /// What the [`StampStream`] released: the rate, samples (to the accumulators, the
-    /// consecutive ones together), a new segment, a late row or a refusal.
-    fn apply(&mut self, rel: Vec<Release>, events: &mut Vec<Event>) -> Result<()> {
-        let k = self.layout.as_ref().map_or(0, |l| l.names.len());
-        let mut batch: Vec<Vec<f64>> = vec![Vec::new(); k];
-        let flush = |live: &mut Live, batch: &mut Vec<Vec<f64>>, events: &mut Vec<Event>| {
-            if batch.first().is_some_and(|b| !b.is_empty()) && !live.reached {
-                live.push_rows(batch, events)?;
-            }
-            batch.iter_mut().for_each(Vec::clear);
-            Ok::<(), Error>(())
-        };
-        for r in rel {
+    /// What the [`StampStream`] released: the rate, samples (gathered in `batch`, which is
+    /// handed to the accumulators when a snapshot falls due, before any other release, and
+    /// by the caller at the end), a new segment, a late row or a refusal.
+    fn apply(
+        &mut self,
+        rel: &mut Vec<Release>,
+        batch: &mut [Vec<f64>],
+        events: &mut Vec<Event>,
+    ) -> Result<()> {
+        for r in rel.drain(..) {
             match r {
                 Release::Rate(r) => self.start(r)?,
                 Release::Sample { values, .. } => {
                     for (b, v) in batch.iter_mut().zip(values) {
                         b.push(v);
                     }
+                    // a snapshot sees the counts of the row that completes it
+                    if batch.first().map_or(0, Vec::len) as u64 >= self.next_at - self.n {
+                        self.flush(batch, events)?;
+                    }
                 }
                 Release::NewSegment => {
-                    flush(self, &mut batch, events)?;
+                    self.flush(batch, events)?;
                     self.new_segment()?;
                 }
                 Release::TooOld(e) => {
-                    flush(self, &mut batch, events)?;
+                    self.flush(batch, events)?;
                     self.bad_line(e, events);
                 }
                 Release::Refused(e) => {
-                    flush(self, &mut batch, events)?;
+                    self.flush(batch, events)?;
                     self.refused = true;
                     if self.stopped.is_none() {
                         self.stopped = Some(clone_error(&e));
@@ -1065,7 +1070,17 @@ impl Live {
                 }
             }
         }
-        flush(self, &mut batch, events)
+        Ok(())
+    }
+
+    /// The samples gathered by [`Live::apply`] to the accumulators (none after a reached
+    /// target).
+    fn flush(&mut self, batch: &mut [Vec<f64>], events: &mut Vec<Event>) -> Result<()> {
+        if batch.first().is_some_and(|b| !b.is_empty()) && !self.reached {
+            self.push_rows(batch, events)?;
+        }
+        batch.iter_mut().for_each(Vec::clear);
+        Ok(())
     }
 
     /// `--gaps longest`: a gap ends the current segment; the longest one is kept (the
