@@ -362,3 +362,57 @@ fn longest_out_report_equals_analyze() {
     assert_eq!(a["timing"]["segment"], serde_json::json!([10_000, 30_000]));
     assert_eq!(a["channels"], b["channels"]);
 }
+
+/// --gaps longest as the stream goes: each snapshot reports the longest gap-free segment so
+/// far (the first 2000 samples until the segment after the gap, of 3000, outgrows it), with
+/// its bounds in `timing.segment`; the snapshots fall due every 500 samples read (the one
+/// at 5000 falls due in `finish`, whose final snapshot stands for it).
+#[test]
+fn longest_snapshots_follow_the_longest_segment_so_far() {
+    use imunoise::logs::GapPolicy;
+    use imunoise::pipeline::live::{Event, Live, LiveSettings, TimeStamps};
+    use imunoise::pipeline::read::TimeUnit;
+    let mut r = rows(5_100);
+    r.drain(2_000..2_100);
+    let time = TimeStamps {
+        column: "t".into(),
+        unit: TimeUnit::S,
+        gaps: GapPolicy::Longest,
+        rate_hz: None,
+    };
+    let settings = LiveSettings {
+        time: Some(time),
+        every_s: 5.0,
+        ..LiveSettings::default()
+    };
+    let mut live = Live::new(settings, "imu.csv").unwrap();
+    let mut seen = Vec::new();
+    for piece in csv(&r).as_bytes().chunks(999) {
+        for e in live.feed(piece).unwrap() {
+            if let Event::Snapshot(s) = e {
+                let seg = s.timing.unwrap().segment;
+                seen.push((s.n, seg.map(|[a, b]| (a, b))));
+            }
+        }
+    }
+    let last = live.finish().unwrap();
+    let first = Some((0, 2_000));
+    assert_eq!(
+        seen,
+        [
+            (500, None),
+            (1_000, None),
+            (1_500, None),
+            (2_000, None),
+            (2_000, first),
+            (2_000, first),
+            (2_000, first),
+            (2_000, first),
+            (2_500, Some((2_000, 4_500))),
+        ]
+    );
+    assert_eq!(
+        (last.n, last.timing.unwrap().segment),
+        (3_000, Some([2_000, 5_000]))
+    );
+}
