@@ -667,8 +667,8 @@ impl StampStream {
                         line: h.line,
                         column: 1,
                         message: format!(
-                            "a gap of {:.6} s before this row: {} so far; use --gaps longest or \
-                             --gaps ignore",
+                            "a gap of {:.6} s before this row brings the record so far to {}; \
+                             use --gaps longest or --gaps ignore",
                             dt as f64 * 1e-9,
                             gap_counts(
                                 self.gaps,
