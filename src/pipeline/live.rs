@@ -347,9 +347,11 @@ pub struct Snapshot {
     /// With time stamps ([`LiveSettings::time`]): the rate from the stamps and the counts
     /// of reordered and duplicate rows, gaps and missing samples so far, and with
     /// `--gaps longest` the segment analysed (sample indices after ordering and
-    /// de-duplication), as `results.json` writes them for `imunoise analyze`. `n` and the
-    /// channels are then those of the samples analysed (the longest gap-free segment so far
-    /// with `--gaps longest`). None (null) without time stamps.
+    /// de-duplication), as `results.json` writes them for `imunoise analyze`. `n` (and
+    /// `timing.samples_used`) and the channels are then those of the samples analysed (the
+    /// longest gap-free segment so far with `--gaps longest`); the other counts are as of
+    /// the last row read (the rows held in the reorder window included). None (null)
+    /// without time stamps.
     pub timing: Option<Timing>,
 }
 
@@ -1254,7 +1256,16 @@ impl Live {
             reached,
             progress,
             channels,
-            timing: self.time.as_ref().and_then(|t| t.stream.timing()),
+            // the counts as of the last row read; the samples those analysed here (when the
+            // rate becomes known, the first 1025 samples are released at once)
+            timing: self
+                .time
+                .as_ref()
+                .and_then(|t| t.stream.timing())
+                .map(|mut t| {
+                    t.samples_used = n as usize;
+                    t
+                }),
         })
     }
 }
