@@ -494,7 +494,7 @@ fn model_snapshots_and_a_model_time_left() {
         .into_iter()
         .filter_map(|e| match e {
             Event::Snapshot(s) => Some(s),
-            Event::BadLine(_) => None,
+            Event::BadLine(_) | Event::Refused(_) => None,
         })
         .collect();
     assert_eq!(snaps.len(), 4);

@@ -2,7 +2,10 @@
 
 use super::{Ui, parse_rate, parse_scales};
 use crate::error::{Error, Result};
+use crate::logs::GapPolicy;
+use crate::pipeline::live::TimeStamps;
 pub use crate::pipeline::live::{Event, Live, LiveSettings, OnError, Snapshot, Target, adev_near};
+use crate::pipeline::read::TimeUnit;
 use avar::{CiMethod, Scales};
 use std::io::{Read, Write};
 use std::path::PathBuf;
@@ -15,6 +18,7 @@ pub const EXAMPLES: &str = "Examples:
   imunoise live imu.csv --follow --rate 400 --json > progress.jsonl
   my_logger | imunoise live - --binary f32 --channels 6 --rate 1000 --columns 1-3 --unit deg/s
   imunoise live - --rate 100 --model \"WN + RW + AR1\" --until K=10%
+  imunoise live imu.csv --follow --time-column t --time-unit ns --gaps longest
 
 Every --every seconds of input time a snapshot: on a terminal a view redrawn in place (at
 most every --refresh s), else one JSON line (--json forces it, --lines gives one text line
@@ -27,10 +31,27 @@ At the end of the input (or at Ctrl-C) the final snapshot (marked final) is prin
 with its line number; --on-error skip leaves it out and goes on, stop (default) prints the
 final snapshot of the rows before it and exits with code 2.
 
+Time stamps (--time-column, text only) follow the rules of `imunoise avar --time-column`,
+applied as rows arrive: the rate is 1 / median of the first 1024 time differences (of fewer
+if the input ends sooner; rows wait until then), and a --rate more than 1 % away from it is
+an error. Rows wait in a reorder window of 64 rows and leave it in time order, so a record
+whose rows arrive at most 64 rows late gives exactly the `avar` result; a row older than one
+already analysed is reported with its line number and --on-error skips it or stops. A row
+with the stamp of the row before it is a duplicate: dropped and counted. A gap is a time
+difference over 1.5 nominal ones; its missing samples count round(dt/nominal) - 1 (at least
+1). --gaps refuse (default) stops as soon as the missing samples exceed 0.1 % of the samples
+so far (the final snapshot of the rows before the gap, the --out report, exit code 2);
+--gaps longest starts anew after each gap and reports the longest gap-free segment so far
+(memory per segment kept, not per sample); --gaps ignore goes on across gaps. Each snapshot
+carries the counts as \"timing\" (null without stamps).
+
 JSON line shape: {\"t_s\",\"n\",\"final\",\"channels\":[{\"name\",\"unit\",\"rate_hz\",\"n\",
 \"points\":[as imunoise avar --format json],\"n_term\",\"k_term\",\"b_term\",\"model\"}],
 \"reached\",\"progress\":[{\"channel\",\"symbol\",\"target\",\"rel_halfwidth\",\"reached\",
-\"time_left_s\",\"time_left_lo_s\",\"time_left_hi_s\",\"basis\"}]}, each term
+\"time_left_s\",\"time_left_lo_s\",\"time_left_hi_s\",\"basis\"}],\"timing\":{\"messages\",
+\"samples_used\",\"rate_hz\",\"rate_source\",\"rate_from_stamps_hz\",\"median_dt_s\",\"span_s\",
+\"reordered\",\"duplicates\",\"gaps\",\"missing_samples\",\"longest_gap_s\",\"gap_policy\",
+\"segment\",\"truncated\"} as in results.json, or null}, each term
 {\"symbol\",\"value\",\"unit\",\"ci_lo\",\"ci_hi\",\"source\",\"basis\",…} or null.";
 
 /// Arguments of `imunoise live`.
@@ -40,9 +61,12 @@ pub struct LiveArgs {
     /// binary rows with --binary: a file, a FIFO or serial device, or `-` for standard input.
     #[arg(default_value = "-")]
     pub file: PathBuf,
-    /// Sampling rate in Hz (> 0).
-    #[arg(long, short = 'r', value_name = "HZ", value_parser = parse_rate, allow_negative_numbers = true)]
-    pub rate: f64,
+    /// Sampling rate in Hz (> 0). Required without --time-column; with it the rate comes
+    /// from the stamps (median of the first 1024 Δt) and a --rate more than 1 % away from
+    /// it is an error.
+    #[arg(long, short = 'r', value_name = "HZ", value_parser = parse_rate, allow_negative_numbers = true,
+          required_unless_present = "time_column")]
+    pub rate: Option<f64>,
     /// Columns to analyse: header names or 1-based indices and ranges, e.g. `gyro_x,acc_z` or `1-3`.
     #[arg(long, value_name = "LIST")]
     pub columns: Option<String>,
@@ -53,6 +77,19 @@ pub struct LiveArgs {
     /// Values per row of binary input (default 1).
     #[arg(long, value_name = "K")]
     pub channels: Option<usize>,
+    /// Text input: the column (name or 1-based index) holding time stamps. The rate, the
+    /// order of the rows, duplicates and gaps then come from the stamps, with the rules of
+    /// `imunoise avar --time-column` applied as rows arrive (see below).
+    #[arg(long, value_name = "COLUMN")]
+    pub time_column: Option<String>,
+    /// Unit of --time-column: s, ms, us or ns.
+    #[arg(long, value_name = "UNIT", default_value = "s")]
+    pub time_unit: TimeUnit,
+    /// With --time-column, gaps (Δt > 1.5 nominal Δt): refuse (default: stop as soon as
+    /// the missing samples exceed 0.1 % of the samples so far, exit code 2), longest
+    /// (analyse the longest gap-free segment so far) or ignore (go on across gaps).
+    #[arg(long, value_name = "POLICY", value_enum, default_value = "refuse")]
+    pub gaps: GapPolicy,
     /// Units: one for all channels or a comma list (deg/s, rad/s, g, m/s^2, none).
     /// Default: inferred from name suffixes (_dps, _rads, _g, _mps2), else none.
     #[arg(long, value_name = "UNIT")]
@@ -206,8 +243,23 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
             args.idle
         )));
     }
-    let settings = LiveSettings {
+    let time = args.time_column.as_ref().map(|c| TimeStamps {
+        column: c.clone(),
+        unit: args.time_unit,
+        gaps: args.gaps,
         rate_hz: args.rate,
+    });
+    let settings = LiveSettings {
+        rate_hz: match (args.rate, &time) {
+            (Some(r), _) => r,
+            (None, Some(_)) => 0.0, // not used: the stamps give the rate
+            (None, None) => {
+                return Err(Error::Usage(
+                    "--rate is required without --time-column".to_string(),
+                ));
+            }
+        },
+        time,
         columns: args.columns.clone(),
         unit: args.unit.clone(),
         scales: args.scales.clone(),
@@ -286,6 +338,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
                 Event::Snapshot(s) => show(&mut out, &s, view, &mut screen)?,
                 // reported even with --quiet, as errors are
                 Event::BadLine(e) => eprintln!("malformed line: {e}"),
+                Event::Refused(e) => eprintln!("gaps: {e}"),
             }
         }
         if live.stopped().is_some() || live.reached() {
@@ -304,6 +357,11 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
         Err(e) => ui.note(format!("no snapshot: {e}")),
     }
     let stopped = live.stopped().map(crate::pipeline::live::clone_error);
+    let why = if live.refused() {
+        "--gaps refuse"
+    } else {
+        "--on-error stop"
+    };
     let rows = live.len();
     if let Some(dir) = &args.out
         && let Some((table, units)) = live.into_table()
@@ -328,7 +386,7 @@ pub fn run(args: &LiveArgs, ui: &Ui) -> Result<()> {
                 _ => 0,
             },
             message: format!(
-                "{} (--on-error stop: stopped after the {} rows before it)",
+                "{} ({why}: stopped after the {} rows before it)",
                 match e {
                     Error::Located { message, .. } => message.clone(),
                     other => other.to_string(),
@@ -451,6 +509,9 @@ pub fn render_frame(name: &str, s: &Snapshot) -> String {
         s.n,
         if s.is_final { " (final)" } else { "" }
     );
+    if let Some(t) = &s.timing {
+        f += &format!("stamps: {}\n", t.summary());
+    }
     for c in &s.channels {
         let unit = if c.unit.is_empty() {
             String::new()
@@ -538,7 +599,17 @@ fn print_snapshot(out: &mut impl Write, s: &Snapshot, json: bool) -> Result<()> 
         serde_json::to_writer(&mut *out, s)?;
         writeln!(out)
     } else {
-        let mut r = Ok(());
+        let mut r = match &s.timing {
+            Some(t) => writeln!(
+                out,
+                "{}t={:.1}s n={} stamps: {}",
+                if s.is_final { "final " } else { "" },
+                s.t_s,
+                s.n,
+                t.summary()
+            ),
+            None => Ok(()),
+        };
         for c in &s.channels {
             let unit = if c.unit.is_empty() {
                 String::new()

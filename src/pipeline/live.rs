@@ -21,6 +21,12 @@
 //! With [`LiveSettings::binary`] the stream is raw little-endian rows instead (as `imunoise avar
 //! --binary` reads them), fed in pieces cut anywhere; rows count as lines below.
 //!
+//! With [`LiveSettings::time`] (text only) a column holds time stamps: the rate comes from the
+//! median of the first 1024 Δt, rows are put back in time order within a reorder window of
+//! 64 rows, duplicates are dropped, and gaps are refused, cut (the longest gap-free segment)
+//! or ignored as `imunoise avar --gaps` says, as rows arrive ([`TimeStamps`] has the rules);
+//! each snapshot carries the counts ([`Snapshot::timing`]).
+//!
 //! A malformed line is an [`Event::BadLine`] with its line number in the whole stream; with
 //! [`OnError::Skip`] the line is left out and reading goes on, with [`OnError::Stop`] the
 //! stream stops there ([`Live::stopped`]); what was accumulated before it is kept either way.
@@ -48,8 +54,10 @@
 
 use crate::error::{Error, Result};
 use crate::io::{BinaryType, ColumnSpec, parse_binary, parse_columns, parse_text, resolve_columns};
+use crate::logs::timing::{GapPolicy, Release, StampStream, Timing};
 use crate::pipeline::estimate::{PointJson, to_json};
 use crate::pipeline::precision::{Predictor, Quantity, model_halfwidth};
+use crate::pipeline::read::{TimeUnit, time_column_spec};
 use avar::{AllanVariance, AvarConfig, CiMethod, OnlineChannels, Scales};
 use gmwm_prep::AvCurve;
 use gmwm_prep::gmwm::{GmwmFit, GmwmOptions};
@@ -102,6 +110,63 @@ pub struct LiveSettings {
     /// --channels K`, as `imunoise avar` reads them) instead of text; the channels are named
     /// ch1, ch2, … as there, and `columns` selects among them.
     pub binary: Option<(BinaryType, usize)>,
+    /// Text rows with a time stamp column (`--time-column`): the rate, the order of the
+    /// rows, duplicates and gaps then come from the stamps ([`TimeStamps`]), and
+    /// `rate_hz` is not used. None: rows are equally spaced at `rate_hz`.
+    pub time: Option<TimeStamps>,
+}
+
+/// Time stamps in a column of text rows (`imunoise live --time-column`), read with the
+/// rules of `imunoise avar --time-column` ([`crate::logs::timing`]) applied as rows arrive
+/// ([`StampStream`]):
+///
+/// - the rate is 1 / median of the first [`RATE_DTS`](crate::logs::timing::RATE_DTS) Δt
+///   (or of fewer, when the input ends sooner); rows wait until it is known. A `rate_hz`
+///   (`--rate`) more than 1 % away from it is an error, as in the batch.
+/// - rows wait in a window of [`REORDER_WINDOW`](crate::logs::timing::REORDER_WINDOW) rows
+///   and leave it in stamp order: a record whose rows arrive at most that many rows late gives
+///   exactly the batch result. A row older than one already analysed is an
+///   [`Event::BadLine`] at its line ([`OnError`] decides: skip it or stop).
+/// - a row with the stamp of the row before it (in stamp order) is dropped and counted.
+/// - gaps (Δt > 1.5 nominal Δt): [`GapPolicy::Refuse`] stops the stream ([`Event::Refused`])
+///   as soon as the missing samples exceed 0.1 % of the samples so far;
+///   [`GapPolicy::Longest`] starts a new accumulator after each gap and reports the longest
+///   gap-free segment so far; [`GapPolicy::Ignore`] goes on across gaps.
+///
+/// Each [`Snapshot`] carries the counts as [`Snapshot::timing`].
+///
+/// ```
+/// use imunoise::logs::GapPolicy;
+/// use imunoise::pipeline::live::{Live, LiveSettings, TimeStamps};
+/// use imunoise::pipeline::read::TimeUnit;
+/// let time = TimeStamps { column: "t".into(), unit: TimeUnit::Ms, gaps: GapPolicy::Ignore, rate_hz: None };
+/// let s = LiveSettings { time: Some(time), every_s: 1e9, ..LiveSettings::default() };
+/// let mut live = Live::new(s, "imu.csv")?;
+/// // 50 Hz stamps in ms; the 3rd and 4th rows swapped, the 6th row twice
+/// let mut text = String::from("t,gx\n");
+/// let mut order: Vec<i64> = (0..300).collect();
+/// order.swap(2, 3);
+/// order.insert(6, 5);
+/// for i in order {
+///     text += &format!("{},{}\n", 20 * i, (i * 7 % 5) as f64);
+/// }
+/// live.feed(text.as_bytes())?;
+/// let last = live.finish()?;
+/// assert_eq!((last.n, last.channels[0].rate_hz), (300, 50.0));
+/// let t = last.timing.unwrap();
+/// assert_eq!((t.messages, t.reordered, t.duplicates, t.gaps), (301, 1, 1, 0));
+/// # Ok::<(), imunoise::Error>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct TimeStamps {
+    /// The stamp column: a header name or a 1-based index (as `--time-column`).
+    pub column: String,
+    /// Unit of the stamps (`--time-unit`).
+    pub unit: TimeUnit,
+    /// What gaps do (`--gaps`).
+    pub gaps: GapPolicy,
+    /// `--rate` (Hz), checked against the stamps' rate; None: the stamps' rate.
+    pub rate_hz: Option<f64>,
 }
 
 /// A stopping rule: the 95 % (1 − alpha) interval of N, K or B (from the fitted model, or
@@ -233,6 +298,7 @@ impl Default for LiveSettings {
             model: None,
             keep_rows: false,
             binary: None,
+            time: None,
         }
     }
 }
@@ -264,9 +330,10 @@ pub struct ChannelSnapshot {
 /// The state after some input: per channel the AV so far and N, K, B.
 #[derive(Debug, Serialize)]
 pub struct Snapshot {
-    /// Input time so far: samples / rate (s).
+    /// Input time so far: samples / rate (s); of the samples analysed (see `n`).
     pub t_s: f64,
-    /// Samples (rows) so far.
+    /// Samples (rows) so far; with time stamps the samples analysed: after removing
+    /// duplicates, and with `--gaps longest` those of the longest gap-free segment so far.
     pub n: usize,
     /// True for the snapshot at the end of the input.
     #[serde(rename = "final")]
@@ -277,6 +344,15 @@ pub struct Snapshot {
     pub progress: Vec<TargetProgress>,
     /// One entry per channel.
     pub channels: Vec<ChannelSnapshot>,
+    /// With time stamps ([`LiveSettings::time`]): the rate from the stamps and the counts
+    /// of reordered and duplicate rows, gaps and missing samples so far, and with
+    /// `--gaps longest` the segment analysed (sample indices after ordering and
+    /// de-duplication), as `results.json` writes them for `imunoise analyze`. `n` (and
+    /// `timing.samples_used`) and the channels are then those of the samples analysed (the
+    /// longest gap-free segment so far with `--gaps longest`); the other counts are as of
+    /// the last row read (the rows held in the reorder window included). None (null)
+    /// without time stamps.
+    pub timing: Option<Timing>,
 }
 
 /// What feeding bytes brought.
@@ -285,7 +361,14 @@ pub enum Event {
     /// A snapshot was due (every `every_s` seconds of input).
     Snapshot(Snapshot),
     /// A malformed line: the error names the file, the line in the whole stream and the column.
+    /// With time stamps also a row older than one already analysed (it came more than the
+    /// reorder window late).
     BadLine(Error),
+    /// With time stamps and [`GapPolicy::Refuse`]: a gap brought the missing samples above
+    /// 0.1 % of the samples so far; the error names the line after the gap and the counts.
+    /// The stream stops there ([`Live::stopped`], [`Live::refused`]); what was accumulated
+    /// before the gap is kept.
+    Refused(Error),
 }
 
 /// The layout of the stream, known once its first line is in.
@@ -294,7 +377,19 @@ struct Layout {
     header: Vec<u8>,
     names: Vec<String>,
     units: Vec<Unit>,
-    online: OnlineChannels,
+    /// The accumulators (of the current segment), once the rate is known.
+    online: Option<OnlineChannels>,
+}
+
+/// Reading the stamps of a text stream.
+struct Stamped {
+    stream: StampStream,
+    unit: TimeUnit,
+    /// The stamp column as asked for, and its index among the parsed columns.
+    spec: ColumnSpec,
+    col: usize,
+    /// The columns are selected (`--columns`): the stamp column is read first.
+    first: bool,
 }
 
 /// The online analysis of a text stream (see the [module](self) docs).
@@ -322,16 +417,35 @@ pub struct Live {
     pick: Vec<usize>,
     /// Binary input: the partial row the stream ended inside, as [`Live::finish`] found it.
     partial_row: Option<Error>,
+    /// The rate in force (Hz): `rate_hz`, or with time stamps once they tell it.
+    rate: Option<f64>,
+    /// Time stamps (text with [`LiveSettings::time`]).
+    time: Option<Stamped>,
+    /// With `--gaps longest`: the longest closed segment (its accumulators and kept rows).
+    best: Option<(OnlineChannels, Vec<Vec<f64>>)>,
+    /// Stopped by a gap under `--gaps refuse`.
+    refused: bool,
 }
 
 impl Live {
     /// A new analysis; `file` names the stream in messages. Errors: a bad rate, α, τ_max,
     /// interval, `every_s` or `--columns` list.
     pub fn new(settings: LiveSettings, file: &str) -> Result<Live> {
-        let r = settings.rate_hz;
-        if !(r.is_finite() && r > 0.0) {
+        let given = match &settings.time {
+            None => Some(settings.rate_hz),
+            Some(t) => t.rate_hz,
+        };
+        if let Some(r) = given
+            && !(r.is_finite() && r > 0.0)
+        {
             return Err(Error::Usage(format!("--rate must be > 0, got {r}")));
         }
+        if settings.time.is_some() && settings.binary.is_some() {
+            return Err(Error::Usage("--time-column is for text input".to_string()));
+        }
+        // the rate-dependent parts are validated at the given rate (or 1 Hz) here, and made
+        // at the rate in force once it is known
+        let r = given.unwrap_or(1.0);
         if !(settings.every_s.is_finite() && settings.every_s > 0.0) {
             return Err(Error::Usage(format!(
                 "--every must be > 0 seconds, got {}",
@@ -362,15 +476,31 @@ impl Live {
         let max_m = ((settings.tau_max_s * r).floor() as u64).max(1);
         // validates the configuration (alpha, grid) once
         avar::Online::new(r, max_m, &config(&settings))?;
-        let select = settings.columns.as_deref().map(parse_columns).transpose()?;
+        let mut select = settings.columns.as_deref().map(parse_columns).transpose()?;
+        let time = match &settings.time {
+            None => None,
+            Some(t) => {
+                let spec = time_column_spec(&t.column)?;
+                if let Some(sel) = select.as_mut() {
+                    // read the stamp column too, first (as `imunoise avar`)
+                    sel.insert(0, spec.clone());
+                }
+                Some(Stamped {
+                    stream: StampStream::new(t.rate_hz, t.gaps, file),
+                    unit: t.unit,
+                    spec,
+                    col: 0,
+                    first: select.is_some(),
+                })
+            }
+        };
         if let Some((_, k)) = settings.binary
             && k == 0
         {
             return Err(Error::Usage("--channels must be at least 1".to_string()));
         }
-        let every_n = ((settings.every_s * r).round() as u64).max(1);
-        Ok(Live {
-            template,
+        let mut live = Live {
+            template: None,
             quantities,
             select,
             file: file.to_string(),
@@ -379,18 +509,58 @@ impl Live {
             pending: Vec::new(),
             lines: 0,
             n: 0,
-            every_n,
-            next_at: every_n,
+            every_n: 1,
+            next_at: 1,
             stopped: None,
             reached: false,
             rows: Vec::new(),
             pick: Vec::new(),
             partial_row: None,
+            rate: None,
+            best: None,
+            refused: false,
             settings,
-        })
+            time,
+        };
+        if live.time.is_none() {
+            live.start(r)?;
+        }
+        Ok(live)
     }
 
-    /// Samples (rows) accumulated so far.
+    /// The rate in force is known (Hz): the largest cluster size, the snapshot interval,
+    /// the model template and the accumulators follow from it.
+    fn start(&mut self, r: f64) -> Result<()> {
+        let s = &self.settings;
+        self.rate = Some(r);
+        self.max_m = ((s.tau_max_s * r).floor() as u64).max(1);
+        self.every_n = ((s.every_s * r).round() as u64).max(1);
+        self.next_at = self.n + self.every_n;
+        self.template = s
+            .model
+            .as_deref()
+            .map(|m| Model::parse_at_rate(m, r).map(|m| m.template()))
+            .transpose()?;
+        if let Some(layout) = &mut self.layout
+            && layout.online.is_none()
+        {
+            layout.online = Some(OnlineChannels::new(
+                layout.names.len(),
+                r,
+                self.max_m,
+                &config(&self.settings),
+            )?);
+        }
+        Ok(())
+    }
+
+    /// Stopped by a gap under [`GapPolicy::Refuse`] (the error is [`Live::stopped`]).
+    pub fn refused(&self) -> bool {
+        self.refused
+    }
+
+    /// Samples (rows) fed to the accumulators so far (with `--gaps longest`, of all the
+    /// segments).
     pub fn len(&self) -> u64 {
         self.n
     }
@@ -489,6 +659,11 @@ impl Live {
     /// ```
     pub fn feed_values(&mut self, channels: &[&[f64]]) -> Result<Vec<Event>> {
         let mut events = Vec::new();
+        if self.time.is_some() {
+            return Err(Error::Usage(
+                "live: with time stamps, feed text rows (values have no stamps)".into(),
+            ));
+        }
         let Some(layout) = &self.layout else {
             return Err(Error::Usage(
                 "live: feed a header line before the values".into(),
@@ -538,11 +713,24 @@ impl Live {
             }
             return self.snapshot(true);
         }
+        let mut events = Vec::new();
         if self.stopped.is_none() && !self.reached && !self.pending.is_empty() {
             let mut last = std::mem::take(&mut self.pending);
             last.push(b'\n');
-            let mut events = Vec::new();
             self.lines_in(&last, &mut events)?;
+        }
+        // the rows still held for their stamps' order (before a malformed line too)
+        if let Some(t) = self.time.as_mut()
+            && !self.reached
+            && !self.refused
+            && self.layout.is_some()
+        {
+            let mut rel = Vec::new();
+            t.stream.finish(&mut rel)?;
+            let k = self.layout.as_ref().map_or(0, |l| l.names.len());
+            let mut batch = vec![Vec::new(); k];
+            self.apply(&mut rel, &mut batch, &mut events)?;
+            self.flush(&mut batch, &mut events)?;
         }
         self.snapshot(true)
     }
@@ -683,12 +871,10 @@ impl Live {
     /// The layout of the channels `names` (their units, one online accumulator each).
     fn layout_of(&self, header: Vec<u8>, names: Vec<String>) -> Result<Layout> {
         let units = crate::units::channel_units(&names, self.settings.unit.as_deref())?;
-        let online = OnlineChannels::new(
-            names.len(),
-            self.settings.rate_hz,
-            self.max_m,
-            &config(&self.settings),
-        )?;
+        let online = self
+            .rate
+            .map(|r| OnlineChannels::new(names.len(), r, self.max_m, &config(&self.settings)))
+            .transpose()?;
         Ok(Layout {
             header,
             names,
@@ -719,7 +905,21 @@ impl Live {
         probe.push(b'\n');
         probe.extend_from_slice(probe_row.as_bytes());
         let t = parse_text(&probe, &self.file, self.select.as_deref())?;
-        self.layout = Some(self.layout_of(header, t.names)?);
+        let mut names = t.names;
+        if let Some(time) = self.time.as_mut() {
+            time.col = if time.first {
+                0
+            } else {
+                resolve_columns(std::slice::from_ref(&time.spec), &names)?[0]
+            };
+            let tname = names.remove(time.col);
+            if names.is_empty() {
+                return Err(Error::Usage(format!(
+                    "--time-column {tname:?} is the only column; nothing left to analyse"
+                )));
+            }
+        }
+        self.layout = Some(self.layout_of(header, names)?);
         Ok(())
     }
 
@@ -763,7 +963,7 @@ impl Live {
                 Ok(t) => {
                     let cols: Vec<Vec<f64>> = t.columns.into_iter().map(|c| c.into_vec()).collect();
                     // rows after a reached target are left unread
-                    self.push_rows(&cols, events)?;
+                    self.push_parsed(cols, self.lines + 1, events)?;
                     self.lines += count_lines(text);
                     return Ok(());
                 }
@@ -783,8 +983,8 @@ impl Live {
             if !good.is_empty() {
                 let t = parse_text(&batch_of(good), &self.file, self.select.as_deref())?;
                 let cols: Vec<Vec<f64>> = t.columns.into_iter().map(|c| c.into_vec()).collect();
-                self.push_rows(&cols, events)?;
-                if self.reached {
+                self.push_parsed(cols, self.lines + 1, events)?;
+                if self.reached || self.stopped.is_some() {
                     return Ok(());
                 }
             }
@@ -804,6 +1004,114 @@ impl Live {
         Ok(())
     }
 
+    /// Parsed rows whose first is line `first_line` of the stream: with time stamps through
+    /// the [`StampStream`] (one row at a time, so that what a stop or a reached target
+    /// leaves unread is unread), else straight to the accumulators.
+    fn push_parsed(
+        &mut self,
+        mut cols: Vec<Vec<f64>>,
+        first_line: usize,
+        events: &mut Vec<Event>,
+    ) -> Result<()> {
+        let Some(t) = &self.time else {
+            return self.push_rows(&cols, events);
+        };
+        let (col, unit) = (t.col, t.unit);
+        let time = cols.remove(col);
+        let mut rel = Vec::new();
+        let mut batch: Vec<Vec<f64>> = vec![Vec::with_capacity(time.len()); cols.len()];
+        for (i, &v) in time.iter().enumerate() {
+            let values = cols.iter().map(|c| c[i]).collect();
+            let t = self.time.as_mut().expect("time stamps");
+            t.stream
+                .push(unit.stamp_ns(v), first_line + i, values, &mut rel)?;
+            self.apply(&mut rel, &mut batch, events)?;
+            if self.stopped.is_some() || self.reached {
+                return Ok(());
+            }
+        }
+        self.flush(&mut batch, events)
+    }
+
+    /// What the [`StampStream`] released: the rate, samples (gathered in `batch`, which is
+    /// handed to the accumulators when a snapshot falls due, before any other release, and
+    /// by the caller at the end), a new segment, a late row or a refusal.
+    fn apply(
+        &mut self,
+        rel: &mut Vec<Release>,
+        batch: &mut [Vec<f64>],
+        events: &mut Vec<Event>,
+    ) -> Result<()> {
+        for r in rel.drain(..) {
+            match r {
+                Release::Rate(r) => self.start(r)?,
+                Release::Sample { values, .. } => {
+                    for (b, v) in batch.iter_mut().zip(values) {
+                        b.push(v);
+                    }
+                    // a snapshot sees the counts of the row that completes it
+                    if batch.first().map_or(0, Vec::len) as u64 >= self.next_at - self.n {
+                        self.flush(batch, events)?;
+                    }
+                }
+                Release::NewSegment => {
+                    self.flush(batch, events)?;
+                    self.new_segment()?;
+                }
+                Release::TooOld(e) => {
+                    self.flush(batch, events)?;
+                    self.bad_line(e, events);
+                }
+                Release::Refused(e) => {
+                    self.flush(batch, events)?;
+                    self.refused = true;
+                    if self.stopped.is_none() {
+                        self.stopped = Some(clone_error(&e));
+                    }
+                    events.push(Event::Refused(e));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The samples gathered by [`Live::apply`] to the accumulators (none after a reached
+    /// target).
+    fn flush(&mut self, batch: &mut [Vec<f64>], events: &mut Vec<Event>) -> Result<()> {
+        if batch.first().is_some_and(|b| !b.is_empty()) && !self.reached {
+            self.push_rows(batch, events)?;
+        }
+        batch.iter_mut().for_each(Vec::clear);
+        Ok(())
+    }
+
+    /// `--gaps longest`: a gap ends the current segment; the longest one is kept (the
+    /// earlier of two of equal length, as the batch) and a new one starts.
+    fn new_segment(&mut self) -> Result<()> {
+        let r = self.rate.expect("rate known");
+        let layout = self.layout.as_mut().expect("layout known");
+        let fresh =
+            OnlineChannels::new(layout.names.len(), r, self.max_m, &config(&self.settings))?;
+        let cur = std::mem::replace(layout.online.as_mut().expect("rate known"), fresh);
+        let rows = std::mem::take(&mut self.rows);
+        let len = |o: &OnlineChannels| o.channels().first().map_or(0, |c| c.len());
+        if self.best.as_ref().is_none_or(|(b, _)| len(&cur) > len(b)) {
+            self.best = Some((cur, rows));
+        }
+        Ok(())
+    }
+
+    /// The accumulators analysed: the current segment's, or the longest closed segment's
+    /// when it is longer (`--gaps longest`); with its rows. None before the rate is known.
+    fn analysed(&self) -> Option<(&OnlineChannels, &Vec<Vec<f64>>)> {
+        let cur = self.layout.as_ref()?.online.as_ref()?;
+        let len = |o: &OnlineChannels| o.channels().first().map_or(0, |c| c.len());
+        match &self.best {
+            Some((b, rows)) if len(b) > len(cur) => Some((b, rows)),
+            _ => Some((cur, &self.rows)),
+        }
+    }
+
     /// Adds rows (one vector per channel), cut at the snapshots that fall due.
     fn push_rows(&mut self, cols: &[Vec<f64>], events: &mut Vec<Event>) -> Result<()> {
         let rows = cols.first().map_or(0, Vec::len);
@@ -821,6 +1129,8 @@ impl Live {
                 .as_mut()
                 .expect("layout known")
                 .online
+                .as_mut()
+                .expect("rate known")
                 .update(&chunks)?;
             self.n += take as u64;
             i += take;
@@ -855,16 +1165,22 @@ impl Live {
     /// # Ok::<(), imunoise::Error>(())
     /// ```
     pub fn into_table(self) -> Option<(crate::io::Table, Vec<Unit>)> {
+        let timing = self.time.as_ref().and_then(|t| t.stream.timing());
+        let len = |o: &OnlineChannels| o.channels().first().map_or(0, |c| c.len());
+        let rows = match (self.best, self.layout.as_ref()?.online.as_ref()) {
+            (Some((b, rows)), Some(cur)) if len(&b) > len(cur) => rows,
+            _ => self.rows,
+        };
         let layout = self.layout?;
-        if self.rows.is_empty() {
+        if rows.is_empty() {
             return None;
         }
         let table = crate::io::Table {
             file: self.file,
             names: layout.names,
-            columns: self.rows.into_iter().map(crate::io::Column::from).collect(),
-            rate_hz: Some(self.settings.rate_hz),
-            timing: None,
+            columns: rows.into_iter().map(crate::io::Column::from).collect(),
+            rate_hz: self.rate,
+            timing,
             topic: None,
         };
         Some((table, layout.units))
@@ -873,16 +1189,23 @@ impl Live {
     /// The snapshot of everything so far (`is_final` marks the one at the end).
     /// Errors: no row yet, too few rows for one scale.
     pub fn snapshot(&self, is_final: bool) -> Result<Snapshot> {
-        let (Some(layout), true) = (&self.layout, self.n > 0) else {
-            return Err(Error::File {
-                file: self.file.clone(),
-                message: "no data rows".into(),
-            });
+        let no_rows = || Error::File {
+            file: self.file.clone(),
+            message: "no data rows".into(),
         };
-        let avs = layout.online.snapshots()?;
+        let (Some(layout), Some((online, _)), Some(rate)) =
+            (&self.layout, self.analysed(), self.rate)
+        else {
+            return Err(no_rows());
+        };
+        let n = online.channels().first().map_or(0, |c| c.len());
+        if n == 0 {
+            return Err(no_rows());
+        }
+        let avs = online.snapshots()?;
         let curves: Vec<(String, AllanVariance)> = layout.names.iter().cloned().zip(avs).collect();
         let json = to_json(&curves);
-        let t_s = self.n as f64 / self.settings.rate_hz;
+        let t_s = n as f64 / rate;
         let mut channels = Vec::new();
         let mut progress = Vec::new();
         for ((c, (_, av)), unit) in json.channels.into_iter().zip(&curves).zip(&layout.units) {
@@ -928,11 +1251,21 @@ impl Live {
         let reached = !progress.is_empty() && progress.iter().all(|p| p.reached);
         Ok(Snapshot {
             t_s,
-            n: self.n as usize,
+            n: n as usize,
             is_final,
             reached,
             progress,
             channels,
+            // the counts as of the last row read; the samples those analysed here (when the
+            // rate becomes known, the first 1025 samples are released at once)
+            timing: self
+                .time
+                .as_ref()
+                .and_then(|t| t.stream.timing())
+                .map(|mut t| {
+                    t.samples_used = n as usize;
+                    t
+                }),
         })
     }
 }

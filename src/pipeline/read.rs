@@ -140,6 +140,23 @@ impl TimeUnit {
             TimeUnit::Ns => 1.0,
         }
     }
+
+    /// A time stamp `v` in this unit as integer nanoseconds (rounded), as the stamps of
+    /// `--time-column` are read by `avar` and `live` alike.
+    pub(crate) fn stamp_ns(self, v: f64) -> i64 {
+        (v * self.ns()).round() as i64
+    }
+}
+
+/// `--time-column COL`: one column name or 1-based index (not a range or list).
+pub(crate) fn time_column_spec(tc: &str) -> Result<io::ColumnSpec> {
+    let spec = io::parse_columns(tc)?;
+    if spec.len() != 1 || matches!(spec[0], io::ColumnSpec::Range(..)) {
+        return Err(Error::Usage(format!(
+            "--time-column {tc:?}: give one column name or index"
+        )));
+    }
+    Ok(spec[0].clone())
 }
 
 impl Input {
@@ -293,15 +310,7 @@ impl Input {
             Some(_) if self.binary.is_some() => {
                 return Err(Error::Usage("--time-column is for text input".to_string()));
             }
-            Some(tc) => {
-                let spec = io::parse_columns(tc)?;
-                if spec.len() != 1 || matches!(spec[0], io::ColumnSpec::Range(..)) {
-                    return Err(Error::Usage(format!(
-                        "--time-column {tc:?}: give one column name or index"
-                    )));
-                }
-                Some(spec[0].clone())
-            }
+            Some(tc) => Some(time_column_spec(tc)?),
         };
         if let Some(kind) = self.binary
             && time_col.is_none()
@@ -336,8 +345,7 @@ impl Input {
                     "--time-column {tname:?} is the only column; nothing left to analyse"
                 )));
             }
-            let k = self.time_unit.ns();
-            let stamps: Vec<i64> = time.iter().map(|&v| (v * k).round() as i64).collect();
+            let stamps: Vec<i64> = time.iter().map(|&v| self.time_unit.stamp_ns(v)).collect();
             let (cols, timing) = logs::timing::prepare(
                 stamps,
                 std::mem::take(&mut t.columns)
