@@ -456,3 +456,91 @@ fn a_malformed_line_keeps_the_rows_held_for_their_order() {
     std::fs::write(&before, csv(&r[..2_000])).unwrap();
     assert_equals_avar(&snap, &before, &[]);
 }
+
+/// `--time-column SEC+NSEC`: the stamps of a ROS message header as `ros2 topic echo --csv`
+/// prints them (no header line; whole seconds, nanoseconds and the frame id before the
+/// values). `avar` and `live` give the result of the same record with one column of stamps in
+/// ns (the same stamps: the second implementation), across second boundaries, with the
+/// faults and a gap of [`faulty`].
+#[test]
+fn ros_header_stamps_as_seconds_plus_nanoseconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = faulty(30_000, 20_000, 300);
+    let base = 1_732_723_200u64;
+    let (mut ros, mut ns) = (String::new(), String::from("t,gx,gy\n"));
+    for (i, a, b) in &r {
+        let stamp = 10_000_000 * *i as u64 + 990_000_000; // the first second boundary at row 1
+        ros += &format!(
+            "{},{},imu_link,{a},{b}\n",
+            base + stamp / 1_000_000_000,
+            stamp % 1_000_000_000
+        );
+        // (the epoch left out: ns since 1970 exceed 2^53 and would not parse exactly as f64)
+        ns += &format!("{stamp},{a},{b}\n");
+    }
+    let (ros_path, ns_path) = (dir.path().join("ros.csv"), dir.path().join("ns.csv"));
+    std::fs::write(&ros_path, &ros).unwrap();
+    std::fs::write(&ns_path, &ns).unwrap();
+    let avar = |path: &std::path::Path, args: &[&str]| -> serde_json::Value {
+        let out = bin()
+            .args(["avar", path.to_str().unwrap(), "--gaps", "ignore"])
+            .args(args)
+            .args(["--format", "json"])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let want = avar(&ns_path, &["--time-column", "t", "--time-unit", "ns"]);
+    let got = avar(&ros_path, &["--time-column", "1+2", "--columns", "4,5"]);
+    let out = live(
+        &ros,
+        &[
+            "--time-column",
+            "1+2",
+            "--columns",
+            "4-5",
+            "--gaps",
+            "ignore",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let snap = final_snapshot(&out);
+    assert_eq!(snap["timing"]["missing_samples"], 300);
+    assert_eq!(snap["timing"]["duplicates"], 3);
+    for ch in 0..2 {
+        let w = &want["channels"][ch];
+        assert_eq!(w["n"], 30_000);
+        for (what, c) in [
+            ("avar", &got["channels"][ch]),
+            ("live", &snap["channels"][ch]),
+        ] {
+            assert_eq!(c["n"], w["n"], "{what}");
+            assert_eq!(c["rate_hz"], w["rate_hz"], "{what}");
+            let (pc, pw) = (
+                c["points"].as_array().unwrap(),
+                w["points"].as_array().unwrap(),
+            );
+            assert_eq!(pc.len(), pw.len(), "{what}");
+            for (p, q) in pc.iter().zip(pw) {
+                let (x, y) = (p["avar"].as_f64().unwrap(), q["avar"].as_f64().unwrap());
+                assert!(rel(x, y) <= TOL, "{what} ch {ch} m={}: {x} vs {y}", p["m"]);
+            }
+        }
+    }
+    // the same column twice is a usage error
+    let out = bin()
+        .args(["avar", ros_path.to_str().unwrap(), "--time-column", "1+1"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the same"));
+}

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 /// Examples shown by `imunoise live --help`.
 pub const EXAMPLES: &str = "Examples:
-  ros2 topic echo /imu/data_raw sensor_msgs/msg/Imu --csv | imunoise live - --rate 200 --columns 17-19 --unit rad/s
+  ros2 topic echo /imu/data_raw sensor_msgs/msg/Imu --csv | imunoise live - --time-column 1+2 --columns 17-19 --unit rad/s
   imunoise live /dev/ttyUSB0 --rate 100 --every 30
   imunoise live imu.csv --follow --rate 400 --json > progress.jsonl
   my_logger | imunoise live - --binary f32 --channels 6 --rate 1000 --columns 1-3 --unit deg/s
@@ -80,6 +80,9 @@ pub struct LiveArgs {
     /// Text input: the column (name or 1-based index) holding time stamps. The rate, the
     /// order of the rows, duplicates and gaps then come from the stamps, with the rules of
     /// `imunoise avar --time-column` applied as rows arrive (see below).
+    /// `SEC+NSEC` names two columns, whole seconds and nanoseconds, as ROS headers carry
+    /// stamps (`--time-column 1+2` for `ros2 topic echo --csv`): exact, where one column of
+    /// nanoseconds since 1970 is read as a number to about 0.25 µs.
     #[arg(long, value_name = "COLUMN")]
     pub time_column: Option<String>,
     /// Unit of --time-column: s, ms, us or ns.

@@ -166,6 +166,9 @@ pub struct InputArgs {
     pub log_format: Option<logs::LogFormat>,
     /// Text input: the column (name or 1-based index) holding time stamps; the rate then
     /// comes from the stamps and gaps are checked as for logs.
+    /// `SEC+NSEC` names two columns, whole seconds and nanoseconds, as ROS headers carry
+    /// stamps (`--time-column 1+2` for `ros2 topic echo --csv`): exact, where one column of
+    /// nanoseconds since 1970 is read as a number to about 0.25 µs.
     #[arg(long, value_name = "COLUMN")]
     pub time_column: Option<String>,
     /// Unit of --time-column: s, ms, us or ns.

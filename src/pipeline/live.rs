@@ -57,7 +57,7 @@ use crate::io::{BinaryType, ColumnSpec, parse_binary, parse_columns, parse_text,
 use crate::logs::timing::{GapPolicy, Release, StampStream, Timing};
 use crate::pipeline::estimate::{PointJson, to_json};
 use crate::pipeline::precision::{Predictor, Quantity, model_halfwidth};
-use crate::pipeline::read::{TimeUnit, time_column_spec};
+use crate::pipeline::read::{TimeColumns, TimeUnit};
 use avar::{AllanVariance, AvarConfig, CiMethod, OnlineChannels, Scales};
 use gmwm_prep::AvCurve;
 use gmwm_prep::gmwm::{GmwmFit, GmwmOptions};
@@ -384,10 +384,9 @@ struct Layout {
 /// Reading the stamps of a text stream.
 struct Stamped {
     stream: StampStream,
-    unit: TimeUnit,
-    /// The stamp column as asked for, and its index among the parsed columns.
-    spec: ColumnSpec,
-    col: usize,
+    /// The stamp column(s) as asked for, and their indices among the parsed columns.
+    cols: TimeColumns,
+    idx: Vec<usize>,
     /// The columns are selected (`--columns`): the stamp column is read first.
     first: bool,
 }
@@ -480,16 +479,15 @@ impl Live {
         let time = match &settings.time {
             None => None,
             Some(t) => {
-                let spec = time_column_spec(&t.column)?;
+                let cols = TimeColumns::parse(&t.column, t.unit)?;
                 if let Some(sel) = select.as_mut() {
-                    // read the stamp column too, first (as `imunoise avar`)
-                    sel.insert(0, spec.clone());
+                    // read the stamp columns too, first (as `imunoise avar`)
+                    sel.splice(0..0, cols.specs.iter().cloned());
                 }
                 Some(Stamped {
                     stream: StampStream::new(t.rate_hz, t.gaps, file),
-                    unit: t.unit,
-                    spec,
-                    col: 0,
+                    cols,
+                    idx: Vec::new(),
                     first: select.is_some(),
                 })
             }
@@ -907,12 +905,18 @@ impl Live {
         let t = parse_text(&probe, &self.file, self.select.as_deref())?;
         let mut names = t.names;
         if let Some(time) = self.time.as_mut() {
-            time.col = if time.first {
-                0
+            time.idx = if time.first {
+                (0..time.cols.specs.len()).collect()
             } else {
-                resolve_columns(std::slice::from_ref(&time.spec), &names)?[0]
+                resolve_columns(&time.cols.specs, &names)?
             };
-            let tname = names.remove(time.col);
+            if time.idx.len() == 2 && time.idx[0] == time.idx[1] {
+                return Err(Error::Usage(format!(
+                    "--time-column: the seconds and nanoseconds columns are the same ({})",
+                    names[time.idx[0]]
+                )));
+            }
+            let tname = TimeColumns::take(&time.idx, &mut names).join("+");
             if names.is_empty() {
                 return Err(Error::Usage(format!(
                     "--time-column {tname:?} is the only column; nothing left to analyse"
@@ -1016,15 +1020,19 @@ impl Live {
         let Some(t) = &self.time else {
             return self.push_rows(&cols, events);
         };
-        let (col, unit) = (t.col, t.unit);
-        let time = cols.remove(col);
+        let time = TimeColumns::take(&t.idx, &mut cols);
+        let rows = time.first().map_or(0, Vec::len);
         let mut rel = Vec::new();
-        let mut batch: Vec<Vec<f64>> = vec![Vec::with_capacity(time.len()); cols.len()];
-        for (i, &v) in time.iter().enumerate() {
+        let mut batch: Vec<Vec<f64>> = vec![Vec::with_capacity(rows); cols.len()];
+        let mut v = vec![0.0; time.len()];
+        for i in 0..rows {
+            for (vk, c) in v.iter_mut().zip(&time) {
+                *vk = c[i];
+            }
             let values = cols.iter().map(|c| c[i]).collect();
             let t = self.time.as_mut().expect("time stamps");
-            t.stream
-                .push(unit.stamp_ns(v), first_line + i, values, &mut rel)?;
+            let stamp = t.cols.stamp_ns(&v);
+            t.stream.push(stamp, first_line + i, values, &mut rel)?;
             self.apply(&mut rel, &mut batch, events)?;
             if self.stopped.is_some() || self.reached {
                 return Ok(());

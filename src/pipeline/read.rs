@@ -148,15 +148,70 @@ impl TimeUnit {
     }
 }
 
-/// `--time-column COL`: one column name or 1-based index (not a range or list).
-pub(crate) fn time_column_spec(tc: &str) -> Result<io::ColumnSpec> {
-    let spec = io::parse_columns(tc)?;
-    if spec.len() != 1 || matches!(spec[0], io::ColumnSpec::Range(..)) {
-        return Err(Error::Usage(format!(
-            "--time-column {tc:?}: give one column name or index"
-        )));
+/// `--time-column`: one column of stamps in `--time-unit`, or two written `SEC+NSEC`, whole
+/// seconds and nanoseconds (the two fields of a ROS message header's stamp, columns 1 and 2
+/// of `ros2 topic echo --csv`), each a column name or 1-based index.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct TimeColumns {
+    /// The stamp columns as asked for: [stamp] or [seconds, nanoseconds].
+    pub(crate) specs: Vec<io::ColumnSpec>,
+    unit: TimeUnit,
+}
+
+impl TimeColumns {
+    /// Parses `--time-column` (`COL` or `SEC+NSEC`) with the unit of a one-column stamp.
+    pub(crate) fn parse(tc: &str, unit: TimeUnit) -> Result<TimeColumns> {
+        let one = |part: &str| -> Result<io::ColumnSpec> {
+            let spec = io::parse_columns(part)?;
+            match spec.as_slice() {
+                [s] if !matches!(s, io::ColumnSpec::Range(..)) => Ok(s.clone()),
+                _ => Err(Error::Usage(format!(
+                    "--time-column {tc:?}: give one column name or index, or two as SEC+NSEC \
+                     (whole seconds and nanoseconds)"
+                ))),
+            }
+        };
+        let specs = match tc.split_once('+') {
+            Some((sec, nsec)) => vec![one(sec.trim())?, one(nsec.trim())?],
+            None => vec![one(tc)?],
+        };
+        if specs.len() == 2 && specs[0] == specs[1] {
+            return Err(Error::Usage(format!(
+                "--time-column {tc:?}: the seconds and nanoseconds columns are the same"
+            )));
+        }
+        Ok(TimeColumns { specs, unit })
     }
-    Ok(spec[0].clone())
+
+    /// The stamp (ns) of a row from the values of its stamp columns, in the order of
+    /// [`TimeColumns::specs`]: v·(ns per unit) rounded, or seconds·10^9 + nanoseconds (a
+    /// fraction of the seconds counted too; exact for whole seconds and nanoseconds).
+    pub(crate) fn stamp_ns(&self, v: &[f64]) -> i64 {
+        match *v {
+            [sec, nsec] => {
+                let whole = sec.trunc();
+                (whole as i64)
+                    .saturating_mul(1_000_000_000)
+                    .saturating_add(((sec - whole) * 1e9 + nsec).round() as i64)
+            }
+            _ => self.unit.stamp_ns(v[0]),
+        }
+    }
+
+    /// Takes the stamp columns (or their names) out of `v` at the distinct indices `idx`
+    /// (one per spec), and returns them in spec order.
+    pub(crate) fn take<T>(idx: &[usize], v: &mut Vec<T>) -> Vec<T> {
+        let mut order: Vec<usize> = (0..idx.len()).collect();
+        order.sort_by_key(|&k| std::cmp::Reverse(idx[k]));
+        let mut taken: Vec<Option<T>> = (0..idx.len()).map(|_| None).collect();
+        for k in order {
+            taken[k] = Some(v.remove(idx[k]));
+        }
+        taken
+            .into_iter()
+            .map(|t| t.expect("each index taken once"))
+            .collect()
+    }
 }
 
 impl Input {
@@ -310,7 +365,7 @@ impl Input {
             Some(_) if self.binary.is_some() => {
                 return Err(Error::Usage("--time-column is for text input".to_string()));
             }
-            Some(tc) => Some(time_column_spec(tc)?),
+            Some(tc) => Some(TimeColumns::parse(tc, self.time_unit)?),
         };
         if let Some(kind) = self.binary
             && time_col.is_none()
@@ -320,8 +375,8 @@ impl Input {
         }
         let mut time_first = false;
         if let (Some(tc), Some(cols)) = (&time_col, columns.as_mut()) {
-            // Read the time column too, first; it is taken out below.
-            cols.insert(0, tc.clone());
+            // Read the time columns too, first; they are taken out below.
+            cols.splice(0..0, tc.specs.iter().cloned());
             time_first = true;
         }
         let opts = ReadOptions {
@@ -334,18 +389,32 @@ impl Input {
         let mut t = io::read_table(&self.file, &opts)?;
         if let Some(tc) = &time_col {
             let idx = if time_first {
-                0
+                (0..tc.specs.len()).collect()
             } else {
-                io::resolve_columns(std::slice::from_ref(tc), &t.names)?[0]
+                io::resolve_columns(&tc.specs, &t.names)?
             };
-            let time = t.columns.remove(idx);
-            let tname = t.names.remove(idx);
+            if idx.len() == 2 && idx[0] == idx[1] {
+                return Err(Error::Usage(format!(
+                    "--time-column: the seconds and nanoseconds columns are the same ({})",
+                    t.names[idx[0]]
+                )));
+            }
+            let time = TimeColumns::take(&idx, &mut t.columns);
+            let tname = TimeColumns::take(&idx, &mut t.names).join("+");
             if t.columns.is_empty() {
                 return Err(Error::Usage(format!(
                     "--time-column {tname:?} is the only column; nothing left to analyse"
                 )));
             }
-            let stamps: Vec<i64> = time.iter().map(|&v| self.time_unit.stamp_ns(v)).collect();
+            let mut v = vec![0.0; time.len()];
+            let stamps: Vec<i64> = (0..time[0].len())
+                .map(|i| {
+                    for (vk, c) in v.iter_mut().zip(&time) {
+                        *vk = c[i];
+                    }
+                    tc.stamp_ns(&v)
+                })
+                .collect();
             let (cols, timing) = logs::timing::prepare(
                 stamps,
                 std::mem::take(&mut t.columns)
