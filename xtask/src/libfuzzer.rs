@@ -618,3 +618,62 @@ fn table(rows: &[Row], note: &str, jobs: usize) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The replay against a stand-in for a fuzz binary: a script that prints libFuzzer's
+    /// "Running: F" and "Executed F in N ms" lines for each file argument (N = the file's size
+    /// in bytes) and dies, as libFuzzer does on a crash, on a file whose name contains "bad".
+    /// 450 files (more than two batches), bad ones at the start, across a batch boundary and
+    /// last: each must be named once, every other file run, and the slowest be the largest.
+    #[test]
+    fn replay_names_each_failing_file_and_goes_on_after_it() {
+        let root = std::env::temp_dir().join(format!("xtask-replay-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let (fz, logs) = (root.join("fz"), root.join("logs"));
+        let corpus = fz.join("corpus/t");
+        std::fs::create_dir_all(&corpus).unwrap();
+        std::fs::create_dir_all(&logs).unwrap();
+        let bad = [5, 199, 200, 449];
+        for i in 0..450 {
+            let name = if bad.contains(&i) {
+                format!("f{i:03}-bad")
+            } else {
+                format!("f{i:03}")
+            };
+            let size = if i == 300 { 999 } else { 1 + i % 7 };
+            std::fs::write(corpus.join(name), vec![0u8; size]).unwrap();
+        }
+        let bin = root.join("fake-fuzzer");
+        std::fs::write(
+            &bin,
+            "#!/bin/sh\nfor f in \"$@\"; do\n  case \"$f\" in -*) continue;; esac\n  \
+             echo \"Running: $f\" >&2\n  case \"$f\" in *bad*) \
+             echo '==1== ERROR: libFuzzer: deadly signal' >&2; exit 1;; esac\n  \
+             echo \"Executed $f in $(wc -c < \"$f\") ms\" >&2\ndone\n",
+        )
+        .unwrap();
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let r = replay_target(&bin, "t", &fz, &logs).unwrap();
+        assert_eq!(r.files, 450);
+        let named: Vec<String> = r
+            .findings
+            .iter()
+            .map(|(f, what)| {
+                assert_eq!(what, "==1== ERROR: libFuzzer: deadly signal");
+                f.file_name().unwrap().to_string_lossy().into_owned()
+            })
+            .collect();
+        assert_eq!(named, ["f005-bad", "f199-bad", "f200-bad", "f449-bad"]);
+        let (slowest, ms) = r.slowest.unwrap();
+        assert_eq!(slowest.file_name().unwrap(), "f300");
+        assert_eq!(ms, 999);
+        // every good file ran exactly once
+        let log = std::fs::read_to_string(logs.join("t-replay.log")).unwrap();
+        assert_eq!(log.matches("Executed ").count(), 450 - bad.len());
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+}
