@@ -2,6 +2,8 @@
 //! accepts prints to a string that parses to the same model.
 #![no_main]
 use imunoise::processes::Model;
+// the capped global allocator (fuzz/src/lib.rs)
+use imunoise_fuzz as _;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -1,22 +1,35 @@
-//! `cargo xtask fuzz --coverage --minutes N [--target NAME[,NAME…]] [--jobs K] [--no-line-coverage]`:
-//! coverage-guided fuzzing of the readers with cargo-fuzz (libFuzzer) on the nightly toolchain.
+//! `cargo xtask fuzz --coverage --minutes N [--target NAME[,NAME…]] [--jobs K] [--no-seeds]
+//! [--no-replay] [--no-line-coverage]`: coverage-guided fuzzing of the readers with cargo-fuzz
+//! (libFuzzer) on the nightly toolchain.
 //!
 //! 1. cargo-fuzz comes from `scripts/fuzz-setup.sh` (into `target/tools`, with the nightly
 //!    llvm-tools when they can be had).
 //! 2. The seed corpora are written from the fixtures of `tests/logs.rs` (its ignored test
-//!    `write_fuzz_seeds`) into `target/fuzz/seeds/<target>/`.
+//!    `write_fuzz_seeds`) into `target/fuzz/seeds/<target>/` (`--no-seeds` keeps the seeds
+//!    already there and saves building that test).
 //! 3. The targets of `fuzz/` are built once (`cargo +nightly fuzz build --debug-assertions`,
 //!    AddressSanitizer), then run K at a time (`--jobs`, default 1), N minutes each, one
 //!    process per target (`-timeout=1 -rss_limit_mb=1024 -malloc_limit_mb=1024`): a panic, an abort, an input that
 //!    takes more than 1 s or an allocation over 1 GiB is a finding, kept in
 //!    `target/fuzz/artifacts/<target>/`. The corpus grows in `target/fuzz/corpus/<target>/`
 //!    from run to run; each run's libFuzzer output is in `target/fuzz-logs/<target>.log`.
-//! 4. Unless `--no-line-coverage`, `cargo fuzz coverage` replays each corpus through an
+//!    The 1 GiB limit on a single allocation is enforced by the fuzz crate's global allocator
+//!    (`fuzz/src/lib.rs`, every thread, an abort naming the size): libFuzzer's
+//!    `-malloc_limit_mb` works through the sanitizer's malloc hooks, which libFuzzer installs
+//!    only when leak detection is on, and the runs use `-detect_leaks=0`.
+//! 4. Unless `--no-replay`, every file of the target's corpus and seeds is run again, one by
+//!    one, through the same binary under the same limits (the binary given the files as
+//!    arguments, in batches; after a finding the next batch starts at the file after it):
+//!    what a file does is then attributed to that file alone, not to the state a long run
+//!    accumulates. Any finding fails the task and is named, with the file, under the table
+//!    (column "replay"; libFuzzer's output in `target/fuzz-logs/<target>-replay.log`). The
+//!    replay also gives the slowest file's time.
+//! 5. Unless `--no-line-coverage`, `cargo fuzz coverage` replays each corpus through an
 //!    instrumented build and `llvm-cov report` gives the line coverage of the reader's source
 //!    file (when the llvm-tools are there; otherwise the report says so).
 //!
-//! The table (runs, corpus files, libFuzzer's final `cov:`/`ft:`, line coverage, findings) goes
-//! to stdout and `target/fuzz-report.md`.
+//! The table (runs, corpus files, libFuzzer's final `cov:`/`ft:`, peak RSS, slowest unit, line
+//! coverage, findings of the run and of the replay) goes to stdout and `target/fuzz-report.md`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -54,11 +67,25 @@ struct Row {
     corpus: usize,
     cov: Option<u64>,
     ft: Option<u64>,
+    /// libFuzzer's `stat::peak_rss_mb` of the run
+    peak_rss_mb: Option<u64>,
+    /// libFuzzer's `stat::slowest_unit_time_sec` of the run (whole seconds)
+    slowest_s: Option<u64>,
     lines: Option<String>,
     crashes: usize,
     timeouts: usize,
     ooms: usize,
     artifacts: Vec<PathBuf>,
+    replay: Option<Replay>,
+}
+
+/// The one-by-one replay of a target's corpus and seeds.
+struct Replay {
+    files: usize,
+    /// (file, what libFuzzer or the allocator said)
+    findings: Vec<(PathBuf, String)>,
+    /// the slowest file and its time in ms
+    slowest: Option<(PathBuf, u64)>,
 }
 
 /// Runs the task.
@@ -70,6 +97,8 @@ pub fn run(rest: &[String]) -> Result<(), String> {
     }
     let only = args::value(rest, "--target");
     let line_coverage = !rest.iter().any(|a| a == "--no-line-coverage");
+    let replay = !rest.iter().any(|a| a == "--no-replay");
+    let write_seeds = !rest.iter().any(|a| a == "--no-seeds");
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .ok_or("no workspace root")?
@@ -103,22 +132,29 @@ pub fn run(rest: &[String]) -> Result<(), String> {
     );
     // 2. seeds
     let seeds = fz.join("seeds");
-    eprintln!("fuzz: writing the seed corpora into {}", seeds.display());
-    status(
-        Command::new(cargo())
-            .current_dir(&root)
-            .env("IMUNOISE_FUZZ_SEEDS", &seeds)
-            .args([
-                "test",
-                "-p",
-                "imunoise",
-                "--test",
-                "logs",
-                "write_fuzz_seeds",
-            ])
-            .args(["--", "--ignored", "--exact", "fuzz::write_fuzz_seeds"]),
-        "writing the seeds (tests/logs.rs write_fuzz_seeds)",
-    )?;
+    if write_seeds {
+        eprintln!("fuzz: writing the seed corpora into {}", seeds.display());
+        status(
+            Command::new(cargo())
+                .current_dir(&root)
+                .env("IMUNOISE_FUZZ_SEEDS", &seeds)
+                .args([
+                    "test",
+                    "-p",
+                    "imunoise",
+                    "--test",
+                    "logs",
+                    "write_fuzz_seeds",
+                ])
+                .args(["--", "--ignored", "--exact", "fuzz::write_fuzz_seeds"]),
+            "writing the seeds (tests/logs.rs write_fuzz_seeds)",
+        )?;
+    } else {
+        eprintln!(
+            "fuzz: --no-seeds: using the seed corpora in {}",
+            seeds.display()
+        );
+    }
     // 3. build and run
     let build_dir = fz.join("build");
     eprintln!("fuzz: building the targets (cargo +nightly fuzz build)");
@@ -155,7 +191,14 @@ pub fn run(rest: &[String]) -> Result<(), String> {
             rows.push(r?);
         }
     }
-    // 4. line coverage
+    // 4. one-by-one replay
+    if replay {
+        for row in &mut rows {
+            let r = replay_target(&bin_dir.join(&row.name), &row.name, &fz, &logs)?;
+            row.replay = Some(r);
+        }
+    }
+    // 5. line coverage
     let mut note = String::new();
     if line_coverage {
         match llvm_cov() {
@@ -177,12 +220,23 @@ pub fn run(rest: &[String]) -> Result<(), String> {
     let report = table(&rows, &note, jobs);
     print!("{report}");
     std::fs::write(root.join("target/fuzz-report.md"), &report).map_err(|e| e.to_string())?;
-    let found: usize = rows.iter().map(|r| r.crashes + r.timeouts + r.ooms).sum();
+    let found: usize = rows
+        .iter()
+        .map(|r| {
+            r.crashes + r.timeouts + r.ooms + r.replay.as_ref().map_or(0, |p| p.findings.len())
+        })
+        .sum();
     if found > 0 {
         return Err(format!(
             "{found} findings: {}",
             rows.iter()
-                .flat_map(|r| &r.artifacts)
+                .flat_map(|r| {
+                    r.artifacts.iter().cloned().chain(
+                        r.replay
+                            .iter()
+                            .flat_map(|p| p.findings.iter().map(|f| f.0.clone())),
+                    )
+                })
                 .map(|p| p.display().to_string())
                 .collect::<Vec<_>>()
                 .join(", ")
@@ -245,7 +299,7 @@ fn run_target(bin: &Path, name: &str, minutes: f64, fz: &Path, logs: &Path) -> R
     let corpus = fz.join("corpus").join(name);
     let seeds = fz.join("seeds").join(name);
     let artifacts = fz.join("artifacts").join(name);
-    for d in [&corpus, &artifacts] {
+    for d in [&corpus, &seeds, &artifacts] {
         std::fs::create_dir_all(d).map_err(|e| e.to_string())?;
     }
     let before: Vec<PathBuf> = list(&artifacts);
@@ -309,12 +363,94 @@ fn run_target(bin: &Path, name: &str, minutes: f64, fz: &Path, logs: &Path) -> R
         corpus: count_files(&corpus),
         cov: last.and_then(|l| field(l, "cov:")),
         ft: last.and_then(|l| field(l, "ft:")),
+        peak_rss_mb: stat("stat::peak_rss_mb:"),
+        slowest_s: stat("stat::slowest_unit_time_sec:"),
         lines: None,
         crashes,
         timeouts,
         ooms,
         artifacts: new,
+        replay: None,
     })
+}
+
+/// Files per replay process (the command line stays short; one process per file would cost
+/// a start-up each).
+const REPLAY_BATCH: usize = 200;
+
+/// Runs every file of the target's corpus and seeds once, one by one, through `bin` under
+/// [`LIMITS`]: libFuzzer, given files rather than folders, runs each in turn and prints
+/// "Running: F" before and "Executed F in N ms" after it. A process that stops early stopped
+/// on the first file it did not finish: that file is a finding, and the replay goes on from
+/// the next one.
+fn replay_target(bin: &Path, name: &str, fz: &Path, logs: &Path) -> Result<Replay, String> {
+    let mut files: Vec<PathBuf> = ["corpus", "seeds"]
+        .iter()
+        .flat_map(|d| list(&fz.join(d).join(name)))
+        .filter(|p| p.is_file())
+        .collect();
+    files.sort();
+    let log = logs.join(format!("{name}-replay.log"));
+    eprintln!(
+        "fuzz: replaying the {} files of {name}'s corpus and seeds one by one (log: {})",
+        files.len(),
+        log.display()
+    );
+    let mut all_out = String::new();
+    let mut r = Replay {
+        files: files.len(),
+        findings: Vec::new(),
+        slowest: None,
+    };
+    let mut at = 0;
+    while at < files.len() {
+        let batch = &files[at..(at + REPLAY_BATCH).min(files.len())];
+        let out = Command::new(bin)
+            .args(batch)
+            .args(LIMITS)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .output()
+            .map_err(|e| format!("running {}: {e}", bin.display()))?;
+        let text = String::from_utf8_lossy(&out.stderr);
+        all_out.push_str(&text);
+        let mut done = 0;
+        for line in text.lines() {
+            let Some((_, ms)) = line
+                .strip_prefix("Executed ")
+                .and_then(|l| l.rsplit_once(" in "))
+            else {
+                continue;
+            };
+            let ms: u64 = ms.trim_end_matches(" ms").parse().unwrap_or(0);
+            if let Some(f) = batch.get(done)
+                && r.slowest.as_ref().is_none_or(|s| ms > s.1)
+            {
+                r.slowest = Some((f.clone(), ms));
+            }
+            done += 1;
+        }
+        if out.status.success() && done >= batch.len() {
+            at += batch.len();
+            continue;
+        }
+        // the file it stopped on (or, if it stopped after the last one, that one)
+        let i = done.min(batch.len() - 1);
+        let what = text
+            .lines()
+            .find(|l| {
+                l.starts_with("imunoise-fuzz:")
+                    || l.contains("ERROR: libFuzzer")
+                    || l.contains("ERROR: AddressSanitizer")
+                    || l.contains("panicked at")
+            })
+            .map_or_else(|| format!("exit {}", out.status), |l| l.trim().to_string());
+        eprintln!("fuzz: replay of {name}: {}: {what}", batch[i].display());
+        r.findings.push((batch[i].clone(), what));
+        at += i + 1;
+    }
+    std::fs::write(&log, all_out).map_err(|e| e.to_string())?;
+    Ok(r)
 }
 
 fn list(dir: &Path) -> Vec<PathBuf> {
@@ -426,24 +562,35 @@ fn line_cov(
 
 fn table(rows: &[Row], note: &str, jobs: usize) -> String {
     let mut s = format!(
-        "# cargo xtask fuzz --coverage (cargo-fuzz, libFuzzer, -timeout=1 -rss_limit_mb=1024 -malloc_limit_mb=1024, one process per target, {jobs} at a time)\n\n\
-         | target | minutes | runs | corpus (files) | cov | ft | line coverage | crashes | timeouts | OOMs |\n\
-         |---|---|---|---|---|---|---|---|---|---|\n",
+        "# cargo xtask fuzz --coverage (cargo-fuzz, libFuzzer, -timeout=1 -rss_limit_mb=1024 -malloc_limit_mb=1024, single allocations capped at 1 GiB on every thread, one process per target, {jobs} at a time)\n\n\
+         | target | minutes | runs | corpus (files) | cov | ft | peak RSS (MB) | slowest unit (s) | line coverage | crashes | timeouts | OOMs | replay |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let opt = |v: Option<u64>| v.map_or("?".to_string(), |v| v.to_string());
     for r in rows {
+        let replay = r.replay.as_ref().map_or("-".to_string(), |p| {
+            format!(
+                "{} files, {} findings, slowest {} ms",
+                p.files,
+                p.findings.len(),
+                p.slowest.as_ref().map_or(0, |s| s.1)
+            )
+        });
         s.push_str(&format!(
-            "| {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             r.name,
             r.minutes,
             r.runs,
             r.corpus,
             opt(r.cov),
             opt(r.ft),
+            opt(r.peak_rss_mb),
+            opt(r.slowest_s),
             r.lines.as_deref().unwrap_or("-"),
             r.crashes,
             r.timeouts,
-            r.ooms
+            r.ooms,
+            replay
         ));
     }
     s.push('\n');
@@ -452,6 +599,81 @@ fn table(rows: &[Row], note: &str, jobs: usize) -> String {
         for a in &r.artifacts {
             s.push_str(&format!("Finding of {}: {}\n", r.name, a.display()));
         }
+        if let Some(p) = &r.replay {
+            for (f, what) in &p.findings {
+                s.push_str(&format!(
+                    "Replay finding of {}: {}: {what}\n",
+                    r.name,
+                    f.display()
+                ));
+            }
+            if let Some((f, ms)) = &p.slowest {
+                s.push_str(&format!(
+                    "Slowest file of {}'s replay: {} ({ms} ms)\n",
+                    r.name,
+                    f.display()
+                ));
+            }
+        }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The replay against a stand-in for a fuzz binary: a script that prints libFuzzer's
+    /// "Running: F" and "Executed F in N ms" lines for each file argument (N = the file's size
+    /// in bytes) and dies, as libFuzzer does on a crash, on a file whose name contains "bad".
+    /// 450 files (more than two batches), bad ones at the start, across a batch boundary and
+    /// last: each must be named once, every other file run, and the slowest be the largest.
+    #[test]
+    fn replay_names_each_failing_file_and_goes_on_after_it() {
+        let root = std::env::temp_dir().join(format!("xtask-replay-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let (fz, logs) = (root.join("fz"), root.join("logs"));
+        let corpus = fz.join("corpus/t");
+        std::fs::create_dir_all(&corpus).unwrap();
+        std::fs::create_dir_all(&logs).unwrap();
+        let bad = [5, 199, 200, 449];
+        for i in 0..450 {
+            let name = if bad.contains(&i) {
+                format!("f{i:03}-bad")
+            } else {
+                format!("f{i:03}")
+            };
+            let size = if i == 300 { 999 } else { 1 + i % 7 };
+            std::fs::write(corpus.join(name), vec![0u8; size]).unwrap();
+        }
+        let bin = root.join("fake-fuzzer");
+        std::fs::write(
+            &bin,
+            "#!/bin/sh\nfor f in \"$@\"; do\n  case \"$f\" in -*) continue;; esac\n  \
+             echo \"Running: $f\" >&2\n  case \"$f\" in *bad*) \
+             echo '==1== ERROR: libFuzzer: deadly signal' >&2; exit 1;; esac\n  \
+             echo \"Executed $f in $(wc -c < \"$f\") ms\" >&2\ndone\n",
+        )
+        .unwrap();
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let r = replay_target(&bin, "t", &fz, &logs).unwrap();
+        assert_eq!(r.files, 450);
+        let named: Vec<String> = r
+            .findings
+            .iter()
+            .map(|(f, what)| {
+                assert_eq!(what, "==1== ERROR: libFuzzer: deadly signal");
+                f.file_name().unwrap().to_string_lossy().into_owned()
+            })
+            .collect();
+        assert_eq!(named, ["f005-bad", "f199-bad", "f200-bad", "f449-bad"]);
+        let (slowest, ms) = r.slowest.unwrap();
+        assert_eq!(slowest.file_name().unwrap(), "f300");
+        assert_eq!(ms, 999);
+        // every good file ran exactly once
+        let log = std::fs::read_to_string(logs.join("t-replay.log")).unwrap();
+        assert_eq!(log.matches("Executed ").count(), 450 - bad.len());
+        std::fs::remove_dir_all(&root).unwrap();
+    }
 }
