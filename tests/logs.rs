@@ -85,7 +85,12 @@ fn write_mcap_with(path: &Path, topics: &[Topic<'_>], options: mcap::WriteOption
         let s = w
             .add_schema(t.schema, "ros2msg", b"(definition omitted)")
             .unwrap();
-        ids.push(w.add_channel(s, t.name, "cdr", &BTreeMap::new()).unwrap());
+        // as rosbag2 writes it: the publisher's QoS in the channel's metadata map
+        let qos = BTreeMap::from([(
+            "offered_qos_profiles".to_string(),
+            "- history: 3\n  depth: 0\n  reliability: 1\n  durability: 2\n".to_string(),
+        )]);
+        ids.push(w.add_channel(s, t.name, "cdr", &qos).unwrap());
     }
     let mut events: Vec<(i64, usize, usize)> = Vec::new();
     for (k, t) in topics.iter().enumerate() {
