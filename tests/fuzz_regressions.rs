@@ -237,3 +237,28 @@ fn mcap_record_field_claiming_2_gib_is_refused_before_the_crate_reserves_it() {
     let msg = user_error(e);
     assert!(msg.contains("longer than the record"), "{msg}");
 }
+
+/// A ROS 1 bag (found by the bag target within 2 minutes of a run under the 1 GiB allocator
+/// cap, 116,510 bytes) whose index states more than 2^28 messages on an IMU topic. The reader
+/// reserved room for the stated count, capped at 2^28 samples: 2 GiB for each of the seven
+/// columns (`imunoise-fuzz: allocation of 2147483648 bytes exceeds the 1 GiB limit`; with
+/// `-detect_leaks=0` libFuzzer's own -malloc_limit_mb had never reported it). A stated count
+/// now reserves at most `logs::MAX_RESERVE` samples (128 MiB a column).
+#[test]
+fn bag_index_claiming_2_pow_28_messages_reserves_no_more_than_max_reserve() {
+    let bytes = fixture("bag", "index-count-2gib.bag");
+    assert_eq!(bytes.len(), 116_510);
+    assert!(bytes.starts_with(b"#ROSBAG V2.0\n"));
+    let e = read_log(LogFormat::Bag, "bag", &bytes);
+    let largest = LARGEST_ANY_THREAD.load(std::sync::atomic::Ordering::Relaxed);
+    // the allocator cap of the fuzz targets (and libFuzzer's -malloc_limit_mb=1024); a column
+    // of MAX_RESERVE f64 is 2^27 bytes
+    assert!(largest < 1 << 30, "largest allocation {largest} bytes");
+    assert!(
+        largest <= logs::MAX_RESERVE * 8,
+        "largest allocation {largest} bytes"
+    );
+    if let Some(e) = e {
+        user_error(Some(e));
+    }
+}

@@ -196,7 +196,7 @@ impl SamplePush for SliceSink<'_> {
 /// No per-part series to join afterwards (that join took 0.37 s of one thread for 1.08·10^7
 /// MCAP messages). `Ok(None)` when a part holds another number of samples than its count
 /// (the index does not match the data: the caller reads another way) or the columns cannot be
-/// reserved; otherwise the first error in part order, or the series.
+/// reserved or would hold more than 2^27 samples (1 GiB per column); otherwise the first error in part order, or the series.
 pub(crate) fn read_parts_into<P: Sync>(
     parts: &[P],
     counts: &[usize],
@@ -206,6 +206,9 @@ pub(crate) fn read_parts_into<P: Sync>(
     let Some(total) = counts.iter().try_fold(0usize, |a, &n| a.checked_add(n)) else {
         return Ok(None);
     };
+    if total > MAX_PARALLEL {
+        return Ok(None);
+    }
     let mut stamps_v: Vec<i64> = Vec::new();
     let mut cols_v: Vec<Vec<f64>> = (0..6).map(|_| Vec::new()).collect();
     if stamps_v.try_reserve_exact(total).is_err()
@@ -265,6 +268,24 @@ pub(crate) fn read_parts_into<P: Sync>(
     }))
 }
 
+/// The most samples a reader reserves room for up front from a count the file states
+/// (2^24 = 16,777,216 samples: 128 MiB per column of f64; 4.7 hours at 1 kHz). Counts come
+/// from indexes and statistics records that a damaged or forged file can set to anything (a
+/// 116 kB ROS bag whose chunk info claims 2^28 IMU messages made the reader reserve 2 GiB per
+/// column); longer series grow as their samples are read.
+///
+/// ```
+/// use imunoise::logs::{ImuSeries, MAX_RESERVE};
+/// let s = ImuSeries::with_capacity(usize::MAX);
+/// assert!(s.stamps_ns.capacity() >= MAX_RESERVE && s.stamps_ns.capacity() < 2 * MAX_RESERVE);
+/// ```
+pub const MAX_RESERVE: usize = 1 << 24;
+
+/// The most samples [`read_parts_into`] reserves in one go: 2^27, so that each column is at
+/// most 1 GiB (a larger total from an index is read the other way, growing as it goes).
+#[cfg(any(feature = "mcap", feature = "rosbag"))]
+const MAX_PARALLEL: usize = 1 << 27;
+
 /// The six channel names of an IMU, units as suffixes (rad/s, m/s²).
 pub const IMU_NAMES: [&str; 6] = [
     "gyro_x_rads",
@@ -276,7 +297,8 @@ pub const IMU_NAMES: [&str; 6] = [
 ];
 
 impl ImuSeries {
-    /// An empty series with the six [`IMU_NAMES`] channels and room for `n` samples.
+    /// An empty series with the six [`IMU_NAMES`] channels and room for `n` samples, at most
+    /// [`MAX_RESERVE`] (the series grows past that as samples are pushed).
     ///
     /// ```
     /// use imunoise::logs::{IMU_NAMES, ImuSeries};
@@ -287,6 +309,10 @@ impl ImuSeries {
     /// assert!(s.columns.iter().all(|c| c.is_empty() && c.capacity() >= 1000));
     /// ```
     pub fn with_capacity(n: usize) -> Self {
+        // `n` is often a count the file states (an index, a statistics record, a COUNT(*)),
+        // which a forged file sets as it likes: room for more than MAX_RESERVE samples is
+        // made by pushing them, not reserved up front
+        let n = n.min(MAX_RESERVE);
         ImuSeries {
             stamps_ns: Vec::with_capacity(n),
             names: IMU_NAMES.iter().map(|s| s.to_string()).collect(),

@@ -635,12 +635,12 @@ impl LogReader for UlogReader {
             let s = out.get_or_insert_with(|| {
                 let n = expected.saturating_mul(if lay.fifo.is_some() { 32 } else { 1 });
                 ImuSeries {
-                    stamps_ns: Vec::with_capacity(n.min(1 << 28)),
+                    stamps_ns: Vec::with_capacity(n.min(super::MAX_RESERVE)),
                     names: lay.channels.iter().map(|c| c.0.to_string()).collect(),
                     columns: lay
                         .channels
                         .iter()
-                        .map(|_| Vec::with_capacity(n.min(1 << 28)))
+                        .map(|_| Vec::with_capacity(n.min(super::MAX_RESERVE)))
                         .collect(),
                 }
             });

@@ -1,5 +1,5 @@
 //! `cargo xtask fuzz --coverage --minutes N [--target NAME[,NAME…]] [--jobs K] [--no-seeds]
-//! [--no-replay] [--no-line-coverage]`: coverage-guided fuzzing of the readers with cargo-fuzz
+//! [--no-replay] [--replay-only] [--no-line-coverage]`: coverage-guided fuzzing of the readers with cargo-fuzz
 //! (libFuzzer) on the nightly toolchain.
 //!
 //! 1. cargo-fuzz comes from `scripts/fuzz-setup.sh` (into `target/tools`, with the nightly
@@ -23,7 +23,9 @@
 //!    what a file does is then attributed to that file alone, not to the state a long run
 //!    accumulates. Any finding fails the task and is named, with the file, under the table
 //!    (column "replay"; libFuzzer's output in `target/fuzz-logs/<target>-replay.log`). The
-//!    replay also gives the slowest file's time.
+//!    replay also gives the slowest file's time. `--replay-only` skips the fuzzing runs of
+//!    step 3 (the targets are still built) and only replays the corpora and seeds as they are,
+//!    adding no file to them: the check of an existing corpus under new limits.
 //! 5. Unless `--no-line-coverage`, `cargo fuzz coverage` replays each corpus through an
 //!    instrumented build and `llvm-cov report` gives the line coverage of the reader's source
 //!    file (when the llvm-tools are there; otherwise the report says so).
@@ -97,7 +99,11 @@ pub fn run(rest: &[String]) -> Result<(), String> {
     }
     let only = args::value(rest, "--target");
     let line_coverage = !rest.iter().any(|a| a == "--no-line-coverage");
+    let replay_only = rest.iter().any(|a| a == "--replay-only");
     let replay = !rest.iter().any(|a| a == "--no-replay");
+    if replay_only && !replay {
+        return Err("--replay-only and --no-replay exclude each other".to_string());
+    }
     let write_seeds = !rest.iter().any(|a| a == "--no-seeds");
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .parent()
@@ -170,7 +176,10 @@ pub fn run(rest: &[String]) -> Result<(), String> {
     // `jobs` targets at a time, each one libFuzzer process (a target's figures do not depend
     // on the others, only its executions per second do)
     let mut rows = Vec::new();
-    for group in targets.chunks(jobs) {
+    if replay_only {
+        rows = replay_rows(&bin_dir, &targets, &fz, &logs)?;
+    }
+    for group in targets.chunks(jobs).filter(|_| !replay_only) {
         let done: Vec<Result<Row, String>> = std::thread::scope(|s| {
             let handles: Vec<_> = group
                 .iter()
@@ -191,8 +200,8 @@ pub fn run(rest: &[String]) -> Result<(), String> {
             rows.push(r?);
         }
     }
-    // 4. one-by-one replay
-    if replay {
+    // 4. one-by-one replay (done above with --replay-only)
+    if replay && !replay_only {
         for row in &mut rows {
             let r = replay_target(&bin_dir.join(&row.name), &row.name, &fz, &logs)?;
             row.replay = Some(r);
@@ -216,6 +225,13 @@ pub fn run(rest: &[String]) -> Result<(), String> {
                     .to_string()
             }
         }
+    }
+    if replay_only {
+        note.push_str(
+            "--replay-only: no fuzzing run (minutes, runs, cov, ft, peak RSS, slowest unit, \
+             crashes, timeouts and OOMs of the run are empty); only the replay of the corpus \
+             and seeds as they were.\n",
+        );
     }
     let report = table(&rows, &note, jobs);
     print!("{report}");
@@ -372,6 +388,38 @@ fn run_target(bin: &Path, name: &str, minutes: f64, fz: &Path, logs: &Path) -> R
         artifacts: new,
         replay: None,
     })
+}
+
+/// `--replay-only`: for each target, a row with no fuzzing run and the one-by-one replay of
+/// its corpus and seeds (`bin_dir/<target>` the fuzz binary), the corpus counted as it is.
+fn replay_rows(
+    bin_dir: &Path,
+    targets: &[(&str, &str)],
+    fz: &Path,
+    logs: &Path,
+) -> Result<Vec<Row>, String> {
+    targets
+        .iter()
+        .map(|&(name, _)| {
+            let replay = replay_target(&bin_dir.join(name), name, fz, logs)?;
+            Ok(Row {
+                name: name.to_string(),
+                minutes: 0.0,
+                runs: 0,
+                corpus: count_files(&fz.join("corpus").join(name)),
+                cov: None,
+                ft: None,
+                peak_rss_mb: None,
+                slowest_s: None,
+                lines: None,
+                crashes: 0,
+                timeouts: 0,
+                ooms: 0,
+                artifacts: Vec::new(),
+                replay: Some(replay),
+            })
+        })
+        .collect()
 }
 
 /// Files per replay process (the command line stays short; one process per file would cost
@@ -628,6 +676,73 @@ mod tests {
     /// in bytes) and dies, as libFuzzer does on a crash, on a file whose name contains "bad".
     /// 450 files (more than two batches), bad ones at the start, across a batch boundary and
     /// last: each must be named once, every other file run, and the slowest be the largest.
+    /// Writes the stand-in fuzz binary described at
+    /// [`replay_names_each_failing_file_and_goes_on_after_it`] to `bin`.
+    fn fake_fuzzer(bin: &Path) {
+        std::fs::write(
+            bin,
+            "#!/bin/sh\nfor f in \"$@\"; do\n  case \"$f\" in -*) continue;; esac\n  \
+             echo \"Running: $f\" >&2\n  case \"$f\" in *bad*) \
+             echo '==1== ERROR: libFuzzer: deadly signal' >&2; exit 1;; esac\n  \
+             echo \"Executed $f in $(wc -c < \"$f\") ms\" >&2\ndone\n",
+        )
+        .unwrap();
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+
+    /// `--replay-only` on two targets with the same stand-in: each row holds only its own
+    /// target's replay (corpus + seeds: 30 + 2 and 12 + 1 files, one bad file in the second
+    /// one's seeds, the largest file of each the slowest), no run figures, and the corpora are
+    /// left as they were.
+    #[test]
+    fn replay_only_replays_each_target_and_adds_nothing() {
+        let root = std::env::temp_dir().join(format!("xtask-replay-only-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let (fz, logs, bins) = (root.join("fz"), root.join("logs"), root.join("bin"));
+        for d in [&logs, &bins] {
+            std::fs::create_dir_all(d).unwrap();
+        }
+        for (t, n_corpus, largest) in [("a", 30, 17), ("b", 12, 3)] {
+            let (corpus, seeds) = (fz.join("corpus").join(t), fz.join("seeds").join(t));
+            std::fs::create_dir_all(&corpus).unwrap();
+            std::fs::create_dir_all(&seeds).unwrap();
+            for i in 0..n_corpus {
+                let size = if i == largest { 500 } else { 1 + i % 5 };
+                std::fs::write(corpus.join(format!("c{i:02}")), vec![1u8; size]).unwrap();
+            }
+            std::fs::write(seeds.join("s0"), b"x").unwrap();
+            let last = if t == "b" { "s1-bad" } else { "s1" };
+            std::fs::write(seeds.join(last), b"y").unwrap();
+            fake_fuzzer(&bins.join(t));
+        }
+        let rows = replay_rows(&bins, &[("a", "x.rs"), ("b", "y.rs")], &fz, &logs).unwrap();
+        assert_eq!(rows.len(), 2);
+        for (row, (t, corpus, files, findings, slowest)) in rows
+            .iter()
+            .zip([("a", 30, 32, 0, "c17"), ("b", 12, 14, 1, "c03")])
+        {
+            assert_eq!(row.name, t);
+            assert_eq!((row.runs, row.cov, row.ft), (0, None, None));
+            assert_eq!(row.corpus, corpus);
+            assert_eq!(count_files(&fz.join("corpus").join(t)), corpus);
+            let p = row.replay.as_ref().unwrap();
+            assert_eq!(p.files, files);
+            assert_eq!(p.findings.len(), findings);
+            let (f, ms) = p.slowest.as_ref().unwrap();
+            assert_eq!(
+                (f.file_name().unwrap().to_str().unwrap(), *ms),
+                (slowest, 500)
+            );
+        }
+        assert!(
+            rows[1].replay.as_ref().unwrap().findings[0]
+                .0
+                .ends_with("seeds/b/s1-bad")
+        );
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+
     #[test]
     fn replay_names_each_failing_file_and_goes_on_after_it() {
         let root = std::env::temp_dir().join(format!("xtask-replay-{}", std::process::id()));
@@ -647,16 +762,7 @@ mod tests {
             std::fs::write(corpus.join(name), vec![0u8; size]).unwrap();
         }
         let bin = root.join("fake-fuzzer");
-        std::fs::write(
-            &bin,
-            "#!/bin/sh\nfor f in \"$@\"; do\n  case \"$f\" in -*) continue;; esac\n  \
-             echo \"Running: $f\" >&2\n  case \"$f\" in *bad*) \
-             echo '==1== ERROR: libFuzzer: deadly signal' >&2; exit 1;; esac\n  \
-             echo \"Executed $f in $(wc -c < \"$f\") ms\" >&2\ndone\n",
-        )
-        .unwrap();
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+        fake_fuzzer(&bin);
         let r = replay_target(&bin, "t", &fz, &logs).unwrap();
         assert_eq!(r.files, 450);
         let named: Vec<String> = r

@@ -62,7 +62,7 @@ const TASKS: &[(&str, &str)] = &[
     ),
     (
         "fuzz",
-        "property suites (tests/props.rs) with fresh seeds for --minutes N; cases per property; with --coverage: cargo-fuzz (libFuzzer) on each reader, --minutes N each [--target NAME] [--jobs K targets at a time] [--no-seeds] [--no-replay: skip the one-by-one replay of each corpus] [--no-line-coverage]",
+        "property suites (tests/props.rs) with fresh seeds for --minutes N; cases per property; with --coverage: cargo-fuzz (libFuzzer) on each reader, --minutes N each [--target NAME] [--jobs K targets at a time] [--no-seeds] [--no-replay: skip the one-by-one replay of each corpus] [--replay-only: no fuzzing run, only that replay] [--no-line-coverage]",
     ),
     (
         "gmwm-mc",
