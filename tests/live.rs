@@ -2,23 +2,11 @@
 //! against `imunoise avar` on the same rows, and a malformed line mid-stream.
 
 use std::io::Write;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::Duration;
 
-/// The online and the batch estimates are two summations of the same squared differences,
-/// each ~1e-15 relative (crates/avar/tests/online.rs checks 10^7 samples against the batch
-/// and an independent compensated reference).
-const TOL: f64 = 1e-12;
-
-/// The interval's EDF depends smoothly on the identified noise exponent, which the online
-/// path computes from running moments of the cluster means instead of the means themselves:
-/// with few cluster means (tens, at the largest identified m) the lag-1 autocorrelation
-/// agrees to ~1e-10 (avar's tests/online.rs uses the same bound).
-const TOL_CI: f64 = 1e-7;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_imunoise"))
-}
+mod live_common;
+use live_common::{TOL, TOL_CI, assert_points_equal, bin, rel};
 
 /// A two-channel CSV (header gx,gy) of `n` rows of white noise plus a random walk and an
 /// offset, from a fixed xorshift sequence; `bad` puts a malformed cell on that data row (0-based).
@@ -42,10 +30,6 @@ fn csv(n: usize, bad: Option<usize>) -> String {
         }
     }
     text
-}
-
-fn rel(a: f64, b: f64) -> f64 {
-    if a == b { 0.0 } else { ((a - b) / b).abs() }
 }
 
 /// The last line of `stdout` (the final snapshot) against `imunoise avar FILE --format json`.
@@ -74,25 +58,21 @@ fn assert_final_equals_avar(stdout: &str, file: &std::path::Path, rows: usize) {
     for ch in 0..2 {
         let (a, b) = (&live["channels"][ch], &batch["channels"][ch]);
         assert_eq!(a["name"], b["name"]);
-        assert_eq!(a["n"], b["n"]);
-        let (pa, pb) = (
-            a["points"].as_array().unwrap(),
-            b["points"].as_array().unwrap(),
-        );
-        assert_eq!(pa.len(), pb.len(), "channel {ch}");
-        for (p, q) in pa.iter().zip(pb) {
-            assert_eq!(p["m"], q["m"]);
+        for (p, q) in a["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(b["points"].as_array().unwrap())
+        {
             assert_eq!(p["n_terms"], q["n_terms"]);
-            for (key, tol) in [
-                ("avar", TOL),
-                ("avar_lo", TOL_CI),
-                ("avar_hi", TOL_CI),
-                ("edf", TOL_CI),
-            ] {
-                let (x, y) = (p[key].as_f64().unwrap(), q[key].as_f64().unwrap());
-                assert!(rel(x, y) <= tol, "ch {ch} m={} {key}: {x} vs {y}", p["m"]);
-            }
         }
+        let keys = [
+            ("avar", TOL),
+            ("avar_lo", TOL_CI),
+            ("avar_hi", TOL_CI),
+            ("edf", TOL_CI),
+        ];
+        assert_points_equal(a, b, &format!("channel {ch}"), &keys);
     }
 }
 

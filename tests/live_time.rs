@@ -4,23 +4,13 @@
 //! equal `imunoise avar FILE --time-column t --gaps POLICY --format json` on the same file.
 
 use std::io::Write;
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 
-/// The online and the batch estimates are two summations of the same squared differences,
-/// each ~1e-15 relative (crates/avar/tests/online.rs checks 10^7 samples against the batch
-/// and an independent compensated reference).
-const TOL: f64 = 1e-12;
-
-/// The interval's EDF comes from the identified noise exponent, which the online path
-/// computes from running moments of the cluster means: ~1e-10 agreement (as tests/live.rs).
-const TOL_CI: f64 = 1e-7;
+mod live_common;
+use live_common::{TOL, TOL_CI, assert_points_equal, bin};
 
 /// The reorder window of `imunoise live` (rows).
 const WINDOW: usize = imunoise::logs::timing::REORDER_WINDOW;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_imunoise"))
-}
 
 /// Data rows of a 100 Hz record, each `(stamp index, gx, gy)`: white noise plus a random
 /// walk and an offset from a fixed xorshift sequence (stamp = 1000 s + index / 100).
@@ -95,10 +85,6 @@ fn live(text: &str, args: &[&str]) -> Output {
     child.wait_with_output().unwrap()
 }
 
-fn rel(a: f64, b: f64) -> f64 {
-    if a == b { 0.0 } else { ((a - b) / b).abs() }
-}
-
 /// The final snapshot (last line of `out`'s stdout).
 fn final_snapshot(out: &Output) -> serde_json::Value {
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -126,21 +112,10 @@ fn assert_equals_avar(snap: &serde_json::Value, file: &std::path::Path, args: &[
     for ch in 0..2 {
         let (a, b) = (&snap["channels"][ch], &batch["channels"][ch]);
         assert_eq!(a["name"], b["name"]);
-        assert_eq!(a["n"], b["n"]);
         assert_eq!(a["rate_hz"], b["rate_hz"]);
-        let (pa, pb) = (
-            a["points"].as_array().unwrap(),
-            b["points"].as_array().unwrap(),
-        );
-        assert_eq!(pa.len(), pb.len(), "channel {ch}");
-        assert!(pa.len() >= 8);
-        for (p, q) in pa.iter().zip(pb) {
-            assert_eq!(p["m"], q["m"]);
-            for (key, tol) in [("avar", TOL), ("avar_lo", TOL_CI), ("avar_hi", TOL_CI)] {
-                let (x, y) = (p[key].as_f64().unwrap(), q[key].as_f64().unwrap());
-                assert!(rel(x, y) <= tol, "ch {ch} m={} {key}: {x} vs {y}", p["m"]);
-            }
-        }
+        assert!(a["points"].as_array().unwrap().len() >= 8);
+        let keys = [("avar", TOL), ("avar_lo", TOL_CI), ("avar_hi", TOL_CI)];
+        assert_points_equal(a, b, &format!("channel {ch}"), &keys);
     }
 }
 
@@ -523,17 +498,8 @@ fn ros_header_stamps_as_seconds_plus_nanoseconds() {
             ("avar", &got["channels"][ch]),
             ("live", &snap["channels"][ch]),
         ] {
-            assert_eq!(c["n"], w["n"], "{what}");
             assert_eq!(c["rate_hz"], w["rate_hz"], "{what}");
-            let (pc, pw) = (
-                c["points"].as_array().unwrap(),
-                w["points"].as_array().unwrap(),
-            );
-            assert_eq!(pc.len(), pw.len(), "{what}");
-            for (p, q) in pc.iter().zip(pw) {
-                let (x, y) = (p["avar"].as_f64().unwrap(), q["avar"].as_f64().unwrap());
-                assert!(rel(x, y) <= TOL, "{what} ch {ch} m={}: {x} vs {y}", p["m"]);
-            }
+            assert_points_equal(c, w, &format!("{what} ch {ch}"), &[("avar", TOL)]);
         }
     }
     // the same column twice is a usage error
