@@ -1,5 +1,6 @@
 //! Times the streamed MOAV kernel on a long white-noise series (profiling aid):
-//! `cargo run -p imunoise-avar --release --example stream_prof -- [T] [reps]`.
+//! `cargo run -p imunoise-avar --release --example stream_prof -- [T] [reps] [SET]`, SET one
+//! of the named sets below or `ms=a,b,c` (cluster sizes); `IMUNOISE_SIMD` caps the level.
 use avar::{AvarConfig, CiMethod, Scales, allan_variance};
 use std::time::Instant;
 
@@ -74,6 +75,12 @@ fn main() {
         ),
     ];
     let only = args.get(3).cloned();
+    // `ms=a,b,c`: an explicit list of cluster sizes instead of the named sets
+    let mut sets = sets;
+    if let Some(list) = only.as_deref().and_then(|o| o.strip_prefix("ms=")) {
+        let ms: Vec<u64> = list.split(',').filter_map(|v| v.parse().ok()).collect();
+        sets = vec![(only.as_deref().unwrap_or_default(), Scales::Explicit(ms))];
+    }
     for (name, scales) in sets {
         if only.as_deref().is_some_and(|o| o != name) {
             continue;
