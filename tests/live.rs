@@ -6,7 +6,7 @@ use std::process::Stdio;
 use std::time::Duration;
 
 mod live_common;
-use live_common::{TOL, TOL_CI, assert_points_equal, bin, rel};
+use live_common::{TOL, TOL_CI, assert_points_equal, bin, rel, run_piped};
 
 /// A two-channel CSV (header gx,gy) of `n` rows of white noise plus a random walk and an
 /// offset, from a fixed xorshift sequence; `bad` puts a malformed cell on that data row (0-based).
@@ -82,21 +82,12 @@ fn through_a_pipe_the_final_snapshot_equals_avar() {
     let path = dir.path().join("imu.csv");
     let text = csv(50_000, None);
     std::fs::write(&path, &text).unwrap();
-    let mut child = bin()
-        .args(["live", "-", "--rate", "100", "--every", "100", "--json"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    {
-        // pieces of odd sizes, cut inside lines
-        let mut stdin = child.stdin.take().unwrap();
-        for piece in text.as_bytes().chunks(7_777) {
-            stdin.write_all(piece).unwrap();
-        }
-    }
-    let out = child.wait_with_output().unwrap();
+    // pieces of odd sizes, cut inside lines
+    let out = run_piped(
+        bin().args(["live", "-", "--rate", "100", "--every", "100", "--json"]),
+        text.as_bytes(),
+        7_777,
+    );
     assert!(
         out.status.success(),
         "{}",
@@ -167,24 +158,13 @@ fn a_malformed_line_is_reported_and_stops_or_is_skipped() {
     let dir = tempfile::tempdir().unwrap();
     let text = csv(20_000, Some(12_345));
     let run = |policy: &str| {
-        let mut child = bin()
-            .args(["live", "-", "--rate", "100", "--every", "50", "--json"])
-            .args(["--on-error", policy])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        {
-            let mut stdin = child.stdin.take().unwrap();
-            // the child may stop reading at the bad line: a broken pipe is expected then
-            for piece in text.as_bytes().chunks(4_096) {
-                if stdin.write_all(piece).is_err() {
-                    break;
-                }
-            }
-        }
-        child.wait_with_output().unwrap()
+        run_piped(
+            bin()
+                .args(["live", "-", "--rate", "100", "--every", "50", "--json"])
+                .args(["--on-error", policy]),
+            text.as_bytes(),
+            4_096,
+        )
     };
     // data row 12345 (0-based) is line 12347 of the stream (after the header); the bad cell
     // is the second one, after the first number and the comma
@@ -408,21 +388,13 @@ fn an_interrupt_ends_an_open_stream_with_the_final_snapshot() {
 fn a_pipe_gets_json_lines_and_lines_gets_text() {
     let text = csv(20_000, None);
     let run = |extra: &[&str]| {
-        let mut child = bin()
-            .args(["live", "-", "--rate", "100", "--every", "100"])
-            .args(extra)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        child
-            .stdin
-            .take()
-            .unwrap()
-            .write_all(text.as_bytes())
-            .unwrap();
-        let out = child.wait_with_output().unwrap();
+        let out = run_piped(
+            bin()
+                .args(["live", "-", "--rate", "100", "--every", "100"])
+                .args(extra),
+            text.as_bytes(),
+            text.len(),
+        );
         assert!(
             out.status.success(),
             "{}",
@@ -551,24 +523,14 @@ fn binary_rows_through_a_pipe_equal_avar_and_bad_rows_are_located() {
         p
     };
     let run = |input: &[u8], policy: &str| {
-        let mut child = bin()
-            .args(["live", "-", "--rate", "100", "--every", "100", "--json"])
-            .args(["--binary", "f32", "--channels", "6", "--columns", "2,5"])
-            .args(["--on-error", policy])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        {
-            let mut stdin = child.stdin.take().unwrap();
-            for piece in input.chunks(7_777) {
-                if stdin.write_all(piece).is_err() {
-                    break; // stopped at the bad row
-                }
-            }
-        }
-        child.wait_with_output().unwrap()
+        run_piped(
+            bin()
+                .args(["live", "-", "--rate", "100", "--every", "100", "--json"])
+                .args(["--binary", "f32", "--channels", "6", "--columns", "2,5"])
+                .args(["--on-error", policy]),
+            input,
+            7_777,
+        )
     };
 
     // clean: 30,000 rows of 24 bytes, 3 snapshots of 10^4 rows and the final one

@@ -3,11 +3,10 @@
 //! The batch command is the second implementation: the final snapshot through a pipe must
 //! equal `imunoise avar FILE --time-column t --gaps POLICY --format json` on the same file.
 
-use std::io::Write;
-use std::process::{Output, Stdio};
+use std::process::Output;
 
 mod live_common;
-use live_common::{TOL, TOL_CI, assert_points_equal, bin};
+use live_common::{TOL, TOL_CI, assert_points_equal, bin, run_piped};
 
 /// The reorder window of `imunoise live` (rows).
 const WINDOW: usize = imunoise::logs::timing::REORDER_WINDOW;
@@ -60,29 +59,18 @@ fn faulty(n: usize, gap_at: usize, missing: usize) -> Vec<(usize, f64, f64)> {
 /// `imunoise live - ARGS --every 1e9 --json` (without --json when ARGS has --lines) with `text` written to its standard input in
 /// pieces cut inside lines.
 fn live(text: &str, args: &[&str]) -> Output {
-    let mut child = bin()
-        .args(["live", "-", "--every", "1e9"])
-        .args(if args.contains(&"--lines") {
-            &[][..]
-        } else {
-            &["--json"][..]
-        })
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    {
-        let mut stdin = child.stdin.take().unwrap();
-        // the child may stop reading early: a broken pipe is expected then
-        for piece in text.as_bytes().chunks(5_003) {
-            if stdin.write_all(piece).is_err() {
-                break;
-            }
-        }
-    }
-    child.wait_with_output().unwrap()
+    run_piped(
+        bin()
+            .args(["live", "-", "--every", "1e9"])
+            .args(if args.contains(&"--lines") {
+                &[][..]
+            } else {
+                &["--json"][..]
+            })
+            .args(args),
+        text.as_bytes(),
+        5_003,
+    )
 }
 
 /// The final snapshot (last line of `out`'s stdout).

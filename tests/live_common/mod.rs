@@ -3,7 +3,8 @@
 
 #![allow(dead_code)] // each test file uses its own part
 
-use std::process::Command;
+use std::io::Write;
+use std::process::{Command, Output, Stdio};
 
 /// The online and the batch estimates are two summations of the same squared differences,
 /// each ~1e-15 relative (crates/avar/tests/online.rs checks 10^7 samples against the batch
@@ -17,6 +18,28 @@ pub const TOL_CI: f64 = 1e-7;
 /// The `imunoise` binary of this build.
 pub fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_imunoise"))
+}
+
+/// Runs `cmd` with `input` written to its standard input in pieces of `piece` bytes (cut
+/// inside lines, as a pipe delivers them), standard output and error captured. The child may
+/// stop reading early (a bad row under `--on-error stop`, a refused gap): a broken pipe ends
+/// the writing then, and the exit status tells the rest.
+pub fn run_piped(cmd: &mut Command, input: &[u8], piece: usize) -> Output {
+    let mut child = cmd
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        let mut stdin = child.stdin.take().unwrap();
+        for part in input.chunks(piece) {
+            if stdin.write_all(part).is_err() {
+                break;
+            }
+        }
+    }
+    child.wait_with_output().unwrap()
 }
 
 /// |a − b| / |b|, 0 when equal.
