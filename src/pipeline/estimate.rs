@@ -268,20 +268,8 @@ impl Curve {
                 alpha: av.alpha,
                 points: av
                     .points
-                    .into_iter()
-                    .map(|p| avar::stability::StabilityPoint {
-                        m: p.m,
-                        tau: p.tau,
-                        var: p.avar,
-                        dev: p.adev,
-                        var_lo: p.avar_lo,
-                        var_hi: p.avar_hi,
-                        dev_lo: p.adev_lo,
-                        dev_hi: p.adev_hi,
-                        edf: p.edf,
-                        n_terms: p.n_terms,
-                        alpha: p.noise_alpha,
-                    })
+                    .iter()
+                    .map(avar::stability::StabilityPoint::from)
                     .collect(),
             },
         }

@@ -343,6 +343,36 @@ pub struct StabilityPoint {
     pub alpha: Option<i32>,
 }
 
+/// An Allan-variance point under the names of the stability family (`avar` → `var`, `adev` →
+/// `dev`, …; the values unchanged).
+///
+/// ```
+/// use avar::{AvarConfig, allan_variance, stability::StabilityPoint};
+/// let x: Vec<f64> = (0..400).map(|i| ((i * 37) % 11) as f64).collect();
+/// let av = allan_variance(&x, 100.0, &AvarConfig::default())?;
+/// let p = &av.points[0];
+/// let q = StabilityPoint::from(p);
+/// assert_eq!((q.m, q.tau, q.var, q.dev, q.n_terms), (p.m, p.tau, p.avar, p.adev, p.n_terms));
+/// # Ok::<(), avar::AvarError>(())
+/// ```
+impl From<&crate::AvarPoint> for StabilityPoint {
+    fn from(p: &crate::AvarPoint) -> StabilityPoint {
+        StabilityPoint {
+            m: p.m,
+            tau: p.tau,
+            var: p.avar,
+            dev: p.adev,
+            var_lo: p.avar_lo,
+            var_hi: p.avar_hi,
+            dev_lo: p.adev_lo,
+            dev_hi: p.adev_hi,
+            edf: p.edf,
+            n_terms: p.n_terms,
+            alpha: p.noise_alpha,
+        }
+    }
+}
+
 crate::range::quadratic_point!(StabilityPoint: var, var_lo, var_hi; dev, dev_lo, dev_hi);
 
 /// A stability curve: one [`StabilityPoint`] per cluster size, ascending in m.
@@ -478,23 +508,7 @@ fn stability_unscaled(
             input: config.input,
             ci: config.ci,
             alpha: config.alpha,
-            points: av
-                .points
-                .iter()
-                .map(|p| StabilityPoint {
-                    m: p.m,
-                    tau: p.tau,
-                    var: p.avar,
-                    dev: p.adev,
-                    var_lo: p.avar_lo,
-                    var_hi: p.avar_hi,
-                    dev_lo: p.adev_lo,
-                    dev_hi: p.adev_hi,
-                    edf: p.edf,
-                    n_terms: p.n_terms,
-                    alpha: p.noise_alpha,
-                })
-                .collect(),
+            points: av.points.iter().map(StabilityPoint::from).collect(),
         };
         chi_square_from_data(data, rate_hz, statistic, config, &mut out.points)?;
         return Ok(out);
