@@ -6,7 +6,7 @@ use std::process::Stdio;
 use std::time::Duration;
 
 mod live_common;
-use live_common::{TOL, TOL_CI, assert_points_equal, bin, rel, run_piped};
+use live_common::{TOL, TOL_CI, assert_points_equal, bin, rel, results_json, run_ok, run_piped};
 
 /// A two-channel CSV (header gx,gy) of `n` rows of white noise plus a random walk and an
 /// offset, from a fixed xorshift sequence; `bad` puts a malformed cell on that data row (0-based).
@@ -324,20 +324,12 @@ fn out_writes_the_analyze_report_at_the_end() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let out = bin()
-        .args(["analyze", file, "--rate", "100", "--out"])
-        .arg(&batch_dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        bin()
+            .args(["analyze", file, "--rate", "100", "--out"])
+            .arg(&batch_dir),
     );
-    let read = |d: &std::path::Path| -> serde_json::Value {
-        serde_json::from_slice(&std::fs::read(d.join("results.json")).unwrap()).unwrap()
-    };
-    let (a, b) = (read(&live_dir), read(&batch_dir));
+    let (a, b) = (results_json(&live_dir), results_json(&batch_dir));
     assert_eq!(a["channels"].as_array().unwrap().len(), 2);
     assert_eq!(a["channels"], b["channels"]);
     assert!(live_dir.join("report.html").is_file());

@@ -6,7 +6,7 @@
 use std::process::Output;
 
 mod live_common;
-use live_common::{TOL, TOL_CI, assert_points_equal, bin, run_piped};
+use live_common::{TOL, TOL_CI, assert_points_equal, bin, results_json, run_ok, run_piped};
 
 /// The reorder window of `imunoise live` (rows).
 const WINDOW: usize = imunoise::logs::timing::REORDER_WINDOW;
@@ -85,16 +85,11 @@ fn final_snapshot(out: &Output) -> serde_json::Value {
 /// `snap`'s channels against `imunoise avar FILE --time-column t ARGS --format json`, to
 /// TOL at every tau.
 fn assert_equals_avar(snap: &serde_json::Value, file: &std::path::Path, args: &[&str]) {
-    let out = bin()
-        .args(["avar", file.to_str().unwrap(), "--time-column", "t"])
-        .args(args)
-        .args(["--format", "json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = run_ok(
+        bin()
+            .args(["avar", file.to_str().unwrap(), "--time-column", "t"])
+            .args(args)
+            .args(["--format", "json"]),
     );
     let batch: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     for ch in 0..2 {
@@ -186,8 +181,7 @@ fn refuse_stops_at_a_gap_over_the_share_so_far() {
     let before = dir.path().join("before.csv");
     std::fs::write(&before, csv(&r[..row])).unwrap();
     assert_equals_avar(&snap, &before, &[]);
-    let results: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(report.join("results.json")).unwrap()).unwrap();
+    let results = results_json(&report);
     assert_eq!(results["timing"]["gaps"], 1);
     assert_eq!(results["timing"]["samples_used"], 30_000);
     assert_eq!(results["channels"][0]["n"], 30_000);
@@ -311,32 +305,14 @@ fn longest_out_report_equals_analyze() {
     let (live_dir, batch_dir) = (dir.path().join("live"), dir.path().join("batch"));
     let file = path.to_str().unwrap();
     let common = ["--time-column", "t", "--gaps", "longest", "--out"];
-    let out = bin()
-        .args(["live", file, "--every", "100", "--json"])
-        .args(common)
-        .arg(&live_dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        bin()
+            .args(["live", file, "--every", "100", "--json"])
+            .args(common)
+            .arg(&live_dir),
     );
-    let out = bin()
-        .args(["analyze", file])
-        .args(common)
-        .arg(&batch_dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let read = |d: &std::path::Path| -> serde_json::Value {
-        serde_json::from_slice(&std::fs::read(d.join("results.json")).unwrap()).unwrap()
-    };
-    let (a, b) = (read(&live_dir), read(&batch_dir));
+    run_ok(bin().args(["analyze", file]).args(common).arg(&batch_dir));
+    let (a, b) = (results_json(&live_dir), results_json(&batch_dir));
     assert_eq!(a["timing"], b["timing"]);
     assert_eq!(a["timing"]["segment"], serde_json::json!([10_000, 30_000]));
     assert_eq!(a["channels"], b["channels"]);
@@ -445,16 +421,11 @@ fn ros_header_stamps_as_seconds_plus_nanoseconds() {
     std::fs::write(&ros_path, &ros).unwrap();
     std::fs::write(&ns_path, &ns).unwrap();
     let avar = |path: &std::path::Path, args: &[&str]| -> serde_json::Value {
-        let out = bin()
-            .args(["avar", path.to_str().unwrap(), "--gaps", "ignore"])
-            .args(args)
-            .args(["--format", "json"])
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        let out = run_ok(
+            bin()
+                .args(["avar", path.to_str().unwrap(), "--gaps", "ignore"])
+                .args(args)
+                .args(["--format", "json"]),
         );
         serde_json::from_slice(&out.stdout).unwrap()
     };

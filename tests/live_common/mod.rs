@@ -42,6 +42,22 @@ pub fn run_piped(cmd: &mut Command, input: &[u8], piece: usize) -> Output {
     child.wait_with_output().unwrap()
 }
 
+/// Runs `cmd` to its end and asserts that it succeeded (its standard error in the message).
+pub fn run_ok(cmd: &mut Command) -> Output {
+    let out = cmd.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The `results.json` a report folder (`--out`) holds.
+pub fn results_json(dir: &std::path::Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("results.json")).unwrap()).unwrap()
+}
+
 /// |a − b| / |b|, 0 when equal.
 pub fn rel(a: f64, b: f64) -> f64 {
     if a == b { 0.0 } else { ((a - b) / b).abs() }
