@@ -581,12 +581,27 @@ fn line_cov(
             String::from_utf8_lossy(&out.stderr)
         ));
     }
-    // columns: Filename Regions Missed Cover Functions Missed Executed Lines Missed Cover ...
+    let (lines, missed) = report_lines(&text)?;
+    Ok(format!(
+        "{}/{} ({:.1} %) of {file}",
+        lines - missed,
+        lines,
+        100.0 * (lines - missed) as f64 / lines.max(1) as f64
+    ))
+}
+
+/// The lines and the missed lines of the TOTAL row of an `llvm-cov report`. The header's
+/// column names contain single spaces ("Missed Regions") and are separated by two or more,
+/// so the header is split at runs of spaces of two or more; the TOTAL row holds one word
+/// per column.
+fn report_lines(text: &str) -> Result<(u64, u64), String> {
     let header: Vec<&str> = text
         .lines()
         .find(|l| l.starts_with("Filename"))
         .ok_or("llvm-cov report has no header")?
-        .split_whitespace()
+        .split("  ")
+        .map(str::trim)
+        .filter(|w| !w.is_empty())
         .collect();
     let at = header
         .iter()
@@ -598,14 +613,13 @@ fn line_cov(
         .ok_or("llvm-cov report has no TOTAL")?
         .split_whitespace()
         .collect();
-    let lines: u64 = total[at].parse().map_err(|_| "bad Lines")?;
-    let missed: u64 = total[at + 1].parse().map_err(|_| "bad Missed Lines")?;
-    Ok(format!(
-        "{}/{} ({:.1} %) of {file}",
-        lines - missed,
-        lines,
-        100.0 * (lines - missed) as f64 / lines.max(1) as f64
-    ))
+    let num = |i: usize, what: &str| -> Result<u64, String> {
+        total
+            .get(i)
+            .and_then(|v| v.parse().ok())
+            .ok_or_else(|| format!("bad {what} in the TOTAL row"))
+    };
+    Ok((num(at, "Lines")?, num(at + 1, "Missed Lines")?))
 }
 
 fn table(rows: &[Row], note: &str, jobs: usize) -> String {
@@ -669,6 +683,22 @@ fn table(rows: &[Row], note: &str, jobs: usize) -> String {
 
 #[cfg(test)]
 mod tests {
+    /// The TOTAL row of `llvm-cov report` as the nightly toolchain's llvm-cov prints it
+    /// (two-word column names), here the db3 target's corpus of 2026-11-28: 102 lines, 14
+    /// missed.
+    #[test]
+    fn report_lines_reads_the_total_row_under_two_word_column_names() {
+        let text = "\
+Filename                       Regions    Missed Regions     Cover   Functions  Missed Functions  Executed       Lines      Missed Lines     Cover    Branches   Missed Branches     Cover
+-----------------------------------------------------------------------------------------
+/work/main/src/logs/db3.rs         199                33    83.42%          21                 8    61.90%         102                14    86.27%           0                 0         -
+-----------------------------------------------------------------------------------------
+TOTAL                              199                33    83.42%          21                 8    61.90%         102                14    86.27%           0                 0         -
+";
+        assert_eq!(report_lines(text), Ok((102, 14)));
+        assert!(report_lines("TOTAL 1 2\n").is_err());
+    }
+
     use super::*;
 
     /// The replay against a stand-in for a fuzz binary: a script that prints libFuzzer's
