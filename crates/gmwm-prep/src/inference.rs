@@ -156,7 +156,19 @@ fn phi_range_of(fit: &GmwmFit, at: usize) -> PhiRange {
     }
 }
 
-/// B = (AᵀΩA)⁻¹AᵀΩ with column scaling for conditioning (p×J).
+/// The largest condition number of the column-scaled AᵀΩA (unit diagonal) for which a fit's
+/// covariance is computed. Its inverse then carries a relative rounding error of at most about
+/// 10¹² · 2.2·10⁻¹⁶ ≈ 2·10⁻⁴, within the 4 digits the standard errors are printed to; beyond
+/// it the matrix is singular to this precision and the fit not identifiable. A fixed threshold
+/// far from 1/ε also makes the verdict the same on every CPU: whether a Cholesky factorisation
+/// of a matrix of condition ~10¹⁶ succeeds depends on the rounding of the last operations,
+/// which differs between instruction sets (an x86-64 and an aarch64 build of the same fit of a
+/// level-shifted record disagreed on it), while an eigenvalue ratio near 10⁻¹² is computed to
+/// about 10⁻⁴ relative on each.
+pub(crate) const MAX_CONDITION: f64 = 1e12;
+
+/// B = (AᵀΩA)⁻¹AᵀΩ with column scaling for conditioning (p×J). AᵀΩA is singular when its
+/// column-scaled condition number exceeds [`MAX_CONDITION`].
 fn b_matrix(a: &Mat<f64>, omega: &Mat<f64>) -> Result<Mat<f64>> {
     let (j, p) = (a.nrows(), a.ncols());
     let s: Vec<f64> = (0..p)
@@ -174,19 +186,31 @@ fn b_matrix(a: &Mat<f64>, omega: &Mat<f64>) -> Result<Mat<f64>> {
     let a_s = Mat::from_fn(j, p, |i, k| a[(i, k)] * s[k]);
     let ato = a_s.transpose() * omega;
     let h = &ato * &a_s;
-    let bs = match h.llt(Side::Lower) {
-        Ok(l) => l.solve(&ato),
-        Err(_) => {
-            return Err(FitError::Unidentifiable(
-                "AᵀΩA is singular at θ̂: the parameters are not identifiable from these scales"
-                    .into(),
-            ));
-        }
+    let singular = || {
+        FitError::Unidentifiable(
+            "AᵀΩA is singular at θ̂: the parameters are not identifiable from these scales".into(),
+        )
     };
+    // eigenvalues in nondecreasing order; a failed decomposition (non-finite entries) is singular
+    let eig = h
+        .self_adjoint_eigenvalues(Side::Lower)
+        .map_err(|_| singular())?;
+    let (Some(&lo), Some(&hi)) = (eig.first(), eig.last()) else {
+        return Err(singular());
+    };
+    if !(lo > 0.0 && hi <= lo * MAX_CONDITION) {
+        return Err(singular());
+    }
+    let bs = h.llt(Side::Lower).map_err(|_| singular())?.solve(&ato);
     Ok(Mat::from_fn(p, j, |k, i| bs[(k, i)] * s[k]))
 }
 
 /// Delta-method inference (see module doc) with V the covariance of the observed moments.
+///
+/// Errors: [`FitError::NotIdentifiable`], naming the components, when AᵀΩA at θ̂ is singular:
+/// its condition number, columns scaled to unit norm, above 10¹² (the standard errors would
+/// not be determined to the 4 digits they are printed to, and the verdict would depend on the
+/// CPU's rounding).
 ///
 /// ```
 /// use gmwm_prep::{AvCurve, gmwm::{fit, GmwmOptions}, inference::{delta_method, diagonal_covariance}};
@@ -584,4 +608,52 @@ fn fit_candidate(
         wic: inf.wic,
         converged: f.convergence.converged,
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two unit columns at angle δ (Ω = I): the scaled AᵀΩA is [[1, c], [c, 1]] with c = cos δ,
+    /// eigenvalues 1 ± c, so its condition number is (1 + c)/(1 − c) ≈ 4/δ².
+    fn two_columns(delta: f64) -> (Mat<f64>, Mat<f64>) {
+        let a = Mat::from_fn(3, 2, |i, k| match (i, k) {
+            (0, 0) => 1.0,
+            (0, 1) => delta.cos(),
+            (1, 1) => delta.sin(),
+            _ => 0.0,
+        });
+        (a, Mat::<f64>::identity(3, 3))
+    }
+
+    #[test]
+    fn singular_means_a_condition_number_above_max_condition() {
+        // cond ≈ 4/δ²: 1e11 at δ = 6.32e-6, 1e13 at δ = 6.32e-7 (the threshold is 1e12)
+        let (a, om) = two_columns(6.32e-6);
+        let b = b_matrix(&a, &om).expect("condition 1e11 is below the threshold");
+        // B A = I for a non-singular AᵀΩA, to the precision that condition allows (1e11 · ε)
+        let ba = &b * &a;
+        for (i, k) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+            let want = if i == k { 1.0 } else { 0.0 };
+            assert!((ba[(i, k)] - want).abs() < 1e-4, "{i},{k}: {}", ba[(i, k)]);
+        }
+        // condition 1e13 and 1e14: a Cholesky factorisation still succeeds there (the verdict
+        // used to be whether it did), the threshold refuses both
+        for delta in [6.32e-7, 2.0e-7] {
+            let (a, om) = two_columns(delta);
+            assert!(matches!(
+                b_matrix(&a, &om),
+                Err(FitError::Unidentifiable(_))
+            ));
+        }
+        // exactly collinear columns, and a non-finite entry
+        let (a, om) = two_columns(0.0);
+        assert!(matches!(
+            b_matrix(&a, &om),
+            Err(FitError::Unidentifiable(_))
+        ));
+        let (mut a, om) = two_columns(0.5);
+        a[(2, 0)] = f64::NAN;
+        assert!(b_matrix(&a, &om).is_err());
+    }
 }
