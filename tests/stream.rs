@@ -14,6 +14,9 @@ use std::io::Write;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
+mod live_common;
+use live_common::run_ok;
+
 /// Rows: above the kernel's streaming threshold (2^22), not a multiple of any chunk.
 const N: usize = (1 << 22) + 12_345;
 
@@ -288,7 +291,7 @@ fn command_file_and_stdin_match_in_memory() {
         if from_stdin {
             cmd.stdin(std::fs::File::open(&p).unwrap());
         }
-        let out = output_ok(&mut cmd);
+        let out = run_ok(&mut cmd);
         (
             String::from_utf8(out.stdout)
                 .unwrap()
@@ -313,7 +316,7 @@ fn command_file_and_stdin_match_in_memory() {
     assert!(!run_notes(false, "2").1.contains("cannot be read"));
     // text from standard input is read whole into memory, and the note says so (`fit` and
     // `analyze` read every input this way)
-    let out = output_ok(
+    let out = run_ok(
         Command::new(env!("CARGO_BIN_EXE_imunoise"))
             .args([
                 "avar", "-", "--rate", "50", "--ci", "none", "--format", "csv",
@@ -325,17 +328,6 @@ fn command_file_and_stdin_match_in_memory() {
         notes.contains("standard input cannot be read by position: it is read whole into memory"),
         "{notes}"
     );
-}
-
-/// Runs `cmd` and returns its output, failing the test with its stderr unless it succeeded.
-fn output_ok(cmd: &mut Command) -> std::process::Output {
-    let out = cmd.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
 }
 
 /// `x` as a one-column CSV file with a header, in `dir`.

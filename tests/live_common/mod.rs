@@ -1,5 +1,6 @@
-//! What the `live` tests share: the binary, the tolerances of the online against the batch
-//! estimate, and the comparison of one channel's points.
+//! What the `live` tests share (and `tests/stream.rs` its `run_ok`): the binary, running it,
+//! the tolerances of the online against the batch estimate, and the comparison of one
+//! channel's points.
 
 #![allow(dead_code)] // each test file uses its own part
 
