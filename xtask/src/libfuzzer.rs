@@ -683,6 +683,8 @@ fn table(rows: &[Row], note: &str, jobs: usize) -> String {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     /// The TOTAL row of `llvm-cov report` as the nightly toolchain's llvm-cov prints it
     /// (two-word column names), here the db3 target's corpus of 2026-11-28: 102 lines, 14
     /// missed.
@@ -698,8 +700,6 @@ TOTAL                              199                33    83.42%          21  
         assert_eq!(report_lines(text), Ok((102, 14)));
         assert!(report_lines("TOTAL 1 2\n").is_err());
     }
-
-    use super::*;
 
     /// The replay against a stand-in for a fuzz binary: a script that prints libFuzzer's
     /// "Running: F" and "Executed F in N ms" lines for each file argument (N = the file's size
