@@ -6,7 +6,9 @@
 //!
 //! * [`SimdLevel::Avx512`]: AVX-512F (x86-64 only; AVX2 and FMA are required with it);
 //! * [`SimdLevel::Avx2`]: AVX2 and FMA (x86-64 only);
-//! * [`SimdLevel::Scalar`]: the portable code (what every other architecture runs).
+//! * [`SimdLevel::Scalar`]: the architecture's baseline instruction set: on x86-64 the streamed
+//!   MOAV kernel's SSE2 walk (two lanes per vector; every x86-64 CPU has SSE2) and the portable
+//!   code elsewhere; on other architectures the portable code.
 //!
 //! [`level`] is the lower of [`detected`] (what the CPU reports) and the cap read once from the
 //! environment variable `IMUNOISE_SIMD` (`scalar`, `avx2` or `avx512`, case-insensitive): a cap
@@ -15,22 +17,17 @@
 //! A program may set the cap itself with [`set_cap`] before the first kernel runs.
 //!
 //! The paths give bit-identical results wherever the kernels' docs promise it (the MOAV kernels,
-//! the streamed stability kernel): the cap changes the speed, not the values.
+//! the streamed stability kernel): the cap changes the speed, not the values. No kernel uses a
+//! fused multiply-add: each square is rounded, then added (acc ← acc + d·d), in the vector
+//! paths as in the portable code (Rust never contracts a multiply and an add), so the same
+//! operations in the same order run at every level and on every architecture.
 //!
-//! What `scalar` means: the kernels' portable Rust code compiled for the build's target and
-//! nothing more, whatever the CPU has. In the default x86-64 build that is the baseline
-//! instruction set (SSE2, which the compiler may use for pairs of f64): no AVX, no FMA, so
-//! `IMUNOISE_SIMD=scalar` runs what an x86-64 CPU without AVX2 runs and rules out every
-//! CPU-specific path; no code compiled with `#[target_feature]` runs at this level. The fused
-//! multiply-add of the MOAV sums (acc ← fma(d, d, acc), one rounding, as the vector paths do it
-//! with the FMA instruction) is then computed exactly from plain additions and multiplications
-//! rather than by a call to the library `fma` (same bits; on a CPU without FMA the library
-//! computes it in software, several times slower). A build with FMA in its target (aarch64,
-//! whose base instruction set has it, or `-C target-cpu=native` on a CPU with FMA) uses the
-//! instruction in the portable code; the values are the same. A portable variant compiled with
-//! FMA and chosen at run time on CPUs that have it was tried and not adopted: the compiler
-//! vectorises it with 256-bit AVX, so `scalar` would run AVX and FMA code, a level above the
-//! cap in all but name, and its speed would not be that of the CPUs that run this level.
+//! What `scalar` means: nothing beyond the instruction set every CPU of the build's target has.
+//! On x86-64 that is SSE2 (part of the x86-64 baseline): the streamed MOAV kernel's chunk walk
+//! runs with SSE2 vectors of two f64, the other kernels run their portable Rust code compiled
+//! for the baseline (which the compiler may vectorise with SSE2 pairs); no AVX, no FMA. So
+//! `IMUNOISE_SIMD=scalar` runs what an x86-64 CPU without AVX2 runs. On aarch64 the portable
+//! code runs (NEON, part of the aarch64 baseline, where the compiler uses it).
 //!
 //! ```
 //! use avar::simd::{SimdLevel, capped, detected, level};
@@ -59,10 +56,11 @@ pub const ENV_VAR: &str = "IMUNOISE_SIMD";
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug)]
 #[repr(u8)]
 pub enum SimdLevel {
-    /// The portable code, no explicit vector instructions and no target features beyond the
-    /// build's (on x86-64 by default: SSE2, no FMA).
+    /// The architecture's baseline: on x86-64 SSE2 (the streamed MOAV walk's two-lane vectors,
+    /// elsewhere the portable code compiled for the baseline), no AVX and no FMA; on other
+    /// architectures the portable code.
     Scalar = 1,
-    /// AVX2 and FMA (x86-64).
+    /// AVX2 (x86-64; detected together with FMA, which the kernels do not use).
     Avx2 = 2,
     /// AVX-512F (x86-64; the CPU also has AVX2 and FMA).
     Avx512 = 3,

@@ -4,16 +4,14 @@
 //! Determinism: every sum is defined on a fixed grid of `k` chunks (aligned to absolute
 //! indices) with fixed lane accumulators, and the chunk partials are combined in index order
 //! with Neumaier's compensated summation. Neither the thread count nor the SIMD width changes
-//! the order of any floating-point operation (no FMA contraction is used, except where written
-//! out: the streamed kernel's acc ← fma(d, d, acc), a correctly rounded fused operation in
-//! every path: the FMA instruction in the vector paths, and in the portable code compiled
-//! without FMA its exact emulation [`compensated::sq_add`]), so results are bit-identical on
-//! every run of the same binary on the same data.
+//! the order of any floating-point operation, and no fused multiply-add is used anywhere (a
+//! square is rounded, then added: acc ← acc + d·d, at every level and on every architecture;
+//! Rust never contracts a multiply and an add into one instruction), so results are
+//! bit-identical on every run, at every SIMD level, on the same data.
 //!
 //! The files, each a concept, from the bottom up (each uses only those above it in this list):
 //!
-//! * [`compensated`]: Neumaier's running sum, the exact two-sum, the fixed reduction of lanes,
-//!   the exact acc + d² of one rounding without FMA.
+//! * [`compensated`]: Neumaier's running sum, the exact two-sum, the fixed reduction of lanes.
 //! * [`cumsum`]: the centred cumulative sum, whole or as checkpoints every 64 samples from which
 //!   any window of it is rebuilt bit for bit; the finiteness check and the pivot.
 //! * [`buffered`]: the buffered MOAV kernel, on a whole cumulative sum in memory (and the
@@ -21,9 +19,9 @@
 //! * [`segments`]: the segment recurrence of the streamed kernel, portable code: each segment
 //!   of k starts from an exact d_k rebuilt from the checkpoints and carries
 //!   d_{k+1} = d_k + (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}).
-//! * [`vector`]: the AVX-512 and AVX2 f64 vectors as one trait, so that each vector kernel is
-//!   written once; their in-register transposes and the lane-layout copy of a chunk.
-//! * [`simd_blocks`]: the SIMD block sums: the segments of a chunk as AVX-512 or AVX2 lanes,
+//! * [`vector`]: the AVX-512, AVX2 and SSE2 f64 vectors as one trait, so that each vector kernel
+//!   is written once; their in-register transposes and the lane-layout copy of a chunk.
+//! * [`simd_blocks`]: the SIMD block sums: the segments of a chunk as AVX-512, AVX2 or SSE2 lanes,
 //!   walked in column blocks, all scales per block, each kernel generic over the vector type;
 //!   the same operations in the same order as the portable code.
 //! * [`streamed`]: the streamed MOAV kernel for long rate series: no series-sized buffer, the

@@ -1,17 +1,13 @@
 //! The segment recurrence of the streamed MOAV kernel, portable code: a chunk of k is
 //! [`NSEG`] segments, each starting from an exact d_k = C_k − 2C_{k−m} + C_{k−2m} rebuilt from the
 //! checkpoints ([`d_start`]) and carrying d_{k+1} = d_k + (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m})
-//! with acc ← fma(d, d, acc) ([`seg_sum`]). The vector paths (`simd_blocks`) perform these
-//! operations in the same order, lane by lane, and are checked against [`chunk_portable`]. In a
-//! build without FMA (x86-64 by default) the full chunks compute the fma by its exact
-//! emulation [`sq_add`] ([`chunk_full_sq_add`]), not by a call to the library `fma`.
+//! with acc ← acc + d·d ([`seg_sum`]). The vector paths (`simd_blocks`) perform these
+//! operations in the same order, lane by lane, and are checked against [`chunk_portable`].
 
 // the segment state is used only by the vector paths of x86-64
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 
-use super::compensated::{
-    HW_FMA, LANES, SQ_ADD_ACC_MAX, SQ_ADD_MIN, reduce_lanes, sq_add, two_sum,
-};
+use super::compensated::{LANES, reduce_lanes, two_sum};
 use super::cumsum::{Checkpoints, G, PCHUNK};
 
 /// Length of one segment of k on which d_k is carried by its own recurrence (near scales,
@@ -74,17 +70,17 @@ pub(super) fn d_start(x: &[f64], ck: &Checkpoints, m: usize, s: usize) -> f64 {
 
 /// Σ d_k² over k in [s, e) (2m ≤ s < e ≤ T + 1), carrying d_{k+1} = d_k + y_k with
 /// y_k = (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) (the mean cancels exactly), sequentially in k;
-/// each d_k² is accumulated by one fused multiply-add (acc ← fma(d, d, acc), a single rounding,
-/// the same in every vector path).
+/// each d_k² is rounded, then added (acc ← acc + d·d; no fused multiply-add, the same in every
+/// vector path).
 #[inline(always)]
 pub(super) fn seg_sum(x: &[f64], d0: f64, m: usize, s: usize, e: usize) -> f64 {
     let mut d = d0;
     let mut acc = 0.0f64;
     for k in s..e - 1 {
-        acc = d.mul_add(d, acc);
+        acc += d * d;
         d += (x[k] - x[k - m]) - (x[k - m] - x[k - 2 * m]);
     }
-    d.mul_add(d, acc)
+    acc + d * d
 }
 
 /// Per-scale state of the NSEG segment recurrences of one chunk: the current d and the running
@@ -115,18 +111,15 @@ pub(super) fn chunk_portable<const SEG: usize>(
         for (l, dl) in d.iter_mut().enumerate() {
             *dl = d_start(x, ck, m, a + l * SEG);
         }
-        if !HW_FMA && let Some(p) = chunk_full_sq_add::<SEG>(x, m, a, d) {
-            return p;
-        }
         for j in 0..SEG - 1 {
             for l in 0..NSEG {
                 let k = a + l * SEG + j;
-                acc[l] = d[l].mul_add(d[l], acc[l]);
+                acc[l] += d[l] * d[l];
                 d[l] += (x[k] - x[k - m]) - (x[k - m] - x[k - 2 * m]);
             }
         }
         for l in 0..NSEG {
-            acc[l] = d[l].mul_add(d[l], acc[l]);
+            acc[l] += d[l] * d[l];
         }
         return reduce_lanes(&acc);
     }
@@ -140,80 +133,29 @@ pub(super) fn chunk_portable<const SEG: usize>(
     reduce_lanes(&acc)
 }
 
-/// The full chunk at `a` of [`chunk_portable`] from the starting values `d`, with acc ← fma(d,
-/// d, acc) computed by [`sq_add`] (for builds whose `mul_add` is a library call): the same
-/// operations in the same order, and the same bits, as long as every |d| is 0 or at least
-/// [`SQ_ADD_MIN`] and every accumulator stays below [`SQ_ADD_ACC_MAX`]; `None`
-/// if not, and the caller then runs the chunk with `mul_add`. Checked once at the end: the
-/// accumulators only grow and bound every d² (a NaN makes them NaN), and each lane keeps the
-/// smallest non-zero |d| (as the double just below it, so that a zero, whose predecessor bit
-/// pattern is a NaN, drops out of the minimum). Not inlined: compiled on its own, the lane
-/// loop is vectorised (SSE2 pairs) for both segment lengths alike.
-#[inline(never)]
-fn chunk_full_sq_add<const SEG: usize>(
-    x: &[f64],
-    m: usize,
-    a: usize,
-    mut d: [f64; NSEG],
-) -> Option<f64> {
-    let mut acc = [0.0f64; NSEG];
-    let mut below = [f64::INFINITY; NSEG];
-    let step = |d: f64, acc: f64, below: &mut f64| {
-        let p = f64::from_bits(d.abs().to_bits().wrapping_sub(1));
-        *below = if p < *below { p } else { *below };
-        sq_add(d, acc)
-    };
-    // each lane's rows x_k, x_{k−m}, x_{k−2m} as arrays of SEG (no bounds checks in the loop)
-    let row = |l: usize, lag: usize| -> &[f64; SEG] {
-        let s = a + l * SEG - lag;
-        x[s..s + SEG].try_into().expect("SEG samples")
-    };
-    let r0: [&[f64; SEG]; NSEG] = std::array::from_fn(|l| row(l, 0));
-    let r1: [&[f64; SEG]; NSEG] = std::array::from_fn(|l| row(l, m));
-    let r2: [&[f64; SEG]; NSEG] = std::array::from_fn(|l| row(l, 2 * m));
-    for j in 0..SEG - 1 {
-        for l in 0..NSEG {
-            acc[l] = step(d[l], acc[l], &mut below[l]);
-            d[l] += (r0[l][j] - r1[l][j]) - (r1[l][j] - r2[l][j]);
-        }
-    }
-    for l in 0..NSEG {
-        acc[l] = step(d[l], acc[l], &mut below[l]);
-    }
-    let min = f64::from_bits(SQ_ADD_MIN.to_bits() - 1);
-    let ok = (0..NSEG).all(|l| acc[l] <= SQ_ADD_ACC_MAX && below[l] >= min);
-    ok.then(|| reduce_lanes(&acc))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::kernel::cumsum::checkpoints;
     use crate::kernel::tests::series;
 
-    /// Every full chunk of the portable path (with [`sq_add`] where `mul_add` is a library
-    /// call) equals the fixed reduction of the per-segment sums of [`seg_sum`], which use
-    /// `mul_add` (the correctly rounded fma), bit for bit: on data near 1, on data whose |d|
-    /// leave the exact range of [`sq_add`] (×2^480 and ×2^−480: the chunks fall back to
-    /// `mul_add`), and on integer data whose d are often exactly 0.
+    /// Every full chunk of the portable path (its segments in lockstep) equals the fixed
+    /// reduction of the per-segment sums of [`seg_sum`] bit for bit: on data near 1, scaled by
+    /// 2^480 and 2^−480 (squares near the ends of the exponent range), and on integer data
+    /// whose d are often exactly 0.
     #[test]
-    fn portable_chunks_equal_the_fma_segment_sums() {
+    fn portable_chunks_equal_the_segment_sums() {
         let n = 3 * NSEG * SEG_FAR + 5000;
         let base = series(n, 0.25);
         let ints: Vec<f64> = base.iter().map(|v| (v * 3.0).round()).collect();
-        for (name, x, in_range) in [
-            ("near 1", base.clone(), true),
-            (
-                "x 2^480",
-                base.iter().map(|v| v * 2f64.powi(480)).collect(),
-                false,
-            ),
+        for (name, x) in [
+            ("near 1", base.clone()),
+            ("x 2^480", base.iter().map(|v| v * 2f64.powi(480)).collect()),
             (
                 "x 2^-480",
                 base.iter().map(|v| v * 2f64.powi(-480)).collect(),
-                false,
             ),
-            ("integers", ints, true),
+            ("integers", ints),
         ] {
             let ck = checkpoints(&x).unwrap();
             for m in [1usize, 3, 64, 100, 1024] {
@@ -233,12 +175,6 @@ mod tests {
                         reduce_lanes(&want).to_bits(),
                         "{name} m {m} chunk {i}"
                     );
-                    let d0 = std::array::from_fn(|l| d_start(&x, &ck, m, a + l * SEG_FAR));
-                    let fast = chunk_full_sq_add::<SEG_FAR>(&x, m, a, d0);
-                    assert_eq!(fast.is_some(), in_range, "{name} m {m} chunk {i}");
-                    if let Some(f) = fast {
-                        assert_eq!(f.to_bits(), got.to_bits());
-                    }
                     full += 1;
                 }
                 assert!(full > 0);

@@ -1,14 +1,15 @@
-//! The SIMD block sums of the streamed MOAV kernel: with AVX-512 or AVX2 (the level of
-//! [`crate::simd::level`]) the [`NSEG`] segments of a chunk are vector lanes (eight resp. four
-//! per vector) and the chunk is walked in column blocks of [`BLK`], all scales per block
-//! ([`chunk_all_with`]): the rows of x are transposed in registers per scale ([`block_rows_with`]), except
-//! for the small scales (2m ≤ [`XH`]), which share one transposed copy of the chunk, and the far
-//! scales that are whole steps of the residue-class walk, which read the transposed copies of
-//! the chunks the walk visited (a ring per thread); those run four (AVX2: two) scales at a time
-//! ([`blocks_lanes_with`]). Every lane performs the operations of
-//! [`seg_sum`](super::segments::seg_sum) in the same order, so the results are those of the
-//! portable code ([`chunk_portable`]) bit for bit. [`chunk_run`] is the entry point of the
-//! streamed walks: the vector walk, or the portable code per scale.
+//! The SIMD block sums of the streamed MOAV kernel: on x86-64 the [`NSEG`] segments of a chunk
+//! are vector lanes (eight per AVX-512 vector, four per AVX2 vector, two per SSE2 vector at the
+//! scalar level; the level of [`crate::simd::level`]) and the chunk is walked in column blocks
+//! of [`BLK`], all scales per block ([`chunk_all_with`]): the rows of x are transposed in
+//! registers per scale ([`block_rows_with`]), except for the small scales (2m ≤ [`XH`]), which
+//! share one transposed copy of the chunk, and the far scales that are whole steps of the
+//! residue-class walk, which read the transposed copies of the chunks the walk visited (a ring
+//! per thread); those run four (AVX2: two, SSE2: one) scales at a time ([`blocks_lanes_with`]).
+//! Every lane performs the operations of [`seg_sum`](super::segments::seg_sum) in the same
+//! order, so the results are those of the portable code ([`chunk_portable`]) bit for bit.
+//! [`chunk_run`] is the entry point of the streamed walks: the vector walk on x86-64, the
+//! portable code per scale on other architectures.
 
 // the vector paths' helpers (chunk-walk state, lane copies) are used only on x86-64; other
 // architectures build the portable path and leave them unused
@@ -25,6 +26,11 @@ use super::segments::{NSEG, SEG_FAR, SEG_NEAR, SegState, chunk_portable, d_start
 use super::vector::F64x;
 use super::vector::Line;
 use crate::simd::SimdLevel;
+
+/// Whether [`chunk_run`] walks full chunks with a vector kernel at every level (x86-64: SSE2 at
+/// the scalar level), so that the far walk keeps a ring of lane copies; other architectures
+/// run the portable code per scale.
+pub(super) const VECTOR_WALK: bool = cfg!(target_arch = "x86_64");
 
 /// Columns of a chunk that [`chunk_all_with`] runs for every scale of a batch before moving on
 /// (the rows of x they read stay in L1 from one scale to the next; for dyadic scales the x_{k−2m}
@@ -52,10 +58,10 @@ const _: () = assert!(XH.is_multiple_of(8) && SEG_NEAR.is_multiple_of(8));
 #[cfg(target_arch = "x86_64")]
 pub(super) trait Walk: F64x {
     /// Scales per instruction stream of [`blocks_lanes_with`] (AVX-512: four, 32 state vectors;
-    /// AVX2: two, 16 state vectors, the AVX2 register file).
+    /// AVX2: two, 16 state vectors, the AVX2 register file; SSE2: one, 16 state vectors).
     const GROUP: usize;
     /// Whether the rows of x are read aligned to cache lines ([`block_rows_with`] with the
-    /// misalignment of the chunk; AVX-512), or unaligned from k = a (AVX2).
+    /// misalignment of the chunk; AVX-512), or unaligned from k = a (AVX2, SSE2).
     const ALIGN_ROWS: bool;
     /// [`block_lanes_with`].
     unsafe fn block_lanes<const N: usize>(
@@ -163,24 +169,34 @@ impl Walk for std::arch::x86_64::__m512d {
 impl Walk for std::arch::x86_64::__m256d {
     const GROUP: usize = 2;
     const ALIGN_ROWS: bool = false;
-    walk_entry_points!("avx2,fma");
+    walk_entry_points!("avx2");
 }
 
-/// The AVX-512 and the AVX2 walk.
+/// SSE2, the x86-64 baseline: the walk of the scalar level on x86-64 (two lanes per vector,
+/// separate multiply and add as at every level).
+#[cfg(target_arch = "x86_64")]
+impl Walk for std::arch::x86_64::__m128d {
+    const GROUP: usize = 1;
+    const ALIGN_ROWS: bool = false;
+    walk_entry_points!("sse2");
+}
+
+/// The AVX-512, AVX2 and SSE2 walks.
 #[cfg(target_arch = "x86_64")]
 type Avx512 = std::arch::x86_64::__m512d;
 #[cfg(target_arch = "x86_64")]
 type Avx2 = std::arch::x86_64::__m256d;
+#[cfg(target_arch = "x86_64")]
+type Sse2 = std::arch::x86_64::__m128d;
 
 /// [`block_rows_with`] for N scales at once from lane-layout copies
 /// (`build_lanes_with` (vector)) in `buf`: for scale q the columns
 /// x_k, x_{k−m}, x_{k−2m} of chunk column j are the line pairs at column `offs[q][0] + j`,
 /// `offs[q][1] + j`, `offs[q][2] + j` of `buf`. Over the columns [j0, j1): per scale and
 /// column, y = (x_k − x_{k−m}) − (x_{k−m} − x_{k−2m}) from aligned loads, then
-/// acc ← fma(d, d, acc); d += y: the operations of [`seg_sum`](super::segments::seg_sum) in the
+/// acc ← acc + d·d; d += y: the operations of [`seg_sum`](super::segments::seg_sum) in the
 /// same order (bit-identical results). The scales only share the instruction stream: their
-/// independent recurrences hide the latency of each one's chain of adds and fused
-/// multiply-adds.
+/// independent recurrences hide the latency of each one's chain of adds.
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
@@ -217,7 +233,7 @@ unsafe fn block_lanes_with<V: F64x, const N: usize>(
                     let xb = V::load(pt.add(16 * (ob + j) + w * g));
                     let xc = V::load(pt.add(16 * (oc + j) + w * g));
                     let y = V::sub(V::sub(xa, xb), V::sub(xb, xc));
-                    acc[g] = V::fmadd(d[g], d[g], acc[g]);
+                    acc[g] = V::sq_acc(acc[g], d[g]);
                     d[g] = V::add(d[g], y);
                 }
             }
@@ -273,7 +289,7 @@ unsafe fn blocks_lanes_with<V: Walk>(
 /// from k = a. W segments per vector (one lane each), straight from `x`: for every window the
 /// three input rows of each segment are loaded, y is formed row-wise exactly as in
 /// [`seg_sum`](super::segments::seg_sum), the W × W block is transposed in registers, and each
-/// lane then performs acc ← fma(d, d, acc); d += y_k in increasing k: the operations of
+/// lane then performs acc ← acc + d·d; d += y_k in increasing k: the operations of
 /// [`seg_sum`](super::segments::seg_sum) in the same order, so the results are bit-identical to
 /// the portable path whatever s and however the columns are split into blocks.
 ///
@@ -333,12 +349,12 @@ unsafe fn block_rows_with<V: F64x, const SEG: usize>(
                 let cols = window!(jb, g);
                 if lo == 0 {
                     for &c in cols.as_ref() {
-                        av[g] = V::fmadd(dv[g], dv[g], av[g]);
+                        av[g] = V::sq_acc(av[g], dv[g]);
                         dv[g] = V::add(dv[g], c);
                     }
                 } else {
                     for &c in &cols.as_ref()[lo..] {
-                        av[g] = V::fmadd(dv[g], dv[g], av[g]);
+                        av[g] = V::sq_acc(av[g], dv[g]);
                         dv[g] = V::add(dv[g], c);
                     }
                 }
@@ -349,7 +365,7 @@ unsafe fn block_rows_with<V: F64x, const SEG: usize>(
             for g in 0..NSEG / w {
                 let cols = window!(SEG, g);
                 for &c in &cols.as_ref()[..s] {
-                    av[g] = V::fmadd(dv[g], dv[g], av[g]);
+                    av[g] = V::sq_acc(av[g], dv[g]);
                     dv[g] = V::add(dv[g], c);
                 }
             }
@@ -361,11 +377,11 @@ unsafe fn block_rows_with<V: F64x, const SEG: usize>(
     }
 }
 
-/// Chunk partials of chunk `i` for every scale of `batch` (each as [`stream_chunk`] would
+/// Chunk partials of chunk `i` for every scale of `batch` (each as [`chunk_portable`] would
 /// return it, bit for bit), with the vector kernels of V: the chunk is walked in column blocks
 /// of [`BLK`], all scales per block; the small scales read the halo copy of the chunk, the far
 /// scales that are whole class steps the lane ring, the others transpose their rows in
-/// registers. Scales whose chunk is not full go through [`stream_chunk`]. `next`, when given,
+/// registers. Scales whose chunk is not full go through [`chunk_portable`]. `next`, when given,
 /// is the start of the chunk the caller runs next: its samples are prefetched towards L2 one
 /// slice per column block, so that the requests are spread over the chunk's work (the far
 /// grid's residue-class walk jumps FAR_M samples from chunk to chunk, out of reach of the
@@ -501,49 +517,9 @@ unsafe fn chunk_all_with<V: Walk, const SEG: usize>(
             };
             reduce_lanes(&st.acc)
         } else {
-            stream_chunk::<SEG>(x, ck, m, i, SimdLevel::Scalar)
+            chunk_portable::<SEG>(x, ck, m, i)
         };
     }
-}
-
-/// Chunk partial for scale m over chunk `i` of the k-grid, streamed from `x`: with a vector
-/// `simd` level and a full chunk, the NSEG segments as vector lanes
-/// ([`block_rows_with`]); otherwise [`chunk_portable`]. The same bits either way.
-#[inline(always)]
-pub(super) fn stream_chunk<const SEG: usize>(
-    x: &[f64],
-    ck: &Checkpoints,
-    m: usize,
-    i: usize,
-    simd: SimdLevel,
-) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let a = i * (NSEG * SEG);
-        if simd != SimdLevel::Scalar && a >= 2 * m && a + (NSEG * SEG) <= x.len() {
-            let mut d0 = [0.0f64; NSEG];
-            for (l, d) in d0.iter_mut().enumerate() {
-                *d = d_start(x, ck, m, a + l * SEG);
-            }
-            crate::simd::note(simd);
-            let mut st = SegState {
-                d: d0,
-                acc: [0.0f64; NSEG],
-            };
-            if simd == SimdLevel::Avx512 {
-                // SAFETY: `simd` is at most `simd::level()` (the callers pass it or, in tests, a
-                // lower level), so AVX-512F is present; the range is checked above.
-                unsafe { Avx512::block_rows::<SEG>(x, m, a, 0, 0, SEG, &mut st) };
-            } else {
-                // SAFETY: `simd` ≤ `simd::level()` (see above): AVX2 and FMA are present; the
-                // range is checked above.
-                unsafe { Avx2::block_rows::<SEG>(x, m, a, 0, 0, SEG, &mut st) };
-            }
-            return reduce_lanes(&st.acc);
-        }
-    }
-    let _ = simd;
-    chunk_portable::<SEG>(x, ck, m, i)
 }
 
 /// Where the segment state of a scale lives during the vector chunk walk ([`chunk_all_with`]).
@@ -599,7 +575,8 @@ impl Scratch {
 }
 
 /// Chunk partials of chunk `i` on the grid of segment length SEG for every scale of `batch`,
-/// written to `out` (the AVX-512 or AVX2 chunk walk, or [`stream_chunk`] per scale). `next`: see
+/// written to `out` (the AVX-512, AVX2 or SSE2 chunk walk on x86-64, else [`chunk_portable`] per
+/// scale). `next`: see
 /// [`chunk_all_with`].
 #[inline]
 #[allow(clippy::too_many_arguments)]
@@ -617,21 +594,27 @@ pub(super) fn chunk_run<const SEG: usize>(
     match simd {
         SimdLevel::Avx512 => {
             crate::simd::note(simd);
-            // SAFETY: `simd` is at most `simd::level()` (see [`stream_chunk`]): AVX-512F present.
+            // SAFETY: `simd` is at most `simd::level()` (the callers pass it or, in tests, a lower
+            // level): AVX-512F present.
             unsafe { Avx512::chunk_all::<SEG>(x, ck, batch, i, next, scratch, out) };
-            return;
         }
         SimdLevel::Avx2 => {
             crate::simd::note(simd);
-            // SAFETY: as above: AVX2 and FMA present.
+            // SAFETY: as above: AVX2 present.
             unsafe { Avx2::chunk_all::<SEG>(x, ck, batch, i, next, scratch, out) };
-            return;
         }
-        SimdLevel::Scalar => {}
+        SimdLevel::Scalar => {
+            crate::simd::note(simd);
+            // SAFETY: SSE2 is part of the x86-64 baseline: every x86-64 CPU has it.
+            unsafe { Sse2::chunk_all::<SEG>(x, ck, batch, i, next, scratch, out) };
+        }
     }
-    let _ = next;
-    for (o, &m) in out.iter_mut().zip(batch) {
-        *o = stream_chunk::<SEG>(x, ck, m as usize, i, simd);
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (next, scratch);
+        for (o, &m) in out.iter_mut().zip(batch) {
+            *o = chunk_portable::<SEG>(x, ck, m as usize, i);
+        }
     }
 }
 
@@ -655,9 +638,10 @@ mod tests {
     }
 
     /// On the chunk grid of segment length SEG: every chunk partial is bit-identical between the
-    /// portable, AVX2 and AVX-512 paths (up to the process's level), and between the AVX2 and
-    /// AVX-512 chunk walks (all scales per column block, aligned windows, transposed copy for
-    /// small scales) and the portable path at every misalignment of the data within a cache line.
+    /// portable code and [`chunk_run`] at every level up to the process's (SSE2 at the scalar
+    /// level on x86-64, AVX2, AVX-512), and between the SSE2, AVX2 and AVX-512 chunk walks (all scales
+    /// per column block, aligned windows, transposed copy for small scales) and the portable
+    /// code at every misalignment of the data within a cache line.
     fn check_paths<const SEG: usize>(n: usize, ms: &[u64]) {
         let x = series(n, 0.0);
         let ck = checkpoints(&x).unwrap();
@@ -666,22 +650,21 @@ mod tests {
         let paths = crate::simd::levels();
         for &m in ms {
             for i in 0..n_chunks {
-                let p = stream_chunk::<SEG>(&x, &ck, m as usize, i, SimdLevel::Scalar);
-                for &simd in &paths[1..] {
-                    let q = stream_chunk::<SEG>(&x, &ck, m as usize, i, simd);
+                let p = chunk_portable::<SEG>(&x, &ck, m as usize, i);
+                for &simd in &paths {
+                    let mut q = [0.0];
+                    let mut scratch = Scratch::new::<SEG>();
+                    chunk_run::<SEG>(&x, &ck, &[m], i, simd, &mut scratch, None, &mut q);
                     assert_eq!(
                         p.to_bits(),
-                        q.to_bits(),
+                        q[0].to_bits(),
                         "SEG {SEG} m {m} chunk {i} {simd:?}"
                     );
                 }
             }
         }
         #[cfg(target_arch = "x86_64")]
-        for walk in [SimdLevel::Avx2, SimdLevel::Avx512]
-            .into_iter()
-            .filter(|w| *w <= best)
-        {
+        for walk in paths.iter().copied().filter(|w| *w <= best) {
             let big = series(n + 8, 0.0);
             for o in 0..8 {
                 let xo = &big[o..o + n];
@@ -695,14 +678,20 @@ mod tests {
                     let sc = &mut scratch;
                     // SAFETY: `walk` ≤ `level()`: the CPU has its instructions.
                     unsafe {
-                        if walk == SimdLevel::Avx512 {
-                            Avx512::chunk_all::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
-                        } else {
-                            Avx2::chunk_all::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
+                        match walk {
+                            SimdLevel::Avx512 => {
+                                Avx512::chunk_all::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
+                            }
+                            SimdLevel::Avx2 => {
+                                Avx2::chunk_all::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
+                            }
+                            SimdLevel::Scalar => {
+                                Sse2::chunk_all::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
+                            }
                         }
                     };
                     for (&m, qm) in ms.iter().zip(&q) {
-                        let p = stream_chunk::<SEG>(xo, &cko, m as usize, i, SimdLevel::Scalar);
+                        let p = chunk_portable::<SEG>(xo, &cko, m as usize, i);
                         assert_eq!(
                             p.to_bits(),
                             qm.to_bits(),

@@ -1,6 +1,6 @@
-//! The f64 vectors of the vector paths as one trait ([`F64x`], for AVX-512's `__m512d` and
-//! AVX2's `__m256d`), so that each vector kernel is written once for both widths; their
-//! in-register transposes (8 × 8, 4 × 4); and the lane-layout copy of a chunk
+//! The f64 vectors of the vector paths as one trait ([`F64x`], for AVX-512's `__m512d`, AVX2's
+//! `__m256d` and SSE2's `__m128d`), so that each vector kernel is written once for every width;
+//! their in-register transposes (8 × 8, 4 × 4, 2 × 2); and the lane-layout copy of a chunk
 //! ([`build_lanes_with`]): the [`NSEG`] rows of a chunk turned into columns, so that the samples
 //! x_{k−λ} of all 16 segments at one column are two aligned 64-byte lines.
 
@@ -69,21 +69,31 @@ macro_rules! transpose4x4 {
     }};
 }
 
+/// The 2 × 2 transpose of two SSE2 vectors (rows → columns).
+#[cfg(target_arch = "x86_64")]
+macro_rules! transpose2x2 {
+    ($v:expr) => {{
+        let v = $v;
+        [_mm_unpacklo_pd(v[0], v[1]), _mm_unpackhi_pd(v[0], v[1])]
+    }};
+}
+
 /// Eight f64 on one cache line (the element of the transposed copy).
 #[derive(Clone, Copy, Default)]
 #[repr(C, align(64))]
 pub(crate) struct Line([f64; 8]);
 
 /// A vector of [`F64x::W`] f64 lanes and the operations the vector kernels use on it. Each
-/// operation is one instruction of the vector's instruction set (no contraction: `fmadd` is
-/// the fused multiply-add, written out where the portable code calls `mul_add`), so a kernel
-/// written once over this trait performs, lane by lane, the same operations in the same
-/// order at either width.
+/// operation is one instruction of the vector's instruction set, with one rounding per
+/// operation and no fused multiply-add (as the portable code, which Rust compiles without
+/// contraction), so a kernel written once over this trait performs, lane by lane, the same
+/// operations in the same order at every width.
 ///
 /// # Safety
 /// Every function needs the CPU to support the vector's instruction set (AVX-512F for
-/// `__m512d`, AVX2 and FMA for `__m256d`); the pointer functions also need their addresses to
-/// be valid for W f64 (aligned to the vector's size for `load` and `store`).
+/// `__m512d`, AVX2 for `__m256d`, SSE2, which every x86-64 CPU has, for `__m128d`); the pointer
+/// functions also need their addresses to be valid for W f64 (aligned to the vector's size for
+/// `load` and `store`).
 #[cfg(target_arch = "x86_64")]
 pub(crate) trait F64x: Copy {
     /// f64 lanes per vector.
@@ -101,8 +111,12 @@ pub(crate) trait F64x: Copy {
     unsafe fn add(a: Self, b: Self) -> Self;
     unsafe fn sub(a: Self, b: Self) -> Self;
     unsafe fn mul(a: Self, b: Self) -> Self;
-    /// a·b + c with one rounding.
-    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self;
+    /// acc + d·d, rounded twice (the product, then the sum), as the portable code's
+    /// `acc + d * d`.
+    #[inline(always)]
+    unsafe fn sq_acc(acc: Self, d: Self) -> Self {
+        unsafe { Self::add(acc, Self::mul(d, d)) }
+    }
     /// Every lane v.
     unsafe fn splat(v: f64) -> Self;
     /// Rows → columns: lane r of column c is lane c of row r.
@@ -115,7 +129,7 @@ pub(crate) trait F64x: Copy {
 #[cfg(target_arch = "x86_64")]
 macro_rules! f64x_impl {
     ($v:ident, $w:literal, $feat:literal, $zero:ident, $load:ident, $loadu:ident, $store:ident,
-     $storeu:ident, $add:ident, $sub:ident, $mul:ident, $fmadd:ident, $splat:ident,
+     $storeu:ident, $add:ident, $sub:ident, $mul:ident, $splat:ident,
      $transpose:ident) => {
         impl F64x for $v {
             const W: usize = $w;
@@ -158,10 +172,6 @@ macro_rules! f64x_impl {
                 unsafe { $mul(a, b) }
             }
             #[inline(always)]
-            unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
-                unsafe { $fmadd(a, b, c) }
-            }
-            #[inline(always)]
             unsafe fn splat(v: f64) -> Self {
                 unsafe { $splat(v) }
             }
@@ -196,7 +206,6 @@ f64x_impl!(
     _mm512_add_pd,
     _mm512_sub_pd,
     _mm512_mul_pd,
-    _mm512_fmadd_pd,
     _mm512_set1_pd,
     transpose8x8
 );
@@ -214,9 +223,25 @@ f64x_impl!(
     _mm256_add_pd,
     _mm256_sub_pd,
     _mm256_mul_pd,
-    _mm256_fmadd_pd,
     _mm256_set1_pd,
     transpose4x4
+);
+
+#[cfg(target_arch = "x86_64")]
+f64x_impl!(
+    __m128d,
+    2,
+    "sse2",
+    _mm_setzero_pd,
+    _mm_load_pd,
+    _mm_loadu_pd,
+    _mm_store_pd,
+    _mm_storeu_pd,
+    _mm_add_pd,
+    _mm_sub_pd,
+    _mm_mul_pd,
+    _mm_set1_pd,
+    transpose2x2
 );
 
 /// Transposed copy of the NSEG rows of the full chunk [a, a + NSEG·SEG) with a halo of `halo`

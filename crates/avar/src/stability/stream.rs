@@ -33,11 +33,10 @@
 //! frame of its checkpoints (the near jobs' grid depends only on T), and partials are added in
 //! chunk order with Neumaier's compensation, so results are bit-identical for any thread count
 //! and whatever other scales are requested. The vector and portable paths perform the same
-//! operations in the same order (acc ← fma(v, v, acc)).
+//! operations in the same order (acc ← acc + v·v, the square rounded before the addition; no
+//! fused multiply-add anywhere).
 //!
-//! At the scalar level every segment runs the loop of [`seg_run`] (the same values, slower);
-//! compiled without FMA, the chunks inside the series run their segments in lockstep with the
-//! fused operations emulated exactly ([`chunk_lockstep`]).
+//! At the scalar level every segment runs the loop of [`seg_run`] (the same values, slower).
 //! Phase (angle) input keeps the buffered path of the modules (the phase samples are not rate
 //! samples). With a chi-square interval the values still come from here; only the noise
 //! identification reads the cumulative sum.
@@ -49,10 +48,7 @@
 use rayon::prelude::*;
 
 use crate::error::AvarError;
-use crate::kernel::compensated::{
-    HW_FMA, LANES, Neumaier, SQ_ADD_ACC_MAX, SQ_ADD_MIN, TRIPLE_ADD_MAX, TRIPLE_ADD_MIN,
-    reduce_lanes, sq_add, triple_add, two_sum,
-};
+use crate::kernel::compensated::{LANES, Neumaier, reduce_lanes, two_sum};
 use crate::kernel::cumsum::{first_non_finite, pivot_of};
 use crate::kernel::vector::Line;
 #[cfg(target_arch = "x86_64")]
@@ -162,7 +158,7 @@ fn block_sums_fast(b: &[f64], pivot: f64, level: SimdLevel) -> (f64, f64) {
     match level {
         // SAFETY: `level` ≤ `simd::level()` (caller contract): the CPU has AVX-512F.
         SimdLevel::Avx512 => return unsafe { <__m512d as Stream>::block_sums(b, pivot) },
-        // SAFETY: as above: the CPU has AVX2 and FMA.
+        // SAFETY: as above: the CPU has AVX2.
         SimdLevel::Avx2 => return unsafe { <__m256d as Stream>::block_sums(b, pivot) },
         SimdLevel::Scalar => {}
     }
@@ -322,7 +318,7 @@ impl Frames {
             }
             SimdLevel::Avx2 => {
                 crate::simd::note(level);
-                // SAFETY: as above: the CPU has AVX2 and FMA.
+                // SAFETY: as above: the CPU has AVX2.
                 return unsafe { self.extend_avx2(y, g_end, keep) };
             }
             SimdLevel::Scalar => {}
@@ -330,13 +326,12 @@ impl Frames {
         self.extend_impl(y, g_end, SimdLevel::Scalar, keep)
     }
 
-    /// [`Frames::extend`] compiled for AVX2 and FMA (the same values: lane-wise operations
-    /// only).
+    /// [`Frames::extend`] compiled for AVX2 (the same values: lane-wise operations only).
     ///
     /// # Safety
-    /// The CPU must support AVX2 and FMA.
+    /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2")]
     unsafe fn extend_avx2(&mut self, y: &[f64], g_end: usize, keep: impl FnMut(usize, (f64, f64))) {
         self.extend_impl(y, g_end, SimdLevel::Avx2, keep)
     }
@@ -483,7 +478,7 @@ fn start(y: &[f64], fr: &Frames, kind: Diff, m: usize, k: usize) -> (f64, f64) {
 }
 
 /// Σ v_k² over the segment [s, e) of scale m from the starting values (h, w) at s, where v is
-/// h (OHVAR) or w (MVAR): acc ← fma(v, v, acc); w += h (MVAR); h += e_k (for k < T).
+/// h (OHVAR) or w (MVAR): acc ← acc + v·v; w += h (MVAR); h += e_k (for k < T).
 #[inline(always)]
 fn seg_run<const MOD: bool>(y: &[f64], m: usize, s: usize, e: usize, (h, w): (f64, f64)) -> f64 {
     let (mut h, mut w) = (h, w);
@@ -491,109 +486,26 @@ fn seg_run<const MOD: bool>(y: &[f64], m: usize, s: usize, e: usize, (h, w): (f6
     let mut acc = 0.0f64;
     for k in s..e {
         if MOD {
-            acc = w.mul_add(w, acc);
+            acc += w * w;
             w += h;
         } else {
-            acc = h.mul_add(h, acc);
+            acc += h * h;
         }
         if k < t {
             let p = y[k] - y[k - 3 * m];
             let q = y[k - 2 * m] - y[k - m];
-            h += q.mul_add(3.0, p);
+            h += q * 3.0 + p;
         }
     }
     acc
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "fma")]
-fn seg_run_fma<const MOD: bool>(y: &[f64], m: usize, s: usize, e: usize, hw: (f64, f64)) -> f64 {
-    seg_run::<MOD>(y, m, s, e, hw)
-}
-
-/// [`seg_run`] with the hardware fused multiply-add at `level` AVX2 (AVX2 and FMA) or above (the
-/// same value: `mul_add` is correctly rounded either way). `level` must not exceed
-/// [`crate::simd::level`].
-#[allow(clippy::too_many_arguments)]
-fn seg_sum(
-    y: &[f64],
-    kind: Diff,
-    m: usize,
-    s: usize,
-    e: usize,
-    hw: (f64, f64),
-    level: SimdLevel,
-) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if level >= SimdLevel::Avx2 {
-        // SAFETY: `level` ≤ `simd::level()` (caller contract): the CPU has FMA.
-        return unsafe {
-            match kind {
-                Diff::Hadamard => seg_run_fma::<false>(y, m, s, e, hw),
-                Diff::Modified => seg_run_fma::<true>(y, m, s, e, hw),
-            }
-        };
-    }
+/// [`seg_run`] of the kind of `kind`.
+fn seg_sum(y: &[f64], kind: Diff, m: usize, s: usize, e: usize, hw: (f64, f64)) -> f64 {
     match kind {
         Diff::Hadamard => seg_run::<false>(y, m, s, e, hw),
         Diff::Modified => seg_run::<true>(y, m, s, e, hw),
     }
-}
-
-/// The NSEG segment sums of the chunk at `a` for a chunk inside the series (3m ≤ a,
-/// a + NSEG·SEG ≤ T) from the starting values `hw`, for the portable code compiled without FMA:
-/// the segments in lockstep (independent chains, whose latencies overlap), each lane the
-/// operations of [`seg_run`] in the same order, the fused operations computed exactly from
-/// additions and multiplications ([`sq_add`] for acc ← fma(v, v, acc), [`triple_add`] for
-/// fma(q, 3, p)) instead of a call to the library `fma` per use: the same bits. `None` when a
-/// value left the exact range of either (the caller then runs [`seg_sum`] per segment).
-// the column index j addresses 64 rows at once: clearer than 64 zipped iterators
-#[allow(clippy::needless_range_loop)]
-fn chunk_lockstep<const MOD: bool, const SEG: usize>(
-    y: &[f64],
-    m: usize,
-    a: usize,
-    hw: &[(f64, f64); NSEG],
-) -> Option<[f64; NSEG]> {
-    let mut h: [f64; NSEG] = std::array::from_fn(|l| hw[l].0);
-    let mut w: [f64; NSEG] = std::array::from_fn(|l| hw[l].1);
-    let mut acc = [0.0f64; NSEG];
-    // the smallest non-zero magnitude of every operand of the emulations (a zero maps to a
-    // NaN pattern, which never compares below) and the largest of q and p, per lane
-    let mut below = [f64::INFINITY; NSEG];
-    let mut above = [0.0f64; NSEG];
-    let low = |v: f64| f64::from_bits(v.abs().to_bits().wrapping_sub(1));
-    // each lane's rows y_k, y_{k−m}, y_{k−2m}, y_{k−3m} as arrays of SEG (no bounds checks in
-    // the loop)
-    let row = |l: usize, lag: usize| -> &[f64; SEG] {
-        let s = a + l * SEG - lag;
-        y[s..s + SEG].try_into().expect("SEG samples")
-    };
-    let r: [[&[f64; SEG]; NSEG]; 4] =
-        std::array::from_fn(|j| std::array::from_fn(|l| row(l, j * m)));
-    for j in 0..SEG {
-        for l in 0..NSEG {
-            let v = if MOD { w[l] } else { h[l] };
-            let lv = low(v);
-            below[l] = if lv < below[l] { lv } else { below[l] };
-            acc[l] = sq_add(v, acc[l]);
-            if MOD {
-                w[l] += h[l];
-            }
-            let p = r[0][l][j] - r[3][l][j];
-            let q = r[2][l][j] - r[1][l][j];
-            let (lp, lq) = (low(p), low(q));
-            below[l] = if lp < below[l] { lp } else { below[l] };
-            below[l] = if lq < below[l] { lq } else { below[l] };
-            let big = p.abs().max(q.abs());
-            above[l] = if big > above[l] { big } else { above[l] };
-            h[l] += triple_add(q, p);
-        }
-    }
-    let min = f64::from_bits(SQ_ADD_MIN.max(TRIPLE_ADD_MIN).to_bits() - 1);
-    let ok = (0..NSEG)
-        .all(|l| acc[l] <= SQ_ADD_ACC_MAX && below[l] >= min && above[l] <= TRIPLE_ADD_MAX);
-    ok.then_some(acc)
 }
 
 /// The starting values of the NSEG segments of the chunk at `a` (a multiple of G) for m ≥ G a
@@ -736,7 +648,7 @@ impl Stream for __m512d {
 
 #[cfg(target_arch = "x86_64")]
 impl Stream for __m256d {
-    stream_entry_points!("avx2,fma");
+    stream_entry_points!("avx2");
 }
 
 /// The vectors (h, w, acc) of a [`SegState`], NSEG/W of each.
@@ -778,7 +690,7 @@ unsafe fn store_state<V: F64x>(st: &mut SegState, h: &V::Seg, wv: &V::Seg, acc: 
     }
 }
 
-/// e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) from the four lagged vectors.
+/// e = (y_{k−2m} − y_{k−m})·3 + (y_k − y_{k−3m}) from the four lagged vectors.
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
@@ -786,11 +698,11 @@ unsafe fn store_state<V: F64x>(st: &mut SegState, h: &V::Seg, wv: &V::Seg, acc: 
 #[inline(always)]
 unsafe fn e_of<V: F64x>(y0: V, y1: V, y2: V, y3: V, three: V) -> V {
     // SAFETY: caller contract.
-    unsafe { V::fmadd(V::sub(y2, y1), three, V::sub(y0, y3)) }
+    unsafe { V::add(V::mul(V::sub(y2, y1), three), V::sub(y0, y3)) }
 }
 
 /// One step of the recurrences of one vector of lanes with the increment e, as in [`seg_run`]:
-/// acc ← fma(v, v, acc) (v = w for MVAR, h for OHVAR); w += h (MVAR); h += e.
+/// acc ← acc + v·v (v = w for MVAR, h for OHVAR); w += h (MVAR); h += e.
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
@@ -800,10 +712,10 @@ unsafe fn step_state<V: F64x, const MOD: bool>(h: &mut V, w: &mut V, acc: &mut V
     // SAFETY: caller contract.
     unsafe {
         if MOD {
-            *acc = V::fmadd(*w, *w, *acc);
+            *acc = V::sq_acc(*acc, *w);
             *w = V::add(*w, *h);
         } else {
-            *acc = V::fmadd(*h, *h, *acc);
+            *acc = V::sq_acc(*acc, *h);
         }
         *h = V::add(*h, e);
     }
@@ -831,7 +743,7 @@ type Rows<'a> = [(&'a [f64], usize); 4];
 /// jb = SEG when j1 = SEG and s > 0, skipping the columns outside [0, SEG): with `s` the
 /// misalignment of row 0 in elements (the same in every slice; AVX-512) the loads are 64-byte
 /// aligned, with s = 0 (AVX2) the rows are read unaligned from column 0. Per vector of W
-/// segments and window, the rows e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) are formed,
+/// segments and window, the rows e = (y_{k−2m} − y_{k−m})·3 + (y_k − y_{k−3m}) are formed,
 /// transposed in registers, and each lane steps its recurrence column by column in increasing
 /// k: the operations of [`seg_run`] in the same order, so the values are bit-identical to the
 /// portable path whatever s, W and wherever the rows are read from.
@@ -915,7 +827,7 @@ unsafe fn block_with<V: F64x, const MOD: bool, const SEG: usize>(
 
 /// [`block_with`] from lane-layout copies ([`build_lanes_at`]): the samples of lag j of chunk
 /// column c are the line pair at `src[j] + 2c` (lane r of line 2c + h: row 8h + r), so that
-/// e = fma(y_{k−2m} − y_{k−m}, 3, y_k − y_{k−3m}) is formed from aligned loads without
+/// e = (y_{k−2m} − y_{k−m})·3 + (y_k − y_{k−3m}) is formed from aligned loads without
 /// transposes. Over the columns [j0, j1): the operations of [`seg_run`] in the same order, so
 /// the values are bit-identical to the portable path.
 ///
@@ -1143,30 +1055,13 @@ fn chunk_partials<const SEG: usize>(
     for (o, &m) in out.iter_mut().zip(batch) {
         *o = if full(m) {
             reduce_lanes(&st.next().expect("one state per full scale").acc)
-        } else if !HW_FMA && !simd && a >= 3 * m && a + NSEG * SEG <= t {
-            // the portable code without FMA, a chunk inside the series: its segments in
-            // lockstep with the fused operations emulated exactly (or, out of their range,
-            // per segment with `mul_add`)
-            let hw: [(f64, f64); NSEG] =
-                std::array::from_fn(|l| start(y, fr, kind, m, a + l * SEG));
-            let lanes = match kind {
-                Diff::Hadamard => chunk_lockstep::<false, SEG>(y, m, a, &hw),
-                Diff::Modified => chunk_lockstep::<true, SEG>(y, m, a, &hw),
-            };
-            let acc = lanes.unwrap_or_else(|| {
-                std::array::from_fn(|l| {
-                    let s = a + l * SEG;
-                    seg_sum(y, kind, m, s, s + SEG, hw[l], level)
-                })
-            });
-            reduce_lanes(&acc)
         } else {
             let mut acc = [0.0f64; NSEG];
             for (l, al) in acc.iter_mut().enumerate() {
                 let s = (a + l * SEG).max(3 * m);
                 let e = (a + (l + 1) * SEG).min(k_end);
                 if s < e {
-                    *al = seg_sum(y, kind, m, s, e, start(y, fr, kind, m, s), level);
+                    *al = seg_sum(y, kind, m, s, e, start(y, fr, kind, m, s));
                 }
             }
             reduce_lanes(&acc)
@@ -1430,7 +1325,8 @@ mod tests {
                     for ((g, w), m) in got.iter().zip(&want).zip(MS) {
                         // the terms are exact (integer increments; the restarts carry only the
                         // u² rounding of the compensated checkpoints); a segment sums at most
-                        // 1088 positive squares by fma, each rounding ≤ u of the running sum:
+                        // 1088 positive squares (each exact: an integer below 2^53), each addition
+                        // rounding ≤ u of the running sum:
                         // ≤ 1088·u ≈ 1.2e-13 relative, the tree and Neumaier steps add ~u
                         assert!(rel(*g, *w) < 2e-13, "{kind:?} m {m} {level}: {g} vs {w}");
                     }
@@ -1517,64 +1413,6 @@ mod tests {
             let b = third_diff_sums(&shifted, &MS, kind).unwrap();
             for ((u, v), m) in a.iter().zip(&b).zip(MS) {
                 assert!(rel(*v, *u) < 1e-9, "{kind:?} m {m}: {u} vs {v}");
-            }
-        }
-    }
-
-    /// [`chunk_lockstep`] (the portable code's exact emulations) gives each segment the bits of
-    /// [`seg_run`] with `mul_add` (the correctly rounded fma of the C library or the CPU), for
-    /// both kinds and several m: on data near 1, on small integers (many exact zeros), and it
-    /// declines (`None`, so that the caller falls back to `mul_add`) on data scaled by 2^480
-    /// and 2^−480, outside the exact range of the emulations.
-    #[test]
-    fn lockstep_chunks_equal_the_fma_segment_runs() {
-        const SEG: usize = SEG_FAR;
-        let a = 3 * NSEG * SEG;
-        let n = a + NSEG * SEG + 10;
-        let base = series(n, 0.25);
-        let ints = integers(n);
-        for (name, y, in_range) in [
-            ("near 1", base.clone(), true),
-            ("integers", ints, true),
-            (
-                "x 2^480",
-                base.iter().map(|v| v * 2f64.powi(480)).collect(),
-                false,
-            ),
-            (
-                "x 2^-480",
-                base.iter().map(|v| v * 2f64.powi(-480)).collect(),
-                false,
-            ),
-        ] {
-            for m in [1, 7, 64, 300, 2000] {
-                // starting values of the scale of the data (any values: the recurrence is what
-                // is compared)
-                let hw: [(f64, f64); NSEG] =
-                    std::array::from_fn(|l| (3.0 * y[a + l * SEG], 5.0 * y[a + l * SEG + 1]));
-                for kind in [Diff::Hadamard, Diff::Modified] {
-                    let got = match kind {
-                        Diff::Hadamard => chunk_lockstep::<false, SEG>(&y, m, a, &hw),
-                        Diff::Modified => chunk_lockstep::<true, SEG>(&y, m, a, &hw),
-                    };
-                    if !in_range {
-                        assert!(got.is_none(), "{name} {kind:?} m {m}");
-                        continue;
-                    }
-                    let got = got.unwrap_or_else(|| panic!("{name} {kind:?} m {m}: declined"));
-                    for (l, g) in got.iter().enumerate() {
-                        let s = a + l * SEG;
-                        let want = match kind {
-                            Diff::Hadamard => seg_run::<false>(&y, m, s, s + SEG, hw[l]),
-                            Diff::Modified => seg_run::<true>(&y, m, s, s + SEG, hw[l]),
-                        };
-                        assert_eq!(
-                            g.to_bits(),
-                            want.to_bits(),
-                            "{name} {kind:?} m {m} lane {l}"
-                        );
-                    }
-                }
             }
         }
     }

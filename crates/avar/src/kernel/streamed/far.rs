@@ -9,7 +9,7 @@ use crate::kernel::buffered::SCALE_BATCH;
 use crate::kernel::compensated::Neumaier;
 use crate::kernel::cumsum::{Checkpoints, G};
 use crate::kernel::segments::NSEG;
-use crate::kernel::simd_blocks::{Scratch, chunk_run};
+use crate::kernel::simd_blocks::{Scratch, VECTOR_WALK, chunk_run};
 use crate::simd::SimdLevel;
 use crate::source::io::{Io, SampleWindow};
 
@@ -90,7 +90,7 @@ pub(super) fn stream_group<const SEG: usize>(
             .map(|m| m / step)
             .max()
             .unwrap_or(0);
-        let slots = if simd >= SimdLevel::Avx2 && q_max > 0 {
+        let slots = if VECTOR_WALK && q_max > 0 {
             2 * q_max + 1
         } else {
             0
@@ -102,7 +102,7 @@ pub(super) fn stream_group<const SEG: usize>(
         // more into a window is harmless)
         let lags_from_x = |m: usize, a: usize, tc: usize| {
             let q = m / step;
-            !(simd >= SimdLevel::Avx2
+            !(VECTOR_WALK
                 && slots > 0
                 && m.is_multiple_of(step)
                 && 2 * q <= tc
