@@ -294,9 +294,8 @@ unsafe fn build_lanes_with<V: F64x, const SEG: usize>(
     }
 }
 
-/// The lane-layout copy ([`build_lanes_with`]) at `level` (AVX-512, AVX2, or element by element
-/// at the scalar level; the same copy at every level), for the stability family's streamed
-/// kernel.
+/// The lane-layout copy ([`build_lanes_with`]) at `level` (AVX-512, AVX2, or SSE2 at the
+/// scalar level; the same copy at every level), for the stability family's streamed kernel.
 ///
 /// # Safety
 /// `level` must be a vector level the CPU supports (at most [`crate::simd::level`]).
@@ -317,14 +316,7 @@ pub(crate) unsafe fn build_lanes_at<const SEG: usize>(
             }
             crate::simd::SimdLevel::Avx2 => <__m256d as F64x>::build_lanes::<SEG>(x, a, halo, dst),
             crate::simd::SimdLevel::Scalar => {
-                // the same copy, element by element
-                for c in 0..halo + SEG {
-                    for (h, line) in dst[2 * c..2 * c + 2].iter_mut().enumerate() {
-                        for (r, v) in line.0.iter_mut().enumerate() {
-                            *v = x[a + (8 * h + r) * SEG - halo + c];
-                        }
-                    }
-                }
+                <__m128d as F64x>::build_lanes::<SEG>(x, a, halo, dst)
             }
         }
     }

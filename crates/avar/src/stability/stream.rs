@@ -55,7 +55,7 @@ use crate::kernel::vector::Line;
 use crate::kernel::vector::{F64x, build_lanes_at};
 use crate::simd::SimdLevel;
 #[cfg(target_arch = "x86_64")]
-use std::arch::x86_64::{__m256d, __m512d};
+use std::arch::x86_64::{__m128d, __m256d, __m512d};
 
 /// Spacing (samples) of the checkpoints of c and P.
 const G: usize = 64;
@@ -175,12 +175,12 @@ fn block_sums_fast(b: &[f64], pivot: f64, level: SimdLevel) -> (f64, f64) {
 #[inline(always)]
 unsafe fn block_sums_with<V: F64x>(b: &[f64], pivot: f64) -> (f64, f64) {
     let (w, n) = (V::W, 8 / V::W);
-    assert!(b.len() == G && n <= 2 && n * w == 8);
+    assert!(b.len() == G && n <= 4 && n * w == 8);
     // SAFETY: V's instruction set is available (caller contract); the loads read b[8j..8j + 8]
     // and WEIGHTS[8j..8j + 8] for j < G/8 (length asserted).
     unsafe {
         let pv = V::splat(pivot);
-        let mut s1 = [V::splat(0.0); 2];
+        let mut s1 = [V::splat(0.0); 4];
         let mut s2 = s1;
         for j in 0..G / 8 {
             for h in 0..n {
@@ -651,6 +651,12 @@ impl Stream for __m256d {
     stream_entry_points!("avx2");
 }
 
+/// SSE2, the x86-64 baseline: the scalar level's kernels on x86-64.
+#[cfg(target_arch = "x86_64")]
+impl Stream for __m128d {
+    stream_entry_points!("sse2");
+}
+
 /// The vectors (h, w, acc) of a [`SegState`], NSEG/W of each.
 ///
 /// # Safety
@@ -953,11 +959,40 @@ impl Ring {
     }
 }
 
+/// Which code runs the full chunks: the vector kernels of a level (on x86-64 every level has
+/// them: AVX-512, AVX2, and SSE2 at the scalar level), or the portable code (other
+/// architectures; and the reference of the tests). The same values either way.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Path {
+    Portable,
+    Vector(SimdLevel),
+}
+
+impl Path {
+    /// The path of `level` on this architecture.
+    fn of(level: SimdLevel) -> Path {
+        if cfg!(target_arch = "x86_64") {
+            Path::Vector(level)
+        } else {
+            Path::Portable
+        }
+    }
+
+    /// The level of the code outside the chunk kernels (the block sums): the vector level, or
+    /// the scalar level for the portable path.
+    fn level(self) -> SimdLevel {
+        match self {
+            Path::Portable => SimdLevel::Scalar,
+            Path::Vector(l) => l,
+        }
+    }
+}
+
 /// The partial sums of chunk `i` (segment length SEG) for every scale of `batch`, into `out`.
-/// Full chunks run the vector kernel of `level` (AVX-512 or AVX2), all scales per column block,
-/// reading the lagged rows from the `ring` where it holds them; the others (and every chunk at
-/// the scalar level) run [`seg_sum`] per segment. The same value either way. `level` must not
-/// exceed [`crate::simd::level`].
+/// On a vector `path` full chunks run the vector kernel of its level, all scales per column
+/// block, reading the lagged rows from the `ring` where it holds them; the others (and every
+/// chunk on the portable path) run [`seg_sum`] per segment. The same value either way. The
+/// level must not exceed [`crate::simd::level`].
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn chunk_partials<const SEG: usize>(
@@ -966,7 +1001,7 @@ fn chunk_partials<const SEG: usize>(
     kind: Diff,
     batch: &[usize],
     i: usize,
-    level: SimdLevel,
+    path: Path,
     ring: Option<&Ring>,
     (states, xt): &mut (Vec<SegState>, Vec<Line>),
     out: &mut [f64],
@@ -974,10 +1009,11 @@ fn chunk_partials<const SEG: usize>(
     let t = y.len();
     let a = i * NSEG * SEG;
     let k_end = kind.k_end(t);
-    let simd = level >= SimdLevel::Avx2;
+    let (simd, level) = (path != Path::Portable, path.level());
     let full = |m: usize| simd && a >= 3 * m + 8 && a + NSEG * SEG + 8 <= t;
     // misalignment (elements) of y[a] and of every row start (SEG is a multiple of 8): the
-    // AVX-512 windows start there (aligned loads); the AVX2 rows are read unaligned from a
+    // AVX-512 windows start there (aligned loads); the AVX2 and SSE2 rows are read unaligned
+    // from a
     let mis = if level == SimdLevel::Avx512 {
         (y.as_ptr().wrapping_add(a) as usize % 64) / 8
     } else {
@@ -995,7 +1031,10 @@ fn chunk_partials<const SEG: usize>(
                     SimdLevel::Avx512 => {
                         <__m512d as Stream>::starts::<SEG>(fr, kind, m, a, &mut st)
                     }
-                    _ => <__m256d as Stream>::starts::<SEG>(fr, kind, m, a, &mut st),
+                    SimdLevel::Avx2 => <__m256d as Stream>::starts::<SEG>(fr, kind, m, a, &mut st),
+                    SimdLevel::Scalar => {
+                        <__m128d as Stream>::starts::<SEG>(fr, kind, m, a, &mut st)
+                    }
                 }
             };
             states.push(st);
@@ -1043,7 +1082,8 @@ fn chunk_partials<const SEG: usize>(
                 unsafe {
                     match level {
                         SimdLevel::Avx512 => run_block::<__m512d, SEG>(kind, src, mis, j0, st),
-                        _ => run_block::<__m256d, SEG>(kind, src, mis, j0, st),
+                        SimdLevel::Avx2 => run_block::<__m256d, SEG>(kind, src, mis, j0, st),
+                        SimdLevel::Scalar => run_block::<__m128d, SEG>(kind, src, mis, j0, st),
                     }
                 }
             }
@@ -1093,7 +1133,8 @@ pub(crate) fn variances(y: &[f64], ms: &[u64], kind: Diff) -> Result<Vec<f64>, A
 /// unit² times m² resp. m⁴) at each m of `ms` (3m ≤ T + 1), streamed from the rate samples `y`.
 /// Errors on non-finite samples (naming the first) and on overflow.
 pub(crate) fn third_diff_sums(y: &[f64], ms: &[u64], kind: Diff) -> Result<Vec<f64>, AvarError> {
-    third_diff_sums_with(y, ms, kind, crate::simd::level(), NEAR_MAX_M, CLASS_STEP)
+    let path = Path::of(crate::simd::level());
+    third_diff_sums_with(y, ms, kind, path, NEAR_MAX_M, CLASS_STEP)
 }
 
 /// Target near chunks per job of the near walk (8.4 M samples), and the fewest jobs: a function
@@ -1122,7 +1163,7 @@ fn near_walk(
     pivot: f64,
     kind: Diff,
     batch: &[usize],
-    level: SimdLevel,
+    path: Path,
     warm: usize,
     sums: &mut [Entry],
 ) -> Vec<f64> {
@@ -1149,12 +1190,12 @@ fn near_walk(
             let mut fr = Frames::local(pivot, g0, last, std::mem::take(buf));
             let mut parts = vec![0.0f64; chunks.len() * w];
             for (i, o) in chunks.zip(parts.chunks_exact_mut(w)) {
-                fr.extend(y, ((i + 1) * schunk).div_ceil(G), level, |g, b| {
+                fr.extend(y, ((i + 1) * schunk).div_ceil(G), path.level(), |g, b| {
                     if let Some(d) = g.checked_sub(a0 / G).and_then(|q| dst.get_mut(q)) {
                         d.p = b;
                     }
                 });
-                chunk_partials::<SEG_NEAR>(y, &fr, kind, batch, i, level, None, scratch, o);
+                chunk_partials::<SEG_NEAR>(y, &fr, kind, batch, i, path, None, scratch, o);
             }
             *buf = fr.ck;
             parts
@@ -1174,21 +1215,24 @@ fn combine(n: usize, idx: &[usize], part: impl Fn(usize, usize) -> f64, out: &mu
     }
 }
 
-/// [`third_diff_sums`] with the SIMD level (lowered to [`crate::simd::level`] if above it), the
-/// near/far threshold and the class step as parameters (tests cover every path on short series
-/// with small values).
+/// [`third_diff_sums`] with the path (its level lowered to [`crate::simd::level`] if above it),
+/// the near/far threshold and the class step as parameters (tests cover every path on short
+/// series with small values).
 fn third_diff_sums_with(
     y: &[f64],
     ms: &[u64],
     kind: Diff,
-    level: SimdLevel,
+    path: Path,
     near_max_m: usize,
     class_step: usize,
 ) -> Result<Vec<f64>, AvarError> {
     // never above the process's level (the vector paths' safety rests on it)
-    let level = level.min(crate::simd::level());
+    let path = match path {
+        Path::Vector(l) => Path::Vector(l.min(crate::simd::level())),
+        Path::Portable => Path::Portable,
+    };
     crate::simd::note(SimdLevel::Scalar);
-    let simd = level >= SimdLevel::Avx2;
+    let simd = path != Path::Portable;
     let t = y.len();
     let k_end = kind.k_end(t);
     let pivot = pivot_of(y);
@@ -1202,7 +1246,7 @@ fn third_diff_sums_with(
     for idx in near.chunks(SCALE_BATCH) {
         let batch: Vec<usize> = idx.iter().map(|&s| ms[s] as usize).collect();
         let w = batch.len();
-        let parts = near_walk(y, pivot, kind, &batch, level, warm, &mut sums);
+        let parts = near_walk(y, pivot, kind, &batch, path, warm, &mut sums);
         combine(n_near, idx, |i, s| parts[i * w + s], &mut out);
     }
     if near.is_empty() {
@@ -1228,14 +1272,14 @@ fn third_diff_sums_with(
         let by_class: Vec<Vec<f64>> = (0..n_cls)
             .into_par_iter()
             .map_init(
-                || (Default::default(), Ring::new(slots, step, level)),
+                || (Default::default(), Ring::new(slots, step, path.level())),
                 |(scratch, ring), r| {
                     let mut parts = vec![0.0f64; (r..n_chunks).step_by(n_cls).len() * w];
                     let walk = (r..n_chunks).step_by(n_cls).zip(parts.chunks_exact_mut(w));
                     for (tc, (i, o)) in walk.enumerate() {
                         ring.put(y, i * schunk, tc);
                         let rg = Some(&*ring);
-                        chunk_partials::<SEG_FAR>(y, &fr, kind, &batch, i, level, rg, scratch, o);
+                        chunk_partials::<SEG_FAR>(y, &fr, kind, &batch, i, path, rg, scratch, o);
                     }
                     parts
                 },
@@ -1302,14 +1346,21 @@ mod tests {
         1, 2, 3, 7, 33, 64, 100, 1000, 1024, 4099, 8192, 16_384, 18_848, 18_000,
     ];
 
-    fn run(y: &[f64], kind: Diff, level: SimdLevel, split: bool) -> Vec<f64> {
+    fn run(y: &[f64], kind: Diff, path: Path, split: bool) -> Vec<f64> {
         // split: scales above 2000 are far, walked in classes of step 2 far chunks
         let (near_max, step) = if split {
             (2000, 2 * NSEG * SEG_FAR)
         } else {
             (NEAR_MAX_M, CLASS_STEP)
         };
-        third_diff_sums_with(y, &MS, kind, level, near_max, step).unwrap()
+        third_diff_sums_with(y, &MS, kind, path, near_max, step).unwrap()
+    }
+
+    /// The portable path and the path of every level up to the process's.
+    fn paths() -> Vec<Path> {
+        std::iter::once(Path::Portable)
+            .chain(crate::simd::levels().into_iter().map(Path::of))
+            .collect()
     }
 
     /// Exact on integer data (where the sums are exact integers below 2^53 per term and the
@@ -1320,15 +1371,15 @@ mod tests {
         for kind in [Diff::Hadamard, Diff::Modified] {
             let want = exact_sums(&y, &MS, kind);
             for split in [false, true] {
-                for level in crate::simd::levels() {
-                    let got = run(&y, kind, level, split);
+                for path in paths() {
+                    let got = run(&y, kind, path, split);
                     for ((g, w), m) in got.iter().zip(&want).zip(MS) {
                         // the terms are exact (integer increments; the restarts carry only the
                         // u² rounding of the compensated checkpoints); a segment sums at most
                         // 1088 positive squares (each exact: an integer below 2^53), each addition
                         // rounding ≤ u of the running sum:
                         // ≤ 1088·u ≈ 1.2e-13 relative, the tree and Neumaier steps add ~u
-                        assert!(rel(*g, *w) < 2e-13, "{kind:?} m {m} {level}: {g} vs {w}");
+                        assert!(rel(*g, *w) < 2e-13, "{kind:?} m {m} {path:?}: {g} vs {w}");
                     }
                 }
             }
@@ -1345,8 +1396,9 @@ mod tests {
         use crate::config::InputKind;
         let y = series(N, 0.0);
         for split in [false, true] {
-            let h = run(&y, Diff::Hadamard, crate::simd::level(), split);
-            let w = run(&y, Diff::Modified, crate::simd::level(), split);
+            let path = Path::of(crate::simd::level());
+            let h = run(&y, Diff::Hadamard, path, split);
+            let w = run(&y, Diff::Modified, path, split);
             for (s, m) in MS.iter().enumerate() {
                 let n_h = (N + 1 - 3 * *m as usize) as f64;
                 let n_w = (N + 2 - 3 * *m as usize) as f64;
@@ -1366,7 +1418,8 @@ mod tests {
         }
     }
 
-    /// Every SIMD level up to the process's level gives the bits of the portable path, at every
+    /// The path of every SIMD level up to the process's level (on x86-64: SSE2 at the scalar
+    /// level, AVX2, AVX-512) gives the bits of the portable path, at every
     /// misalignment of the samples within a cache line; the value for m does not depend on the other scales requested; and
     /// an offset of 10^4 standard deviations changes nothing beyond the rounding of the shifted
     /// samples themselves (u·10^4·std each: relative 1e-12 on the sums).
@@ -1375,16 +1428,16 @@ mod tests {
         let big = series(N + 8, 0.0);
         for kind in [Diff::Hadamard, Diff::Modified] {
             for split in [false, true] {
-                let base = run(&big[..N], kind, SimdLevel::Scalar, split);
+                let base = run(&big[..N], kind, Path::Portable, split);
                 for o in 0..8 {
-                    let portable = run(&big[o..o + N], kind, SimdLevel::Scalar, split);
-                    for level in crate::simd::levels() {
-                        let got = run(&big[o..o + N], kind, level, split);
+                    let portable = run(&big[o..o + N], kind, Path::Portable, split);
+                    for path in paths() {
+                        let got = run(&big[o..o + N], kind, path, split);
                         for ((a, b), m) in got.iter().zip(&portable).zip(MS) {
                             assert_eq!(
                                 a.to_bits(),
                                 b.to_bits(),
-                                "{kind:?} {level} offset {o} m {m}"
+                                "{kind:?} {path:?} offset {o} m {m}"
                             );
                         }
                         if o == 0 {
@@ -1400,8 +1453,8 @@ mod tests {
                     (NEAR_MAX_M, CLASS_STEP)
                 };
                 for (s, m) in MS.iter().enumerate() {
-                    let level = crate::simd::level();
-                    let one = third_diff_sums_with(&big[..N], &[*m], kind, level, near_max, step);
+                    let path = Path::of(crate::simd::level());
+                    let one = third_diff_sums_with(&big[..N], &[*m], kind, path, near_max, step);
                     assert_eq!(one.unwrap()[0].to_bits(), base[s].to_bits(), "m {m}");
                 }
             }
@@ -1451,7 +1504,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| run(&y, kind, crate::simd::level(), split))
+                .install(|| run(&y, kind, Path::of(crate::simd::level()), split))
         };
         for kind in [Diff::Hadamard, Diff::Modified] {
             for split in [false, true] {
