@@ -3,7 +3,8 @@
 # (issue 29: aarch64 gets the portable kernels; this shows that it builds and that its tests
 # pass there). Not part of CI: under emulation the suite takes far longer than CI allows.
 #
-#   bash scripts/aarch64-qemu.sh                    # every crate but the Python package
+#   bash scripts/aarch64-qemu.sh                    # every crate but the Python package, every
+#                                                   # test binary even after a failure
 #   bash scripts/aarch64-qemu.sh -p imunoise-avar   # one crate (any `cargo test` arguments)
 #
 # Installs what it needs when absent: the rustup target (std for aarch64), Debian's cross gcc
@@ -48,6 +49,6 @@ export CC_aarch64_unknown_linux_gnu=aarch64-linux-gnu-gcc
 export QEMU_LD_PREFIX=$sysroot
 
 if [ $# -eq 0 ]; then
-    set -- --workspace --exclude imunoise-python
+    set -- --workspace --exclude imunoise-python --no-fail-fast
 fi
 cargo test --target "$target" "$@"
