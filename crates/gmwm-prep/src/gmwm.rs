@@ -212,7 +212,8 @@ pub struct Convergence {
     pub gradient_norm: f64,
     /// Objective Q(θ̂) = (ν̂ − ν(θ̂))ᵀ Ω (ν̂ − ν(θ̂)).
     pub objective: f64,
-    /// Which start (0 = best grid point) gave the retained solution.
+    /// Which start (0 = best grid point; the grid's come first, then the warm starts of
+    /// [`fit_with_starts`]) gave the retained solution.
     pub start: usize,
     /// Number of starts run.
     pub starts: usize,
@@ -1289,6 +1290,106 @@ impl Problem {
     }
 }
 
+/// Factor on the variance of a component that a warm start lacks ([`fit_with_starts`]): its
+/// AV is 1e-10 of the best grid start's for that component (B and a drift's ω, whose AV goes
+/// as their square, get its square root). Small enough that the start's objective is the
+/// warm model's to ~1e-8 relative (each whitened residual moves by at most 1e-10·√(EDF/2)
+/// times the component's share of the AV), so the fit ends at most there; a second start
+/// from the same model gives the lacking components the grid start's full value, from
+/// which they need not grow.
+pub const WARM_START_SCALE: f64 = 1e-10;
+
+impl Problem {
+    /// The θ of each warm start (see [`fit_with_starts`]), with `grid` (the best grid start)
+    /// filling the components it lacks.
+    fn warm_starts(&self, warm: &[Model], grid: &[f64]) -> Result<Vec<Vec<f64>>> {
+        let mut out = Vec::new();
+        for w in warm {
+            out.push(self.warm_start(w, grid, WARM_START_SCALE)?);
+            if w.components().len() < self.kinds.len() {
+                out.push(self.warm_start(w, grid, 1.0)?);
+            }
+        }
+        Ok(out)
+    }
+
+    /// One warm start; `scale`: the factor on the variance of the components `warm` lacks.
+    fn warm_start(&self, warm: &Model, grid: &[f64], scale: f64) -> Result<Vec<f64>> {
+        let same = |a: ProcessKind, b: ProcessKind| {
+            a == b
+                || matches!(
+                    (a, b),
+                    (
+                        ProcessKind::BiasInstability(_),
+                        ProcessKind::BiasInstability(_)
+                    )
+                )
+        };
+        let mut th = grid.to_vec();
+        let mut used = vec![false; self.kinds.len()];
+        for comp in warm.components() {
+            let Some(p) = comp.process() else {
+                return Err(FitError::InvalidArgument(format!(
+                    "a warm start needs values: {warm}"
+                )));
+            };
+            let c = (0..self.kinds.len())
+                .find(|&c| !used[c] && same(self.kinds[c], p.kind()))
+                .ok_or_else(|| {
+                    FitError::InvalidArgument(format!(
+                        "the warm start {warm} has a component {} that the model lacks",
+                        p.kind()
+                    ))
+                })?;
+            used[c] = true;
+            let at = self.offsets[c];
+            let v = p.params();
+            if v.len() != self.kinds[c].n_params() {
+                return Err(FitError::InvalidArgument(format!(
+                    "the warm start's {} has {} parameters, not {}",
+                    p.kind(),
+                    v.len(),
+                    self.kinds[c].n_params()
+                )));
+            }
+            th[at..at + v.len()].copy_from_slice(&v);
+        }
+        for c in (0..self.kinds.len()).filter(|&c| !used[c]) {
+            let at = self.offsets[c];
+            let kd = self.kinds[c];
+            let n = kd.n_params();
+            match kd {
+                ProcessKind::BiasInstability(_) | ProcessKind::Drift => th[at] *= scale.sqrt(),
+                ProcessKind::Sinusoid | ProcessKind::Plp | ProcessKind::Fgn => th[at] *= scale,
+                // the variance comes last: WN, QN, RW (one parameter), AR1, GM, MA1, AR(p), ARMA
+                _ => th[at + n - 1] *= scale,
+            }
+        }
+        // the λ chain in model order: φ increasing (AR1), β decreasing (GM), within a kind
+        for kd in [ProcessKind::Ar1, ProcessKind::GaussMarkov] {
+            let idx: Vec<usize> = self
+                .chain
+                .iter()
+                .copied()
+                .filter(|&c| self.kinds[c] == kd)
+                .collect();
+            let mut pairs: Vec<[f64; 2]> = idx
+                .iter()
+                .map(|&c| [th[self.offsets[c]], th[self.offsets[c] + 1]])
+                .collect();
+            if kd == ProcessKind::Ar1 {
+                pairs.sort_by(|a, b| a[0].total_cmp(&b[0]));
+            } else {
+                pairs.sort_by(|a, b| b[0].total_cmp(&a[0]));
+            }
+            for (&c, v) in idx.iter().zip(pairs) {
+                th[self.offsets[c]..self.offsets[c] + 2].copy_from_slice(&v);
+            }
+        }
+        Ok(th)
+    }
+}
+
 /// The template with every BI's AUTO band set to the curve's scales (first to last m).
 pub(crate) fn resolve_bands(curve: &AvCurve, template: &Model) -> Result<Model> {
     let has_auto = template
@@ -1397,13 +1498,62 @@ fn problem_with_whitening(
 /// # Ok::<(), gmwm_prep::FitError>(())
 /// ```
 pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<GmwmFit> {
+    fit_with_starts(curve, template, opts, &[])
+}
+
+/// [`fit`] with warm starts: besides the grid's `opts.n_starts` starting points, the
+/// optimizer starts from each model of `warm` — a fitted model with values, typically the
+/// optimum of a nested sub-model of `template` (fewer components; e.g. [`GmwmFit::model`]).
+/// Each of its components goes to the first unused component of `template` of the same kind
+/// (BI of any band); a component of `template` that it lacks takes its value from the best
+/// grid start, its variance scaled by [`WARM_START_SCALE`] (practically absent; a second
+/// start from the same model keeps the grid's value); AR1/GM of
+/// one kind are then put in the order [`PhiRange::Positive`] needs (φ increasing). Of all
+/// starts the solution of least objective is kept, a grid start's on a tie, so the fit is
+/// never worse than [`fit`]'s with the same Ω. With one Ω for both fits (e.g.
+/// [`Weighting::Full`]) the objective is at most the warm start's, i.e. the nested model's
+/// plus the tiny contribution of the components it lacks (the optimizer only accepts
+/// decreasing steps), whatever local optimum the grid starts reach: adding components can
+/// then never raise the minimum found. ([`Weighting::Diagonal`] reweights Ω from the fitted
+/// curve after the first fit; the warm starts enter that first fit.)
+///
+/// Errors: those of [`fit`], and a warm start without values or with a component that
+/// `template` lacks ([`FitError::InvalidArgument`]).
+///
+/// ```
+/// use gmwm_prep::{AvCurve, inference::diagonal_covariance, theory::model_avar};
+/// use gmwm_prep::gmwm::{fit, fit_with_starts, GmwmOptions, Weighting};
+/// let truth: processes::Model = "WN(sigma2=1e-4) + AR1(phi=0.99, sigma2=1e-7)".parse()?;
+/// let m: Vec<u64> = (1..=16).map(|j| 1u64 << j).collect();
+/// let mut av = model_avar(&truth, &m, 100.0)?;
+/// av.iter_mut().step_by(2).for_each(|a| *a *= 1.01); // not an exact curve: Q > 0
+/// let curve = AvCurve::from_m(&m, &av, 100.0)?.with_n(1_000_000);
+/// // one Ω for all fits, so that their objectives compare
+/// let w = Weighting::Full(diagonal_covariance(&curve));
+/// let o = GmwmOptions { weighting: w, ..Default::default() };
+/// // WN + RW + AR1 warm-started from the fit of its sub-model WN + AR1
+/// let sub = fit(&curve, &"WN + AR1".parse()?, &o)?;
+/// let f = fit_with_starts(&curve, &"WN + RW + AR1".parse()?, &o, &[sub.model.clone()])?;
+/// // the grid's, then two warm ones (RW practically absent, and RW at the grid's value)
+/// assert_eq!(f.convergence.starts, o.n_starts + 2);
+/// assert!(f.convergence.objective <= sub.convergence.objective * (1.0 + 1e-8));
+/// // a component the template does not have is an error
+/// assert!(fit_with_starts(&curve, &"WN".parse()?, &o, &[sub.model]).is_err());
+/// # Ok::<(), gmwm_prep::FitError>(())
+/// ```
+pub fn fit_with_starts(
+    curve: &AvCurve,
+    template: &Model,
+    opts: &GmwmOptions,
+    warm: &[Model],
+) -> Result<GmwmFit> {
     crate::magnitude::check(curve)?;
     let template = &resolve_bands(curve, template)?;
     if matches!(
         opts.weighting,
         Weighting::ModelDiagonal | Weighting::ModelFull
     ) {
-        return fit_model_weighted(curve, template, opts);
+        return fit_model_weighted(curve, template, opts, warm);
     }
     curve.validate()?;
     let kinds = check_template(template, opts.phi_range)?;
@@ -1416,7 +1566,13 @@ pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<Gmwm
         });
     }
     let prob = build_problem(curve, kinds.clone(), opts, None)?;
-    let starts = prob.starts(opts.n_starts);
+    let mut starts = prob.starts(opts.n_starts);
+    let warm = starts
+        .first()
+        .map(|grid| prob.warm_starts(warm, grid))
+        .transpose()?
+        .unwrap_or_default();
+    starts.extend(warm);
     let (mut eta, mut conv) = prob.run(&starts, opts.max_iter)?;
     let mut prob_final = prob;
     if opts.weighting == Weighting::Diagonal {
@@ -1465,20 +1621,26 @@ pub fn fit(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<Gmwm
 
 /// [`Weighting::ModelDiagonal`] / [`Weighting::ModelFull`]: the diagonal fit, then Ω from
 /// the model covariance of the AV at the previous estimate, iterated.
-fn fit_model_weighted(curve: &AvCurve, template: &Model, opts: &GmwmOptions) -> Result<GmwmFit> {
+fn fit_model_weighted(
+    curve: &AvCurve,
+    template: &Model,
+    opts: &GmwmOptions,
+    warm: &[Model],
+) -> Result<GmwmFit> {
     let n = curve.n.ok_or_else(|| {
         FitError::InvalidArgument(
             "model-based weighting needs the series length n of the curve (AvCurve::with_n)".into(),
         )
     })?;
     let full = opts.weighting == Weighting::ModelFull;
-    let first = fit(
+    let first = fit_with_starts(
         curve,
         template,
         &GmwmOptions {
             weighting: Weighting::Diagonal,
             ..opts.clone()
         },
+        warm,
     )?;
     let kinds = first.kinds.clone();
     let m = curve.m();
@@ -1590,6 +1752,7 @@ pub fn fitted_processes(fit: &GmwmFit) -> Vec<Process> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::CurvePoint;
     use crate::theory::model_avar;
 
     fn exact_curve(model: &str, rate: f64, jmax: u32) -> AvCurve {
@@ -1741,5 +1904,88 @@ mod tests {
             fit(&curve, &"WN".parse().unwrap(), &full),
             Err(FitError::InvalidMatrix(_))
         ));
+    }
+
+    /// The ADIS16405 imu1 gyro z curve (`imunoise analyze adis16405_imu1.csv.gz --rate 100`,
+    /// n = 10^6; m, AV in (°/s)², EDF of the chi-square CI): a sinusoid of β ≈ 1.26 rad per
+    /// sample over a short correlation and a random walk. A fit with two SINs on this curve
+    /// has local optima far apart (objective ~5 against ~3400 with one common Ω).
+    fn adis16405_gyro_z() -> AvCurve {
+        let rows: [(u64, f64, f64); 18] = [
+            (2, 0.14743427230281697, 534354.9679113559),
+            (4, 0.03617363212167488, 304282.5975937749),
+            (8, 0.02179317730781588, 167832.05777992654),
+            (16, 0.009306091345277014, 86289.03771084605),
+            (32, 0.004672943321210476, 43345.82086314648),
+            (64, 0.002285729804591918, 21347.104620467144),
+            (128, 0.0011933216256583402, 11250.45590167642),
+            (256, 0.0005967903245408985, 5680.34456120731),
+            (512, 0.0003014118428026595, 2655.2729958719337),
+            (1024, 0.00016332261901976094, 1144.370676382192),
+            (2048, 9.833474912742827e-5, 571.2702791845778),
+            (4096, 7.155582223529285e-5, 242.0967527305695),
+            (8192, 6.54770671152592e-5, 115.28415939195195),
+            (16384, 7.595539094440219e-5, 55.03082076921167),
+            (32768, 8.561470905289341e-5, 26.749576845267242),
+            (65536, 0.00017670617981550707, 12.612479598392481),
+            (131072, 0.00034108806581313356, 5.5537109803259455),
+            (262144, 0.00043326879683824117, 2.071831572287974),
+        ];
+        let points = rows
+            .iter()
+            .map(|&(m, avar, edf)| CurvePoint {
+                edf: Some(edf),
+                ..CurvePoint::new(m, m as f64 / 100.0, avar)
+            })
+            .collect();
+        AvCurve::new(points, 100.0, Some(1_000_000)).unwrap()
+    }
+
+    /// Adding components can never raise the minimum of the objective with one Ω: the model
+    /// reproduces any nested one with the added components at zero. So the fit of
+    /// QN + WN + RW + BI + 2·SIN + 2·AR1 warm-started from the optimum of its sub-model
+    /// QN + WN + RW + BI + SIN + 2·AR1 must end at most at that model's objective (the
+    /// optimizer accepts only decreasing steps; the tolerance 1e-8 covers the start's excess
+    /// from the second SIN at [`WARM_START_SCALE`] of its grid AV). From the grid alone
+    /// (2 starts, as in the backward search) it did not: 3376.9 against the sub-model's
+    /// 46.5 on x86-64, the local optimum that aarch64 also reached for the full model in
+    /// `analyze`; warm-started 5.01.
+    #[test]
+    fn a_warm_start_from_a_nested_model_bounds_the_objective() {
+        let curve = adis16405_gyro_z();
+        let o = GmwmOptions {
+            weighting: Weighting::Full(crate::inference::diagonal_covariance(&curve)),
+            n_starts: 2,
+            ..Default::default()
+        };
+        let sub = fit(
+            &curve,
+            &"QN + WN + RW + BI + SIN + 2*AR1".parse().unwrap(),
+            &o,
+        )
+        .unwrap();
+        let full: Model = "QN + WN + RW + BI + 2*SIN + 2*AR1".parse().unwrap();
+        let f = fit_with_starts(&curve, &full, &o, std::slice::from_ref(&sub.model)).unwrap();
+        let (q, q_sub) = (f.convergence.objective, sub.convergence.objective);
+        assert!(q <= q_sub * (1.0 + 1e-8), "{q} > {q_sub}");
+        // two warm starts after the grid's: the second SIN practically absent, and at the
+        // grid's value
+        assert_eq!(f.convergence.starts, 4);
+    }
+
+    #[test]
+    fn a_warm_start_must_fit_the_template() {
+        let curve = adis16405_gyro_z();
+        let o = GmwmOptions::default();
+        let wn: Model = "WN".parse().unwrap();
+        // a component the template lacks, a slot without values
+        for w in ["RW(gamma2=1e-9)", "WN"] {
+            let r = fit_with_starts(&curve, &wn, &o, &[w.parse().unwrap()]);
+            assert!(matches!(r, Err(FitError::InvalidArgument(_))), "{w}: {r:?}");
+        }
+        // a BI of another band goes to the template's BI
+        let bi: Model = "WN + BI".parse().unwrap();
+        let w: Model = "BI(B=0.01, m_lo=4, m_hi=64)".parse().unwrap();
+        assert!(fit_with_starts(&curve, &bi, &o, &[w]).is_ok());
     }
 }

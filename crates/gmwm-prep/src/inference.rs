@@ -10,7 +10,7 @@
 
 use crate::curve::AvCurve;
 use crate::error::{FitError, Result};
-use crate::gmwm::{CovMatrix, GmwmFit, GmwmOptions, PhiRange, Weighting, fit};
+use crate::gmwm::{CovMatrix, GmwmFit, GmwmOptions, PhiRange, Weighting, fit, fit_with_starts};
 use crate::stats::{chi2_sf, z_two_sided};
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
@@ -402,7 +402,15 @@ pub const CANDIDATE_STARTS: usize = 2;
 ///   search always moves off it); then the same from the kept model, down to one component.
 ///   At most k + (k−1) + … + 1 fits for k components (36 for 8, against 96), every fitted
 ///   model a candidate. The candidate fits start from the best [`CANDIDATE_STARTS`] grid
-///   points. Models the record cannot fit (more parameters than scales) or identify (a
+///   points and from warm starts ([`fit_with_starts`]): before the full model, a forward
+///   chain from the whole core adds the BI/SIN components one at a time (e.g.
+///   `QN+WN+RW+BI+2*AR1`, then `QN+WN+RW+BI+SIN+2*AR1`), each link and then the full model
+///   also started from the best fitted model nested in it (least objective; with the one Ω
+///   its objective bounds theirs); each model of the backward walk also from its parent's
+///   optimum without the removed component. A model with two SINs has local optima far apart
+///   (on the ADIS16405 imu1 gyro z curve objectives ~4 and ~3400, the grid reaching one or
+///   the other as the CPU's last bits of rounding fell, so x86-64 and aarch64 walked
+///   different paths); grown from its nested models it does not hang on that. Models the record cannot fit (more parameters than scales) or identify (a
 ///   component the data do not need vanishes: singular AᵀΩA) count as WIC = +∞, so the
 ///   search walks through them, and the core's exhaustive part covers what such a walk can
 ///   miss (on an exact WN + RW curve of 10 scales the walk alone ends at WN + AR1). Backward rather than forward: the small models miss whole regions of
@@ -480,7 +488,8 @@ pub fn select_by_wic(
         if let Some((_, c)) = seen.iter().find(|(s, _)| *s == sub) {
             return Ok(c.clone());
         }
-        let c = fit_candidate(curve, &sub, &common, v, j)?;
+        let warm: Vec<Model> = best_nested(seen, &sub).into_iter().collect();
+        let c = fit_candidate(curve, &sub, &common, v, j, &warm)?;
         seen.push((sub, c.clone()));
         Ok(c)
     };
@@ -516,41 +525,95 @@ pub fn select_by_wic(
             let fitted: Vec<Result<Option<Candidate>>> = {
                 use rayon::prelude::*;
                 core.par_iter()
-                    .map(|sub| fit_candidate(curve, sub, &search, v, j))
+                    .map(|sub| fit_candidate(curve, sub, &search, v, j, &[]))
                     .collect()
             };
             for (sub, c) in core.into_iter().zip(fitted) {
                 seen.push((sub, c?));
             }
         }
+        // the forward chain from the whole core to the full model, one BI/SIN added at a
+        // time (model order), each link warm-started from the best fitted model nested in it
+        // (the previous link, or a better one): every link, and then the full model, starts
+        // from where the smaller ones got, so the full model's optimum does not hang on
+        // which local optimum its grid starts happen to reach
+        let is_core =
+            |k: &ProcessKind| !matches!(k, ProcessKind::BiasInstability(_) | ProcessKind::Sinusoid);
+        let mut keep: Vec<bool> = kinds.iter().map(is_core).collect();
+        for add in 0..k {
+            if keep[add] {
+                continue;
+            }
+            keep[add] = true;
+            if keep.iter().all(|x| *x) {
+                break;
+            }
+            let link: Vec<ProcessKind> = (0..k).filter(|&i| keep[i]).map(|i| kinds[i]).collect();
+            if seen.iter().any(|(s, _)| *s == link) {
+                continue;
+            }
+            let warm: Vec<Model> = best_nested(&seen, &link).into_iter().collect();
+            let c = fit_candidate(curve, &link, &search, v, j, &warm)?;
+            seen.push((link, c));
+        }
         let wic_of = |c: &Option<Candidate>| c.as_ref().map_or(f64::INFINITY, |c| c.wic);
         let mut current = kinds.clone();
         let mut current_wic = wic_of(&evaluate(&mut seen, current.clone())?);
         while current.len() > 1 {
             // the children not fitted yet, in parallel (they are independent fits)
-            let mut children: Vec<Vec<ProcessKind>> = Vec::new();
+            // each child with its warm starts: the parent's optimum without the removed
+            // component (one per distinct removal), and the best fitted model nested in it
+            let parent = seen
+                .iter()
+                .find(|(s, _)| *s == current)
+                .and_then(|(_, c)| c.as_ref())
+                .map(|c| c.model.parse::<Model>())
+                .transpose()?;
+            let mut children: Vec<(Vec<ProcessKind>, Vec<Model>)> = Vec::new();
             for drop in 0..current.len() {
                 let mut sub = current.clone();
                 sub.remove(drop);
-                if !children.contains(&sub) {
-                    children.push(sub);
+                let warm = match &parent {
+                    Some(p) => {
+                        let mut comps = p.components().to_vec();
+                        comps.remove(drop);
+                        Some(Model::new(comps)?)
+                    }
+                    None => None,
+                };
+                match children.iter_mut().find(|(s, _)| *s == sub) {
+                    Some((_, w)) => {
+                        if let Some(m) = warm
+                            && !w.contains(&m)
+                        {
+                            w.push(m);
+                        }
+                    }
+                    None => children.push((sub, warm.into_iter().collect())),
                 }
             }
-            let todo: Vec<&Vec<ProcessKind>> = children
+            for (sub, w) in &mut children {
+                if let Some(m) = best_nested(&seen, sub)
+                    && !w.contains(&m)
+                {
+                    w.push(m);
+                }
+            }
+            let todo: Vec<&(Vec<ProcessKind>, Vec<Model>)> = children
                 .iter()
-                .filter(|c| !seen.iter().any(|(s, _)| s == *c))
+                .filter(|(c, _)| !seen.iter().any(|(s, _)| s == c))
                 .collect();
             let fitted: Vec<Result<Option<Candidate>>> = {
                 use rayon::prelude::*;
                 todo.par_iter()
-                    .map(|sub| fit_candidate(curve, sub, &search, v, j))
+                    .map(|(sub, warm)| fit_candidate(curve, sub, &search, v, j, warm))
                     .collect()
             };
-            for (sub, c) in todo.iter().zip(fitted) {
-                seen.push(((*sub).clone(), c?));
+            for ((sub, _), c) in todo.iter().zip(fitted) {
+                seen.push((sub.clone(), c?));
             }
             let mut best: Option<(Vec<ProcessKind>, f64)> = None;
-            for sub in children {
+            for (sub, _) in children {
                 let w = wic_of(&evaluate(&mut seen, sub.clone())?);
                 if best.as_ref().is_none_or(|(_, b)| w < *b) {
                     best = Some((sub, w));
@@ -570,14 +633,42 @@ pub fn select_by_wic(
     Ok(out)
 }
 
+/// The fitted model of least objective among the candidates in `seen` whose components are
+/// a proper sub-multiset of `kinds` (a warm start for the fit of `kinds`, see
+/// [`fit_with_starts`]); with one Ω for all candidates its objective bounds the fit's.
+fn best_nested(
+    seen: &[(Vec<ProcessKind>, Option<Candidate>)],
+    kinds: &[ProcessKind],
+) -> Option<Model> {
+    let nested = |s: &[ProcessKind]| {
+        s.len() < kinds.len() && {
+            let mut left = kinds.to_vec();
+            s.iter().all(|k| match left.iter().position(|x| x == k) {
+                Some(i) => {
+                    left.remove(i);
+                    true
+                }
+                None => false,
+            })
+        }
+    };
+    seen.iter()
+        .filter(|(s, _)| nested(s))
+        .filter_map(|(_, c)| c.as_ref())
+        .min_by(|a, b| a.objective.total_cmp(&b.objective))
+        .and_then(|c| c.model.parse().ok())
+}
+
 /// The candidate of one sub-model with the common weighting, or None when it has more
-/// parameters than the `j` scales, cannot be fitted or is not identifiable.
+/// parameters than the `j` scales, cannot be fitted or is not identifiable; `warm`: extra
+/// starting points ([`fit_with_starts`]).
 fn fit_candidate(
     curve: &AvCurve,
     sub: &[ProcessKind],
     common: &GmwmOptions,
     v: &CovMatrix,
     j: usize,
+    warm: &[Model],
 ) -> Result<Option<Candidate>> {
     let template = Model::new(sub.iter().map(|&x| Component::Slot(x)).collect())?;
     if template.n_params() > j {
@@ -586,7 +677,7 @@ fn fit_candidate(
     // a sub-model that cannot be fitted or whose parameters are not identifiable from
     // these scales (e.g. an AR1 that collapsed onto another component) is not a candidate;
     // it must not abort the selection among the others
-    let f = match fit(curve, &template, common) {
+    let f = match fit_with_starts(curve, &template, common, warm) {
         Ok(f) => f,
         Err(
             FitError::OptimizationFailed(_)
