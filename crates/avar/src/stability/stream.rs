@@ -18,8 +18,9 @@
 //! every [`G`] samples as compensated pairs, [`Frames`]; directly from the samples for m < G)
 //! and carries the recurrence over its length only, so rounding cannot drift beyond one segment.
 //! With AVX-512 the 16 segments of a chunk are the lanes of two vectors (the e rows are
-//! transposed in registers, the loads aligned to cache lines), with AVX2 of four (the rows read
-//! unaligned); the kernels are written once over the vector type ([`Stream`]).
+//! transposed in registers, the loads aligned to cache lines), with AVX2 of four and with SSE2
+//! (the scalar level on x86-64) of eight (the rows read unaligned); the kernels are written once
+//! over the vector type ([`Stream`]). Other architectures run the portable code.
 //!
 //! Near scales (m ≤ [`NEAR_MAX_M`]) walk the chunks in order, in parallel jobs, all scales per
 //! chunk while its samples are in cache (the lagged rows were read shortly before); each job
@@ -150,7 +151,8 @@ fn block_sums(b: &[f64], pivot: f64) -> (f64, f64) {
     (lane_tree(s1), lane_tree(s2))
 }
 
-/// [`block_sums`] with AVX-512 or AVX2 at those levels (the same lanes, operations and tree,
+/// [`block_sums`] with AVX-512 or AVX2 at those levels, the portable code at the scalar level
+/// (the same lanes, operations and tree,
 /// so the same values). `level` must not exceed [`crate::simd::level`].
 #[inline(always)]
 fn block_sums_fast(b: &[f64], pivot: f64, level: SimdLevel) -> (f64, f64) {
