@@ -152,8 +152,8 @@ fn block_sums(b: &[f64], pivot: f64) -> (f64, f64) {
 }
 
 /// [`block_sums`] with AVX-512 or AVX2 at those levels, the portable code at the scalar level
-/// (the same lanes, operations and tree,
-/// so the same values). `level` must not exceed [`crate::simd::level`].
+/// (the same lanes, operations and tree, so the same values). `level` must not exceed
+/// [`crate::simd::level`].
 #[inline(always)]
 fn block_sums_fast(b: &[f64], pivot: f64, level: SimdLevel) -> (f64, f64) {
     #[cfg(target_arch = "x86_64")]
