@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The workspace's tests on aarch64-unknown-linux-gnu under qemu-user, on an x86-64 Debian host
-# (issue 29: aarch64 gets the portable kernels; this shows that it builds and that its tests
-# pass there). Not part of CI: under emulation the suite takes far longer than CI allows.
+# (issue 29: aarch64 runs the NEON kernels at its one level, scalar; this shows that it builds
+# and that its tests pass there). Not part of CI: under emulation the suite takes far longer
+# than CI allows.
 #
 #   bash scripts/aarch64-qemu.sh                    # every crate but the Python package, every
 #                                                   # test binary even after a failure

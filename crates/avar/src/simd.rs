@@ -6,9 +6,9 @@
 //!
 //! * [`SimdLevel::Avx512`]: AVX-512F (x86-64 only; AVX2 and FMA are required with it);
 //! * [`SimdLevel::Avx2`]: AVX2 and FMA (x86-64 only);
-//! * [`SimdLevel::Scalar`]: the architecture's baseline instruction set: on x86-64 the streamed
-//!   MOAV kernel's SSE2 walk (two lanes per vector; every x86-64 CPU has SSE2) and the portable
-//!   code elsewhere; on other architectures the portable code.
+//! * [`SimdLevel::Scalar`]: the architecture's baseline instruction set: the streamed kernels'
+//!   two-lane f64 vectors where the baseline has them (SSE2 on x86-64, NEON on aarch64: every CPU
+//!   of those targets has them), the portable code elsewhere and in the other kernels.
 //!
 //! [`level`] is the lower of [`detected`] (what the CPU reports) and the cap read once from the
 //! environment variable `IMUNOISE_SIMD` (`scalar`, `avx2` or `avx512`, case-insensitive): a cap
@@ -23,11 +23,12 @@
 //! operations in the same order run at every level and on every architecture.
 //!
 //! What `scalar` means: nothing beyond the instruction set every CPU of the build's target has.
-//! On x86-64 that is SSE2 (part of the x86-64 baseline): the streamed MOAV kernel's chunk walk
-//! runs with SSE2 vectors of two f64, the other kernels run their portable Rust code compiled
-//! for the baseline (which the compiler may vectorise with SSE2 pairs); no AVX, no FMA. So
-//! `IMUNOISE_SIMD=scalar` runs what an x86-64 CPU without AVX2 runs. On aarch64 the portable
-//! code runs (NEON, part of the aarch64 baseline, where the compiler uses it).
+//! On x86-64 that is SSE2 (part of the x86-64 baseline): the streamed kernels (the MOAV chunk
+//! walk, the stability family's) run with SSE2 vectors of two f64, the other kernels run their
+//! portable Rust code compiled for the baseline (which the compiler may vectorise with SSE2
+//! pairs); no AVX, no FMA. So `IMUNOISE_SIMD=scalar` runs what an x86-64 CPU without AVX2 runs.
+//! On aarch64 the same streamed kernels run with NEON vectors of two f64 (NEON is part of the
+//! aarch64 baseline, and the only level there); on other architectures the portable code runs.
 //!
 //! ```
 //! use avar::simd::{SimdLevel, capped, detected, level};
@@ -56,9 +57,9 @@ pub const ENV_VAR: &str = "IMUNOISE_SIMD";
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug)]
 #[repr(u8)]
 pub enum SimdLevel {
-    /// The architecture's baseline: on x86-64 SSE2 (the streamed MOAV walk's two-lane vectors,
-    /// elsewhere the portable code compiled for the baseline), no AVX and no FMA; on other
-    /// architectures the portable code.
+    /// The architecture's baseline: the streamed kernels' two-lane vectors of SSE2 on x86-64 and
+    /// NEON on aarch64 (elsewhere the portable code compiled for the baseline), no AVX and no
+    /// FMA; on other architectures the portable code.
     Scalar = 1,
     /// AVX2 (x86-64; detected together with FMA, which the kernels do not use).
     Avx2 = 2,

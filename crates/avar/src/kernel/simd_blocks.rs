@@ -1,6 +1,6 @@
-//! The SIMD block sums of the streamed MOAV kernel: on x86-64 the [`NSEG`] segments of a chunk
-//! are vector lanes (eight per AVX-512 vector, four per AVX2 vector, two per SSE2 vector at the
-//! scalar level; the level of [`crate::simd::level`]) and the chunk is walked in column blocks
+//! The SIMD block sums of the streamed MOAV kernel: on x86-64 and aarch64 the [`NSEG`] segments
+//! of a chunk are vector lanes (eight per AVX-512 vector, four per AVX2 vector, two per SSE2 or
+//! NEON vector at the scalar level; the level of [`crate::simd::level`]) and the chunk is walked in column blocks
 //! of [`BLK`], all scales per block ([`chunk_all_with`]): the rows of x are transposed in
 //! registers per scale ([`block_rows_with`]), except for the small scales (2m ≤ [`XH`]), which
 //! share one transposed copy of the chunk, and the far scales that are whole steps of the
@@ -8,29 +8,26 @@
 //! per thread); those run four (AVX2: two, SSE2: one) scales at a time ([`blocks_lanes_with`]).
 //! Every lane performs the operations of [`seg_sum`](super::segments::seg_sum) in the same
 //! order, so the results are those of the portable code ([`chunk_portable`]) bit for bit.
-//! [`chunk_run`] is the entry point of the streamed walks: the vector walk on x86-64, the
-//! portable code per scale on other architectures.
+//! [`chunk_run`] is the entry point of the streamed walks: the vector walk on x86-64 and
+//! aarch64 (cfg `simd_vectors`), the portable code per scale on other architectures.
 
-// the vector paths' helpers (chunk-walk state, lane copies) are used only on x86-64; other
-// architectures build the portable path and leave them unused
-#![cfg_attr(
-    not(target_arch = "x86_64"),
-    allow(dead_code, unused_variables, unused_imports)
-)]
+// the vector paths' helpers (chunk-walk state, lane copies) are used only where the vector
+// paths are built; other architectures build the portable path and leave them unused
+#![cfg_attr(not(simd_vectors), allow(dead_code, unused_variables, unused_imports))]
 
 use super::buffered::SCALE_BATCH;
 use super::compensated::reduce_lanes;
 use super::cumsum::Checkpoints;
 use super::segments::{NSEG, SEG_FAR, SEG_NEAR, SegState, chunk_portable, d_start};
-#[cfg(target_arch = "x86_64")]
-use super::vector::F64x;
 use super::vector::Line;
+#[cfg(simd_vectors)]
+use super::vector::{Base, F64x};
 use crate::simd::SimdLevel;
 
-/// Whether [`chunk_run`] walks full chunks with a vector kernel at every level (x86-64: SSE2 at
-/// the scalar level), so that the far walk keeps a ring of lane copies; other architectures
-/// run the portable code per scale.
-pub(super) const VECTOR_WALK: bool = cfg!(target_arch = "x86_64");
+/// Whether [`chunk_run`] walks full chunks with a vector kernel at every level (SSE2 on x86-64,
+/// NEON on aarch64 at the scalar level), so that the far walk keeps a ring of lane copies;
+/// other architectures run the portable code per scale.
+pub(super) const VECTOR_WALK: bool = cfg!(simd_vectors);
 
 /// Columns of a chunk that [`chunk_all_with`] runs for every scale of a batch before moving on
 /// (the rows of x they read stay in L1 from one scale to the next; for dyadic scales the x_{k−2m}
@@ -55,13 +52,14 @@ const _: () = assert!(XH.is_multiple_of(8) && SEG_NEAR.is_multiple_of(8));
 ///
 /// # Safety
 /// Every function needs the CPU to support the vector's instruction set (see [`F64x`]).
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 pub(super) trait Walk: F64x {
     /// Scales per instruction stream of [`blocks_lanes_with`] (AVX-512: four, 32 state vectors;
-    /// AVX2: two, 16 state vectors, the AVX2 register file; SSE2: one, 16 state vectors).
+    /// AVX2: two, 16 state vectors, the AVX2 register file; SSE2 and NEON: one, 16 state
+    /// vectors).
     const GROUP: usize;
     /// Whether the rows of x are read aligned to cache lines ([`block_rows_with`] with the
-    /// misalignment of the chunk; AVX-512), or unaligned from k = a (AVX2, SSE2).
+    /// misalignment of the chunk; AVX-512), or unaligned from k = a (AVX2, SSE2, NEON).
     const ALIGN_ROWS: bool;
     /// [`block_lanes_with`].
     unsafe fn block_lanes<const N: usize>(
@@ -105,7 +103,7 @@ pub(super) trait Walk: F64x {
 /// The entry points of [`Walk`] for one vector type: each generic kernel compiled with the
 /// target features `$feat` (the functions boundaries of the walk stay where they are for
 /// both vector types).
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 macro_rules! walk_entry_points {
     ($feat:literal) => {
         #[target_feature(enable = $feat)]
@@ -181,13 +179,20 @@ impl Walk for std::arch::x86_64::__m128d {
     walk_entry_points!("sse2");
 }
 
-/// The AVX-512, AVX2 and SSE2 walks.
+/// NEON, the aarch64 baseline: the walk of the scalar level on aarch64 (two lanes per vector,
+/// as SSE2's).
+#[cfg(all(simd_vectors, target_arch = "aarch64"))]
+impl Walk for std::arch::aarch64::float64x2_t {
+    const GROUP: usize = 1;
+    const ALIGN_ROWS: bool = false;
+    walk_entry_points!("neon");
+}
+
+/// The AVX-512 and AVX2 walks (the scalar level's is [`Base`]'s).
 #[cfg(target_arch = "x86_64")]
 type Avx512 = std::arch::x86_64::__m512d;
 #[cfg(target_arch = "x86_64")]
 type Avx2 = std::arch::x86_64::__m256d;
-#[cfg(target_arch = "x86_64")]
-type Sse2 = std::arch::x86_64::__m128d;
 
 /// [`block_rows_with`] for N scales at once from lane-layout copies
 /// (`build_lanes_with` (vector)) in `buf`: for scale q the columns
@@ -200,7 +205,7 @@ type Sse2 = std::arch::x86_64::__m128d;
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn block_lanes_with<V: F64x, const N: usize>(
     buf: &[Line],
@@ -252,7 +257,7 @@ unsafe fn block_lanes_with<V: F64x, const N: usize>(
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn blocks_lanes_with<V: Walk>(
     buf: &[Line],
@@ -295,7 +300,7 @@ unsafe fn blocks_lanes_with<V: Walk>(
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn block_rows_with<V: F64x, const SEG: usize>(
     x: &[f64],
@@ -390,7 +395,7 @@ unsafe fn block_rows_with<V: F64x, const SEG: usize>(
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 unsafe fn chunk_all_with<V: Walk, const SEG: usize>(
@@ -483,7 +488,11 @@ unsafe fn chunk_all_with<V: Walk, const SEG: usize>(
     }
     // the samples of `next`, in one slice per column block (a hint only: no effect on values)
     let per_blk = NSEG * BLK;
+    // (x86-64 only: Rust has no stable prefetch for aarch64)
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (next, per_blk);
     for j0 in (0..SEG).step_by(BLK) {
+        #[cfg(target_arch = "x86_64")]
         if let Some(nx) = next {
             use std::arch::x86_64::{_MM_HINT_T1, _mm_prefetch};
             let lo = nx + (j0 / BLK) * per_blk;
@@ -590,26 +599,28 @@ pub(super) fn chunk_run<const SEG: usize>(
     next: Option<usize>,
     out: &mut [f64],
 ) {
-    #[cfg(target_arch = "x86_64")]
-    match simd {
-        SimdLevel::Avx512 => {
-            crate::simd::note(simd);
-            // SAFETY: `simd` is at most `simd::level()` (the callers pass it or, in tests, a lower
-            // level): AVX-512F present.
-            unsafe { Avx512::chunk_all::<SEG>(x, ck, batch, i, next, scratch, out) };
-        }
-        SimdLevel::Avx2 => {
-            crate::simd::note(simd);
+    #[cfg(simd_vectors)]
+    {
+        crate::simd::note(simd);
+        match simd {
+            // SAFETY: `simd` is at most `simd::level()` (the callers pass it or, in tests, a
+            // lower level): AVX-512F present.
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx512 => unsafe {
+                Avx512::chunk_all::<SEG>(x, ck, batch, i, next, scratch, out)
+            },
             // SAFETY: as above: AVX2 present.
-            unsafe { Avx2::chunk_all::<SEG>(x, ck, batch, i, next, scratch, out) };
-        }
-        SimdLevel::Scalar => {
-            crate::simd::note(simd);
-            // SAFETY: SSE2 is part of the x86-64 baseline: every x86-64 CPU has it.
-            unsafe { Sse2::chunk_all::<SEG>(x, ck, batch, i, next, scratch, out) };
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx2 => unsafe {
+                Avx2::chunk_all::<SEG>(x, ck, batch, i, next, scratch, out)
+            },
+            // SAFETY: the scalar level's vectors are the target's baseline (SSE2 on x86-64,
+            // NEON on aarch64): every CPU of the target has them. (On aarch64 no other level
+            // is ever detected.)
+            _ => unsafe { Base::chunk_all::<SEG>(x, ck, batch, i, next, scratch, out) },
         }
     }
-    #[cfg(not(target_arch = "x86_64"))]
+    #[cfg(not(simd_vectors))]
     {
         let _ = (next, scratch);
         for (o, &m) in out.iter_mut().zip(batch) {
@@ -638,8 +649,8 @@ mod tests {
     }
 
     /// On the chunk grid of segment length SEG: every chunk partial is bit-identical between the
-    /// portable code and [`chunk_run`] at every level up to the process's (SSE2 at the scalar
-    /// level on x86-64, AVX2, AVX-512), and between the SSE2, AVX2 and AVX-512 chunk walks (all scales
+    /// portable code and [`chunk_run`] at every level up to the process's (SSE2 or NEON at the
+    /// scalar level, AVX2, AVX-512), and between those chunk walks (all scales
     /// per column block, aligned windows, transposed copy for small scales) and the portable
     /// code at every misalignment of the data within a cache line.
     fn check_paths<const SEG: usize>(n: usize, ms: &[u64]) {
@@ -663,7 +674,7 @@ mod tests {
                 }
             }
         }
-        #[cfg(target_arch = "x86_64")]
+        #[cfg(simd_vectors)]
         for walk in paths.iter().copied().filter(|w| *w <= best) {
             let big = series(n + 8, 0.0);
             for o in 0..8 {
@@ -679,15 +690,15 @@ mod tests {
                     // SAFETY: `walk` ≤ `level()`: the CPU has its instructions.
                     unsafe {
                         match walk {
+                            #[cfg(target_arch = "x86_64")]
                             SimdLevel::Avx512 => {
                                 Avx512::chunk_all::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
                             }
+                            #[cfg(target_arch = "x86_64")]
                             SimdLevel::Avx2 => {
                                 Avx2::chunk_all::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
                             }
-                            SimdLevel::Scalar => {
-                                Sse2::chunk_all::<SEG>(xo, &cko, ms, i, nx, sc, &mut q)
-                            }
+                            _ => Base::chunk_all::<SEG>(xo, &cko, ms, i, nx, sc, &mut q),
                         }
                     };
                     for (&m, qm) in ms.iter().zip(&q) {

@@ -1,15 +1,18 @@
 //! The f64 vectors of the vector paths as one trait ([`F64x`], for AVX-512's `__m512d`, AVX2's
-//! `__m256d` and SSE2's `__m128d`), so that each vector kernel is written once for every width;
-//! their in-register transposes (8 × 8, 4 × 4, 2 × 2); and the lane-layout copy of a chunk
-//! ([`build_lanes_with`]): the [`NSEG`] rows of a chunk turned into columns, so that the samples
-//! x_{k−λ} of all 16 segments at one column are two aligned 64-byte lines.
+//! `__m256d`, SSE2's `__m128d` and NEON's `float64x2_t`), so that each vector kernel is written
+//! once for every width; their in-register transposes (8 × 8, 4 × 4, 2 × 2); and the
+//! lane-layout copy of a chunk ([`build_lanes_with`]): the [`NSEG`] rows of a chunk turned into
+//! columns, so that the samples x_{k−λ} of all 16 segments at one column are two aligned
+//! 64-byte lines.
+//!
+//! The vector paths are built where the cfg `simd_vectors` is set (by the crate's build script:
+//! x86-64, and aarch64 with NEON); other targets build the portable code only.
 
-// x86-64 only (the vector paths)
-#![cfg_attr(
-    not(target_arch = "x86_64"),
-    allow(dead_code, unused_variables, unused_imports)
-)]
+// the vector paths exist on x86-64 and aarch64 only
+#![cfg_attr(not(simd_vectors), allow(dead_code, unused_variables, unused_imports))]
 
+#[cfg(all(simd_vectors, target_arch = "aarch64"))]
+use std::arch::aarch64::*;
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
@@ -78,6 +81,26 @@ macro_rules! transpose2x2 {
     }};
 }
 
+/// The 2 × 2 transpose of two NEON vectors (rows → columns).
+#[cfg(all(simd_vectors, target_arch = "aarch64"))]
+macro_rules! transpose2x2_neon {
+    ($v:expr) => {{
+        let v = $v;
+        [vzip1q_f64(v[0], v[1]), vzip2q_f64(v[0], v[1])]
+    }};
+}
+
+/// The vector of the scalar level: the two-lane f64 vector of the architecture's baseline,
+/// SSE2's `__m128d` on x86-64, NEON's `float64x2_t` on aarch64 (every CPU of the target has it,
+/// so no run-time check guards it).
+#[cfg(target_arch = "x86_64")]
+pub(crate) type Base = __m128d;
+/// The vector of the scalar level: the two-lane f64 vector of the architecture's baseline,
+/// SSE2's `__m128d` on x86-64, NEON's `float64x2_t` on aarch64 (every CPU of the target has it,
+/// so no run-time check guards it).
+#[cfg(all(simd_vectors, target_arch = "aarch64"))]
+pub(crate) type Base = float64x2_t;
+
 /// Eight f64 on one cache line (the element of the transposed copy).
 #[derive(Clone, Copy, Default)]
 #[repr(C, align(64))]
@@ -91,10 +114,10 @@ pub(crate) struct Line([f64; 8]);
 ///
 /// # Safety
 /// Every function needs the CPU to support the vector's instruction set (AVX-512F for
-/// `__m512d`, AVX2 for `__m256d`, SSE2, which every x86-64 CPU has, for `__m128d`); the pointer
-/// functions also need their addresses to be valid for W f64 (aligned to the vector's size for
-/// `load` and `store`).
-#[cfg(target_arch = "x86_64")]
+/// `__m512d`, AVX2 for `__m256d`, SSE2, which every x86-64 CPU has, for `__m128d`, NEON for
+/// `float64x2_t`); the pointer functions also need their addresses to be valid for W f64
+/// (aligned to the vector's size for `load` and `store`).
+#[cfg(simd_vectors)]
 pub(crate) trait F64x: Copy {
     /// f64 lanes per vector.
     const W: usize;
@@ -126,7 +149,7 @@ pub(crate) trait F64x: Copy {
 }
 
 /// Implements [`F64x`] for one vector type from its width, target features and instructions.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 macro_rules! f64x_impl {
     ($v:ident, $w:literal, $feat:literal, $zero:ident, $load:ident, $loadu:ident, $store:ident,
      $storeu:ident, $add:ident, $sub:ident, $mul:ident, $splat:ident,
@@ -244,6 +267,33 @@ f64x_impl!(
     transpose2x2
 );
 
+/// Every lane 0 (the NEON counterpart of `_mm_setzero_pd`).
+#[cfg(all(simd_vectors, target_arch = "aarch64"))]
+#[inline(always)]
+unsafe fn neon_zero() -> float64x2_t {
+    // SAFETY: NEON is part of the target's baseline (cfg `simd_vectors` on aarch64).
+    unsafe { vdupq_n_f64(0.0) }
+}
+
+// NEON has one load and one store for aligned and unaligned addresses; its add, subtract and
+// multiply round once each, as SSE2's (no fusion).
+#[cfg(all(simd_vectors, target_arch = "aarch64"))]
+f64x_impl!(
+    float64x2_t,
+    2,
+    "neon",
+    neon_zero,
+    vld1q_f64,
+    vld1q_f64,
+    vst1q_f64,
+    vst1q_f64,
+    vaddq_f64,
+    vsubq_f64,
+    vmulq_f64,
+    vdupq_n_f64,
+    transpose2x2_neon
+);
+
 /// Transposed copy of the NSEG rows of the full chunk [a, a + NSEG·SEG) with a halo of `halo`
 /// columns, written to `dst` (2·(halo + SEG) lines): `dst[2c + h]` holds, in lane r,
 /// x[a + (8h + r)·SEG − halo + c] for c ∈ [0, halo + SEG), so that for any column j of the chunk
@@ -253,7 +303,7 @@ f64x_impl!(
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn build_lanes_with<V: F64x, const SEG: usize>(
     x: &[f64],
@@ -294,12 +344,13 @@ unsafe fn build_lanes_with<V: F64x, const SEG: usize>(
     }
 }
 
-/// The lane-layout copy ([`build_lanes_with`]) at `level` (AVX-512, AVX2, or SSE2 at the
-/// scalar level; the same copy at every level), for the stability family's streamed kernel.
+/// The lane-layout copy ([`build_lanes_with`]) at `level` (AVX-512, AVX2, or the [`Base`]
+/// vector at the scalar level; the same copy at every level), for the stability family's
+/// streamed kernel.
 ///
 /// # Safety
 /// `level` must be a vector level the CPU supports (at most [`crate::simd::level`]).
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 pub(crate) unsafe fn build_lanes_at<const SEG: usize>(
     level: crate::simd::SimdLevel,
@@ -311,13 +362,14 @@ pub(crate) unsafe fn build_lanes_at<const SEG: usize>(
     // SAFETY: caller contract.
     unsafe {
         match level {
+            #[cfg(target_arch = "x86_64")]
             crate::simd::SimdLevel::Avx512 => {
                 <__m512d as F64x>::build_lanes::<SEG>(x, a, halo, dst)
             }
+            #[cfg(target_arch = "x86_64")]
             crate::simd::SimdLevel::Avx2 => <__m256d as F64x>::build_lanes::<SEG>(x, a, halo, dst),
-            crate::simd::SimdLevel::Scalar => {
-                <__m128d as F64x>::build_lanes::<SEG>(x, a, halo, dst)
-            }
+            // the scalar level (on aarch64 the only level: the others are never detected)
+            _ => <Base as F64x>::build_lanes::<SEG>(x, a, halo, dst),
         }
     }
 }

@@ -19,8 +19,9 @@
 //! and carries the recurrence over its length only, so rounding cannot drift beyond one segment.
 //! With AVX-512 the 16 segments of a chunk are the lanes of two vectors (the e rows are
 //! transposed in registers, the loads aligned to cache lines), with AVX2 of four and with SSE2
-//! (the scalar level on x86-64) of eight (the rows read unaligned); the kernels are written once
-//! over the vector type ([`Stream`]). Other architectures run the portable code.
+//! or NEON (the scalar level on x86-64 and aarch64) of eight (the rows read unaligned); the
+//! kernels are written once over the vector type ([`Stream`]). Other architectures run the
+//! portable code.
 //!
 //! Near scales (m ≤ [`NEAR_MAX_M`]) walk the chunks in order, in parallel jobs, all scales per
 //! chunk while its samples are in cache (the lagged rows were read shortly before); each job
@@ -37,14 +38,16 @@
 //! operations in the same order (acc ← acc + v·v, the square rounded before the addition; no
 //! fused multiply-add anywhere).
 //!
-//! At the scalar level every segment runs the loop of [`seg_run`] (the same values, slower).
+//! The portable path (other architectures, and the tests' reference) runs the loop of
+//! [`seg_run`] for every segment (the same values, slower).
 //! Phase (angle) input keeps the buffered path of the modules (the phase samples are not rate
 //! samples). With a chi-square interval the values still come from here; only the noise
 //! identification reads the cumulative sum.
 
-// the vector paths' helpers (chunk-walk state, lane copies) are used only on x86-64; other
-// architectures build the portable path and leave them unused
-#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_variables))]
+// the vector paths' helpers (chunk-walk state, lane copies) are used only where the vector
+// paths are built (cfg `simd_vectors`: x86-64, aarch64); other architectures build the
+// portable path and leave them unused
+#![cfg_attr(not(simd_vectors), allow(dead_code, unused_variables))]
 
 use rayon::prelude::*;
 
@@ -52,11 +55,11 @@ use crate::error::AvarError;
 use crate::kernel::compensated::{LANES, Neumaier, reduce_lanes, two_sum};
 use crate::kernel::cumsum::{first_non_finite, pivot_of};
 use crate::kernel::vector::Line;
-#[cfg(target_arch = "x86_64")]
-use crate::kernel::vector::{F64x, build_lanes_at};
+#[cfg(simd_vectors)]
+use crate::kernel::vector::{Base, F64x, build_lanes_at};
 use crate::simd::SimdLevel;
 #[cfg(target_arch = "x86_64")]
-use std::arch::x86_64::{__m128d, __m256d, __m512d};
+use std::arch::x86_64::{__m256d, __m512d};
 
 /// Spacing (samples) of the checkpoints of c and P.
 const G: usize = 64;
@@ -173,7 +176,8 @@ fn block_sums_fast(b: &[f64], pivot: f64, level: SimdLevel) -> (f64, f64) {
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 #[inline(always)]
 unsafe fn block_sums_with<V: F64x>(b: &[f64], pivot: f64) -> (f64, f64) {
     let (w, n) = (V::W, 8 / V::W);
@@ -325,6 +329,8 @@ impl Frames {
             }
             SimdLevel::Scalar => {}
         }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = level;
         self.extend_impl(y, g_end, SimdLevel::Scalar, keep)
     }
 
@@ -563,12 +569,12 @@ struct SegState {
 
 /// The vector kernels of the streamed walk, each written once over the vector type
 /// ([`block_with`], [`lanes_with`], [`block_sums_with`], and [`starts_on_checkpoints`] and
-/// [`Frames::extend`] compiled with its instruction set), for AVX-512 (`__m512d`) and AVX2
-/// (`__m256d`).
+/// [`Frames::extend`] compiled with its instruction set), for AVX-512 (`__m512d`), AVX2
+/// (`__m256d`) and the scalar level's [`Base`] (SSE2's `__m128d`, NEON's `float64x2_t`).
 ///
 /// # Safety
 /// Every function needs the CPU to support the vector's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 trait Stream: F64x {
     /// [`block_with`].
     unsafe fn block<const MOD: bool, const SEG: usize>(
@@ -586,7 +592,9 @@ trait Stream: F64x {
         j1: usize,
         st: &mut SegState,
     );
-    /// [`block_sums_with`].
+    /// [`block_sums_with`] (called at the AVX2 and AVX-512 levels; the scalar level sums its
+    /// blocks with the portable code, which the compiler vectorises for the baseline).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     unsafe fn block_sums(b: &[f64], pivot: f64) -> (f64, f64);
     /// [`starts_on_checkpoints`].
     unsafe fn starts<const SEG: usize>(
@@ -600,7 +608,7 @@ trait Stream: F64x {
 
 /// The entry points of [`Stream`] for one vector type, compiled with the target features
 /// `$feat`.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 macro_rules! stream_entry_points {
     ($feat:literal) => {
         #[target_feature(enable = $feat)]
@@ -655,15 +663,21 @@ impl Stream for __m256d {
 
 /// SSE2, the x86-64 baseline: the scalar level's kernels on x86-64.
 #[cfg(target_arch = "x86_64")]
-impl Stream for __m128d {
+impl Stream for std::arch::x86_64::__m128d {
     stream_entry_points!("sse2");
+}
+
+/// NEON, the aarch64 baseline: the scalar level's kernels on aarch64.
+#[cfg(all(simd_vectors, target_arch = "aarch64"))]
+impl Stream for std::arch::aarch64::float64x2_t {
+    stream_entry_points!("neon");
 }
 
 /// The vectors (h, w, acc) of a [`SegState`], NSEG/W of each.
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn load_state<V: F64x>(st: &SegState) -> (V::Seg, V::Seg, V::Seg) {
     let w = V::W;
@@ -684,7 +698,7 @@ unsafe fn load_state<V: F64x>(st: &SegState) -> (V::Seg, V::Seg, V::Seg) {
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn store_state<V: F64x>(st: &mut SegState, h: &V::Seg, wv: &V::Seg, acc: &V::Seg) {
     let w = V::W;
@@ -702,7 +716,7 @@ unsafe fn store_state<V: F64x>(st: &mut SegState, h: &V::Seg, wv: &V::Seg, acc: 
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn e_of<V: F64x>(y0: V, y1: V, y2: V, y3: V, three: V) -> V {
     // SAFETY: caller contract.
@@ -714,7 +728,7 @@ unsafe fn e_of<V: F64x>(y0: V, y1: V, y2: V, y3: V, three: V) -> V {
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn step_state<V: F64x, const MOD: bool>(h: &mut V, w: &mut V, acc: &mut V, e: V) {
     // SAFETY: caller contract.
@@ -758,7 +772,7 @@ type Rows<'a> = [(&'a [f64], usize); 4];
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn block_with<V: F64x, const MOD: bool, const SEG: usize>(
     rows: &Rows<'_>,
@@ -841,7 +855,7 @@ unsafe fn block_with<V: F64x, const MOD: bool, const SEG: usize>(
 ///
 /// # Safety
 /// The CPU must support V's instruction set.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn lanes_with<V: F64x, const MOD: bool>(
     buf: [&[Line]; 4],
@@ -882,7 +896,7 @@ unsafe fn lanes_with<V: F64x, const MOD: bool>(
 ///
 /// # Safety
 /// The CPU must support V's instruction set; the chunk must be full for the scale.
-#[cfg(target_arch = "x86_64")]
+#[cfg(simd_vectors)]
 #[inline(always)]
 unsafe fn run_block<V: Stream, const SEG: usize>(
     kind: Diff,
@@ -941,13 +955,13 @@ impl Ring {
         }
         let slot = tc % self.slots;
         let dst = &mut self.buf[2 * SEG_FAR * slot..2 * SEG_FAR * (slot + 1)];
-        #[cfg(target_arch = "x86_64")]
+        #[cfg(simd_vectors)]
         // SAFETY: `level` ≤ `simd::level()` (see [`Ring::new`]); the chunk is full.
         unsafe {
             build_lanes_at::<SEG_FAR>(self.level, y, a, 0, dst)
         };
-        // (other architectures run the scalar level only: their rings have no slots)
-        #[cfg(not(target_arch = "x86_64"))]
+        // (the portable path's rings have no slots)
+        #[cfg(not(simd_vectors))]
         let _ = dst;
         self.held[slot] = tc;
     }
@@ -962,8 +976,9 @@ impl Ring {
 }
 
 /// Which code runs the full chunks: the vector kernels of a level (on x86-64 every level has
-/// them: AVX-512, AVX2, and SSE2 at the scalar level), or the portable code (other
-/// architectures; and the reference of the tests). The same values either way.
+/// them: AVX-512, AVX2, and SSE2 at the scalar level; on aarch64 NEON at the scalar level, the
+/// only level there), or the portable code (other architectures; and the reference of the
+/// tests). The same values either way.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Path {
     Portable,
@@ -973,7 +988,7 @@ enum Path {
 impl Path {
     /// The path of `level` on this architecture.
     fn of(level: SimdLevel) -> Path {
-        if cfg!(target_arch = "x86_64") {
+        if cfg!(simd_vectors) {
             Path::Vector(level)
         } else {
             Path::Portable
@@ -1014,7 +1029,7 @@ fn chunk_partials<const SEG: usize>(
     let (simd, level) = (path != Path::Portable, path.level());
     let full = |m: usize| simd && a >= 3 * m + 8 && a + NSEG * SEG + 8 <= t;
     // misalignment (elements) of y[a] and of every row start (SEG is a multiple of 8): the
-    // AVX-512 windows start there (aligned loads); the AVX2 and SSE2 rows are read unaligned
+    // AVX-512 windows start there (aligned loads); the AVX2, SSE2 and NEON rows are read unaligned
     // from a
     let mis = if level == SimdLevel::Avx512 {
         (y.as_ptr().wrapping_add(a) as usize % 64) / 8
@@ -1024,19 +1039,20 @@ fn chunk_partials<const SEG: usize>(
     states.clear();
     for &m in batch.iter().filter(|&&m| full(m)) {
         let mut st = SegState::default();
-        #[cfg(target_arch = "x86_64")]
+        #[cfg(simd_vectors)]
         if m.is_multiple_of(G) {
             // SAFETY: `full` holds only at a vector level (≤ `simd::level()`): its instructions
             // are present.
             unsafe {
                 match level {
+                    #[cfg(target_arch = "x86_64")]
                     SimdLevel::Avx512 => {
                         <__m512d as Stream>::starts::<SEG>(fr, kind, m, a, &mut st)
                     }
+                    #[cfg(target_arch = "x86_64")]
                     SimdLevel::Avx2 => <__m256d as Stream>::starts::<SEG>(fr, kind, m, a, &mut st),
-                    SimdLevel::Scalar => {
-                        <__m128d as Stream>::starts::<SEG>(fr, kind, m, a, &mut st)
-                    }
+                    // the scalar level (on aarch64 the only one)
+                    _ => <Base as Stream>::starts::<SEG>(fr, kind, m, a, &mut st),
                 }
             };
             states.push(st);
@@ -1047,7 +1063,7 @@ fn chunk_partials<const SEG: usize>(
         }
         states.push(st);
     }
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(simd_vectors)]
     if !states.is_empty() {
         crate::simd::note(level);
         // where each full scale reads its samples: the lane copy of this chunk with a halo of
@@ -1083,15 +1099,17 @@ fn chunk_partials<const SEG: usize>(
                 // SAFETY: as above (the level's instructions present); the chunk is full for m.
                 unsafe {
                     match level {
+                        #[cfg(target_arch = "x86_64")]
                         SimdLevel::Avx512 => run_block::<__m512d, SEG>(kind, src, mis, j0, st),
+                        #[cfg(target_arch = "x86_64")]
                         SimdLevel::Avx2 => run_block::<__m256d, SEG>(kind, src, mis, j0, st),
-                        SimdLevel::Scalar => run_block::<__m128d, SEG>(kind, src, mis, j0, st),
+                        _ => run_block::<Base, SEG>(kind, src, mis, j0, st),
                     }
                 }
             }
         }
     }
-    #[cfg(not(target_arch = "x86_64"))]
+    #[cfg(not(simd_vectors))]
     let _ = (ring, mis, xt);
     let mut st = states.iter();
     for (o, &m) in out.iter_mut().zip(batch) {
@@ -1420,7 +1438,7 @@ mod tests {
         }
     }
 
-    /// The path of every SIMD level up to the process's level (on x86-64: SSE2 at the scalar
+    /// The path of every SIMD level up to the process's level (SSE2 or NEON at the scalar
     /// level, AVX2, AVX-512) gives the bits of the portable path, at every
     /// misalignment of the samples within a cache line; the value for m does not depend on the other scales requested; and
     /// an offset of 10^4 standard deviations changes nothing beyond the rounding of the shifted
