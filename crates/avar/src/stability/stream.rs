@@ -814,30 +814,42 @@ unsafe fn block_with<V: F64x, const MOD: bool, const SEG: usize>(
                 V::transpose(e)
             }};
         }
-        let mut jb = j0;
-        if jb == 0 && jb < j1 {
-            for g in 0..NSEG / w {
-                for &c in &columns!(0, g).as_ref()[s..] {
-                    step_state::<V, MOD>(&mut h[g], &mut wv[g], &mut acc[g], c);
+        // two groups of W segments at a time over the whole block: their six state vectors stay
+        // in registers at every width (all groups at once spill at AVX2 and SSE2 widths), and
+        // two independent chains of adds hide each other's latency; each lane's steps keep
+        // their order, so the values are the same
+        for g0 in (0..NSEG / w).step_by(2) {
+            let mut hg = [h[g0], h[g0 + 1]];
+            let mut wg = [wv[g0], wv[g0 + 1]];
+            let mut ag = [acc[g0], acc[g0 + 1]];
+            let mut jb = j0;
+            if jb == 0 && jb < j1 {
+                for q in 0..2 {
+                    for &c in &columns!(0, g0 + q).as_ref()[s..] {
+                        step_state::<V, MOD>(&mut hg[q], &mut wg[q], &mut ag[q], c);
+                    }
+                }
+                jb += w;
+            }
+            while jb < j1 {
+                // the whole window: the columns stay in registers
+                for q in 0..2 {
+                    for &c in columns!(jb, g0 + q).as_ref() {
+                        step_state::<V, MOD>(&mut hg[q], &mut wg[q], &mut ag[q], c);
+                    }
+                }
+                jb += w;
+            }
+            if j1 == SEG && s > 0 {
+                for q in 0..2 {
+                    for &c in &columns!(SEG, g0 + q).as_ref()[..s] {
+                        step_state::<V, MOD>(&mut hg[q], &mut wg[q], &mut ag[q], c);
+                    }
                 }
             }
-            jb += w;
-        }
-        while jb < j1 {
-            // the whole window: the columns stay in registers
-            for g in 0..NSEG / w {
-                for &c in columns!(jb, g).as_ref() {
-                    step_state::<V, MOD>(&mut h[g], &mut wv[g], &mut acc[g], c);
-                }
-            }
-            jb += w;
-        }
-        if j1 == SEG && s > 0 {
-            for g in 0..NSEG / w {
-                for &c in &columns!(SEG, g).as_ref()[..s] {
-                    step_state::<V, MOD>(&mut h[g], &mut wv[g], &mut acc[g], c);
-                }
-            }
+            (h[g0], h[g0 + 1]) = (hg[0], hg[1]);
+            (wv[g0], wv[g0 + 1]) = (wg[0], wg[1]);
+            (acc[g0], acc[g0 + 1]) = (ag[0], ag[1]);
         }
         let (mut hs, mut ws, mut accs) = (V::zero_seg(), V::zero_seg(), V::zero_seg());
         hs.as_mut().copy_from_slice(h);
@@ -875,16 +887,28 @@ unsafe fn lanes_with<V: F64x, const MOD: bool>(
         let (mut h, mut wv, mut acc) = load_state::<V>(st);
         {
             let (h, wv, acc) = (h.as_mut(), wv.as_mut(), acc.as_mut());
-            for c in j0..j1 {
-                for g in 0..NSEG / w {
-                    let o = 16 * c + w * g;
-                    let y0 = V::load(p[0].add(o));
-                    let y1 = V::load(p[1].add(o));
-                    let y2 = V::load(p[2].add(o));
-                    let y3 = V::load(p[3].add(o));
-                    let e = e_of(y0, y1, y2, y3, three);
-                    step_state::<V, MOD>(&mut h[g], &mut wv[g], &mut acc[g], e);
+            // two groups of W segments at a time: their six state vectors stay in registers at
+            // every width (all groups at once spill at AVX2 and SSE2 widths), and two
+            // independent chains of adds hide each other's latency; each lane's steps keep
+            // their order, so the values are the same
+            for g0 in (0..NSEG / w).step_by(2) {
+                let mut hg = [h[g0], h[g0 + 1]];
+                let mut wg = [wv[g0], wv[g0 + 1]];
+                let mut ag = [acc[g0], acc[g0 + 1]];
+                for c in j0..j1 {
+                    for q in 0..2 {
+                        let o = 16 * c + w * (g0 + q);
+                        let y0 = V::load(p[0].add(o));
+                        let y1 = V::load(p[1].add(o));
+                        let y2 = V::load(p[2].add(o));
+                        let y3 = V::load(p[3].add(o));
+                        let e = e_of(y0, y1, y2, y3, three);
+                        step_state::<V, MOD>(&mut hg[q], &mut wg[q], &mut ag[q], e);
+                    }
                 }
+                (h[g0], h[g0 + 1]) = (hg[0], hg[1]);
+                (wv[g0], wv[g0 + 1]) = (wg[0], wg[1]);
+                (acc[g0], acc[g0 + 1]) = (ag[0], ag[1]);
             }
         }
         store_state::<V>(st, &h, &wv, &acc);
